@@ -1,0 +1,16 @@
+//! tumble: URDF rigid bodies simulated as free bodies with a variational integrator,
+//! recorded as MCAP (Foxglove protobuf schemas) and Rerun `.rrd` files.
+//!
+//! Data flows one way: scene → model → bodies → stepper → recorders. The integrator knows no
+//! URDF; a recorder knows no integrator.
+
+pub mod model;
+pub mod record;
+pub mod scene;
+pub mod sim;
+pub mod cli;
+pub mod commands;
+pub mod run;
+
+/// The tool's version, written into every recording's metadata.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -1,0 +1,23 @@
+//! The `tumble` binary: parses arguments, dispatches, and maps results to exit codes.
+//! Exit codes: 0 success, 1 the input has problems (e.g. `inspect` found invalid links),
+//! 2 an error (bad input, unreadable or unwritable files); clap's usage errors also exit 2.
+
+use clap::Parser;
+use std::process::ExitCode;
+use tumble::cli::{Cli, Command};
+use tumble::commands;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Inspect(args) => commands::inspect::run(args).map(|ok| if ok { 0 } else { 1 }),
+        Command::Simulate(args) => commands::simulate::run(args).map(|()| 0),
+    };
+    match result {
+        Ok(code) => ExitCode::from(code),
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,178 @@
+//! Mesh URI resolution without ROS.
+//!
+//! `urdf_rs::utils::expand_package_path` shells out to `rospack` (and panics without ROS) and
+//! its pattern stops at a hyphen, so `package://example-robot-data/...` is never expanded. This
+//! module resolves URIs itself, returning only files that exist:
+//!
+//! - `package://pkg/rest` (and Gazebo's `model://pkg/rest`), tried in this order:
+//!   1. each search path `dir` given by the caller (`--package-path`): `dir/pkg/rest`, or
+//!      `dir/rest` when `dir` is the package folder itself (its name is `pkg`);
+//!   2. each entry of `ROS_PACKAGE_PATH` (colon-separated), the same two ways;
+//!   3. the URDF's folder and each of its ancestors `a` (what pybullet does): `a/pkg/rest`, and
+//!      `a/rest` when `a` is named `pkg`.
+//! - `file:///abs/path` (percent-escapes decoded); a relative `file://` path is taken relative
+//!   to the URDF's folder.
+//! - anything else: an absolute path as is, a relative path relative to the URDF's folder.
+//!
+//! Package names may contain any character but `/` (hyphens included).
+
+use std::path::{Path, PathBuf};
+
+/// The entries of the `ROS_PACKAGE_PATH` environment variable (empty when unset).
+pub fn ros_package_path() -> Vec<PathBuf> {
+    std::env::var_os("ROS_PACKAGE_PATH")
+        .map(|v| {
+            std::env::split_paths(&v)
+                .filter(|p| !p.as_os_str().is_empty())
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Resolves `uri` found in the URDF at `urdf_path`, searching `search_paths`, then
+/// `ROS_PACKAGE_PATH`, then the URDF's parent folders (see the module documentation).
+/// `None` when no existing file matches. Never panics.
+pub fn resolve(uri: &str, urdf_path: &Path, search_paths: &[PathBuf]) -> Option<PathBuf> {
+    resolve_with(uri, urdf_path, search_paths, &ros_package_path())
+}
+
+/// [`resolve`] with the `ROS_PACKAGE_PATH` entries given explicitly (for tests and callers that
+/// want to ignore the environment).
+pub fn resolve_with(
+    uri: &str,
+    urdf_path: &Path,
+    search_paths: &[PathBuf],
+    ros_paths: &[PathBuf],
+) -> Option<PathBuf> {
+    candidates(uri, urdf_path, search_paths, ros_paths)
+        .into_iter()
+        .find(|p| p.is_file())
+}
+
+/// Every path [`resolve_with`] would try, in order (existing or not). Useful to explain a miss.
+pub fn candidates(
+    uri: &str,
+    urdf_path: &Path,
+    search_paths: &[PathBuf],
+    ros_paths: &[PathBuf],
+) -> Vec<PathBuf> {
+    let uri = uri.trim();
+    let urdf_dir = urdf_folder(urdf_path);
+    let package_uri = uri
+        .strip_prefix("package://")
+        .or_else(|| uri.strip_prefix("model://"));
+    if let Some(rest) = package_uri {
+        let Some((package, rest)) = rest.split_once('/') else {
+            return Vec::new();
+        };
+        let rest = rest.trim_start_matches('/');
+        if package.is_empty() || rest.is_empty() {
+            return Vec::new();
+        }
+        let mut out = Vec::new();
+        let mut try_dir = |dir: &Path| {
+            out.push(dir.join(package).join(rest));
+            if dir.file_name().is_some_and(|n| n == package) {
+                out.push(dir.join(rest));
+            }
+        };
+        for dir in search_paths.iter().chain(ros_paths) {
+            try_dir(dir);
+        }
+        if let Some(dir) = &urdf_dir {
+            for ancestor in dir.ancestors() {
+                try_dir(ancestor);
+            }
+        }
+        return out;
+    }
+    if let Some(rest) = uri.strip_prefix("file://") {
+        let path = PathBuf::from(percent_decode(rest));
+        return vec![relative_to(&urdf_dir, path)];
+    }
+    if uri.is_empty() {
+        return Vec::new();
+    }
+    vec![relative_to(&urdf_dir, PathBuf::from(uri))]
+}
+
+fn relative_to(dir: &Option<PathBuf>, path: PathBuf) -> PathBuf {
+    match dir {
+        Some(dir) if path.is_relative() => dir.join(path),
+        _ => path,
+    }
+}
+
+/// The URDF's folder as an absolute path (so that its ancestors can be walked even when the
+/// URDF was named relative to the working directory).
+fn urdf_folder(urdf_path: &Path) -> Option<PathBuf> {
+    let absolute = urdf_path
+        .canonicalize()
+        .or_else(|_| std::path::absolute(urdf_path))
+        .ok()?;
+    absolute.parent().map(Path::to_path_buf)
+}
+
+/// Decodes `%XX` escapes (invalid escapes are kept as written).
+fn percent_decode(s: &str) -> String {
+    let bytes = s.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%'
+            && i + 2 < bytes.len()
+            && let Some(h) = std::str::from_utf8(&bytes[i + 1..i + 3])
+                .ok()
+                .and_then(|h| u8::from_str_radix(h, 16).ok())
+        {
+            out.push(h);
+            i += 3;
+            continue;
+        }
+        out.push(bytes[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn percent_decoding() {
+        assert_eq!(percent_decode("/a%20b/c%2"), "/a b/c%2");
+        assert_eq!(percent_decode("%41%zz"), "A%zz");
+    }
+
+    #[test]
+    fn malformed_package_uris_give_nothing() {
+        let urdf = Path::new("/nonexistent/robot.urdf");
+        for uri in [
+            "package://",
+            "package://pkg",
+            "package:///x.stl",
+            "package://pkg/",
+            "",
+        ] {
+            assert!(candidates(uri, urdf, &[], &[]).is_empty(), "{uri}");
+            assert_eq!(resolve_with(uri, urdf, &[], &[]), None);
+        }
+    }
+
+    #[test]
+    fn candidate_order() {
+        let urdf = Path::new("/r/pkg/urdf/robot.urdf");
+        let c = candidates(
+            "package://pkg/meshes/a.stl",
+            urdf,
+            &[PathBuf::from("/search")],
+            &[PathBuf::from("/ros/pkg")],
+        );
+        assert_eq!(c[0], PathBuf::from("/search/pkg/meshes/a.stl"));
+        assert_eq!(c[1], PathBuf::from("/ros/pkg/pkg/meshes/a.stl"));
+        assert_eq!(c[2], PathBuf::from("/ros/pkg/meshes/a.stl"));
+        assert!(c.contains(&PathBuf::from("/r/pkg/meshes/a.stl")));
+        assert!(c.contains(&PathBuf::from("/r/pkg/pkg/meshes/a.stl")));
+    }
+}

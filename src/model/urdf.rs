@@ -1,0 +1,735 @@
+//! Loading URDF files into a [`Model`]: urdf-rs for the parsing, plus an XML pre-scan with
+//! roxmltree for what urdf-rs cannot tell or chokes on.
+//!
+//! What this adds to urdf-rs (see `design/urdf.md`):
+//!
+//! - **Missing versus zero inertial.** urdf-rs reads a link without `<inertial>` as mass 0 and
+//!   zero inertia. The pre-scan records which links have the element: those without it get
+//!   [`InertiaSource::Missing`] and `inertial: None`; an explicit `<mass value="0"/>` stays
+//!   [`InertiaSource::Urdf`] with mass 0 and a problem on the link.
+//! - **Inertial frame.** `<inertial><origin xyz rpy>`: `xyz` is the centre of mass in the link
+//!   frame; the tensor `I'` is given in the frame rotated by `R = Rz(y) Ry(p) Rx(r)`, so the link
+//!   frame tensor is `I = R I' Rᵀ`. `ixy`, `ixz`, `iyz` are the matrix entries themselves
+//!   (`I'₀₁ = ixy`), not negated products of inertia.
+//! - **Validation.** Every link's mass properties are checked ([`MassProperties::validate`]);
+//!   findings go to `Link::problems` (loading succeeds so that `inspect` can show them all);
+//!   [`Model::check_simulable`] turns them into an error for the simulator.
+//! - **Errors name the file**, and the link/joint and rule when there is one. urdf-rs's own
+//!   messages carry no element names; when urdf-rs fails, the pre-scan looks for the first
+//!   link or joint it cannot read and names it.
+//! - **`<texture/>` without `filename`** (valid for urdfdom, e.g. icub, romeo_laas_small) is an
+//!   error in urdf-rs: such elements are cut out of the text before urdf-rs sees it (textures
+//!   are not used by tumble).
+//! - **Mesh URIs** are resolved by [`super::package`], never by urdf-rs (which needs ROS and
+//!   panics without it). An unresolved mesh is a problem on the link, not an error.
+
+use super::kinematics::{self, Joint, JointKind, KinematicsError, Mimic};
+use super::package;
+use super::{Geometry, InertiaSource, Link, MassProperties, Model, Visual};
+use nalgebra::{Matrix3, Vector3};
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+
+/// Why a URDF could not be turned into a [`Model`] (or a model cannot be simulated).
+/// Every message starts with the file.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    #[error("{}: cannot read the file: {source}", .path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{}: not well-formed XML: {message}", .path.display())]
+    Xml { path: PathBuf, message: String },
+    #[error(
+        "{}: cannot parse URDF{}: {message}",
+        .path.display(),
+        .location.as_deref().map(|l| format!(" ({l})")).unwrap_or_default()
+    )]
+    Parse {
+        path: PathBuf,
+        /// The link or joint at fault and what is wrong with it, when the pre-scan found it.
+        location: Option<String>,
+        /// urdf-rs's message.
+        message: String,
+    },
+    #[error("{}: the robot has no links", .path.display())]
+    NoLinks { path: PathBuf },
+    #[error("{}: link `{link}` is defined more than once (link names must be unique)", .path.display())]
+    DuplicateLink { path: PathBuf, link: String },
+    #[error("{}: joint `{joint}` is defined more than once (joint names must be unique)", .path.display())]
+    DuplicateJoint { path: PathBuf, joint: String },
+    #[error("{}: joint `{joint}`: {role} link `{link}` is not a link of the robot", .path.display())]
+    UnknownLink {
+        path: PathBuf,
+        joint: String,
+        role: &'static str,
+        link: String,
+    },
+    #[error(
+        "{}: link `{link}` is the child of more than one joint (`{first}` and `{second}`): \
+         the joints must form a tree",
+        .path.display()
+    )]
+    SeveralParents {
+        path: PathBuf,
+        link: String,
+        first: String,
+        second: String,
+    },
+    #[error(
+        "{}: more than one root link ({}): exactly one link may be no joint's child",
+        .path.display(),
+        .roots.iter().map(|r| format!("`{r}`")).collect::<Vec<_>>().join(", ")
+    )]
+    SeveralRoots { path: PathBuf, roots: Vec<String> },
+    #[error(
+        "{}: the joints form a cycle ({}): the joints must form a tree",
+        .path.display(),
+        .links.iter().map(|r| format!("`{r}`")).collect::<Vec<_>>().join(" -> ")
+    )]
+    Cycle { path: PathBuf, links: Vec<String> },
+    #[error("{}: {source}", .path.display())]
+    Configuration {
+        path: PathBuf,
+        #[source]
+        source: KinematicsError,
+    },
+    #[error("{}: link `{link}` cannot be simulated: {rule}", .path.display())]
+    NotSimulable {
+        path: PathBuf,
+        link: String,
+        rule: String,
+    },
+    #[error("{}: no link has a positive mass: nothing to simulate", .path.display())]
+    NothingToSimulate { path: PathBuf },
+}
+
+/// Loads the URDF at `path` at the zero joint configuration. `package_paths` are searched first
+/// for `package://` meshes (see [`super::package`]).
+pub fn load(path: &Path, package_paths: &[PathBuf]) -> Result<Model, ModelError> {
+    load_at(path, package_paths, &HashMap::new())
+}
+
+/// [`load`] from text already read; `path` names the file in messages and anchors relative
+/// mesh paths and the parent-folder package search.
+pub fn load_str(xml: &str, path: &Path, package_paths: &[PathBuf]) -> Result<Model, ModelError> {
+    load_str_at(xml, path, package_paths, &HashMap::new())
+}
+
+/// [`load`] with the links placed at a joint configuration (joint name → rad or m; missing
+/// joints at 0; see [`kinematics::forward_kinematics`]).
+pub fn load_at(
+    path: &Path,
+    package_paths: &[PathBuf],
+    joint_positions: &HashMap<String, f64>,
+) -> Result<Model, ModelError> {
+    let xml = std::fs::read_to_string(path).map_err(|source| ModelError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    load_str_at(&xml, path, package_paths, joint_positions)
+}
+
+/// [`load_str`] at a joint configuration.
+pub fn load_str_at(
+    xml: &str,
+    path: &Path,
+    package_paths: &[PathBuf],
+    joint_positions: &HashMap<String, f64>,
+) -> Result<Model, ModelError> {
+    let file = || path.to_path_buf();
+    let options = roxmltree::ParsingOptions {
+        allow_dtd: true,
+        ..Default::default()
+    };
+    let doc =
+        roxmltree::Document::parse_with_options(xml, options).map_err(|e| ModelError::Xml {
+            path: file(),
+            message: e.to_string(),
+        })?;
+    let root = doc.root_element();
+    if root.tag_name().name() != "robot" {
+        return Err(ModelError::Parse {
+            path: file(),
+            location: None,
+            message: format!(
+                "the root element is <{}>, expected <robot>",
+                root.tag_name().name()
+            ),
+        });
+    }
+    let links_with_inertial: HashSet<&str> = root
+        .children()
+        .filter(|n| n.has_tag_name("link"))
+        .filter(|n| n.children().any(|c| c.has_tag_name("inertial")))
+        .filter_map(|n| n.attribute("name"))
+        .collect();
+    let cleaned = strip_empty_textures(xml, &doc);
+    let robot = urdf_rs::read_from_string(&cleaned).map_err(|e| ModelError::Parse {
+        path: file(),
+        location: locate_parse_problem(&doc),
+        message: e.to_string(),
+    })?;
+
+    if robot.links.is_empty() {
+        return Err(ModelError::NoLinks { path: file() });
+    }
+    let mut index: HashMap<&str, usize> = HashMap::new();
+    for (i, link) in robot.links.iter().enumerate() {
+        if index.insert(link.name.as_str(), i).is_some() {
+            return Err(ModelError::DuplicateLink {
+                path: file(),
+                link: link.name.clone(),
+            });
+        }
+    }
+    let mut joint_names = HashSet::new();
+    let mut joints = Vec::with_capacity(robot.joints.len());
+    for j in &robot.joints {
+        if !joint_names.insert(j.name.as_str()) {
+            return Err(ModelError::DuplicateJoint {
+                path: file(),
+                joint: j.name.clone(),
+            });
+        }
+        let find = |role: &'static str, name: &str| {
+            index
+                .get(name)
+                .copied()
+                .ok_or_else(|| ModelError::UnknownLink {
+                    path: file(),
+                    joint: j.name.clone(),
+                    role,
+                    link: name.to_string(),
+                })
+        };
+        joints.push(Joint {
+            name: j.name.clone(),
+            kind: JointKind::from(&j.joint_type),
+            parent: find("parent", &j.parent.link)?,
+            child: find("child", &j.child.link)?,
+            parent_from_joint: kinematics::isometry_from_pose(&j.origin),
+            axis: Vector3::from(j.axis.xyz.0),
+            mimic: j.mimic.as_ref().map(|m| Mimic {
+                joint: m.joint.clone(),
+                multiplier: m.multiplier.unwrap_or(1.0),
+                offset: m.offset.unwrap_or(0.0),
+            }),
+        });
+    }
+    let names: Vec<String> = robot.links.iter().map(|l| l.name.clone()).collect();
+    let tree_error = |e: KinematicsError| match e {
+        KinematicsError::SeveralParents {
+            link,
+            first,
+            second,
+        } => ModelError::SeveralParents {
+            path: file(),
+            link,
+            first,
+            second,
+        },
+        KinematicsError::SeveralRoots { roots } => ModelError::SeveralRoots {
+            path: file(),
+            roots,
+        },
+        KinematicsError::Cycle { links } => ModelError::Cycle {
+            path: file(),
+            links,
+        },
+        source => ModelError::Configuration {
+            path: file(),
+            source,
+        },
+    };
+    let (root_index, _) = kinematics::tree_order(&names, &joints).map_err(tree_error)?;
+    let poses =
+        kinematics::forward_kinematics(&names, &joints, joint_positions).map_err(tree_error)?;
+
+    let materials: HashMap<&str, [f32; 4]> = robot
+        .materials
+        .iter()
+        .filter_map(|m| Some((m.name.as_str(), rgba(m.color.as_ref()?))))
+        .collect();
+
+    let links = robot
+        .links
+        .iter()
+        .zip(poses)
+        .map(|(l, model_from_link)| {
+            let mut problems = Vec::new();
+            let (inertial, source) = if links_with_inertial.contains(l.name.as_str()) {
+                let mp = mass_properties_from_urdf(&l.inertial);
+                problems.extend(mp.validate());
+                (Some(mp), InertiaSource::Urdf)
+            } else {
+                (None, InertiaSource::Missing)
+            };
+            if !pose_is_finite(&model_from_link) {
+                problems.push(NON_FINITE_POSE.to_string());
+            }
+            let visuals = l
+                .visual
+                .iter()
+                .enumerate()
+                .map(|(k, v)| visual(v, k, path, package_paths, &materials, &mut problems))
+                .collect();
+            Link {
+                name: l.name.clone(),
+                model_from_link,
+                inertial,
+                source,
+                problems,
+                visuals,
+            }
+        })
+        .collect();
+
+    Ok(Model {
+        name: robot.name.clone(),
+        path: file(),
+        links,
+        root: root_index,
+    })
+}
+
+const NON_FINITE_POSE: &str = "pose in the model frame is not finite (a joint origin on the path from the root is NaN or infinite)";
+
+fn pose_is_finite(pose: &nalgebra::Isometry3<f64>) -> bool {
+    pose.translation.vector.iter().all(|x| x.is_finite())
+        && pose.rotation.coords.iter().all(|x| x.is_finite())
+}
+
+/// Mass properties in the link frame from a URDF `<inertial>`:
+/// `com = xyz`, `I = R I' Rᵀ` with `R = Rz(y) Ry(p) Rx(r)` from the inertial origin's `rpy` and
+///
+/// ```text
+///      | ixx ixy ixz |
+/// I' = | ixy iyy iyz |
+///      | ixz iyz izz |
+/// ```
+pub fn mass_properties_from_urdf(inertial: &urdf_rs::Inertial) -> MassProperties {
+    let i = &inertial.inertia;
+    #[rustfmt::skip]
+    let local = Matrix3::new(
+        i.ixx, i.ixy, i.ixz,
+        i.ixy, i.iyy, i.iyz,
+        i.ixz, i.iyz, i.izz,
+    );
+    let r = kinematics::rotation_from_rpy(inertial.origin.rpy.0).to_rotation_matrix();
+    let r = r.matrix();
+    MassProperties {
+        mass: inertial.mass.value,
+        com: Vector3::from(inertial.origin.xyz.0),
+        inertia: r * local * r.transpose(),
+    }
+}
+
+fn rgba(color: &urdf_rs::Color) -> [f32; 4] {
+    color.rgba.0.map(|c| c as f32)
+}
+
+fn visual(
+    v: &urdf_rs::Visual,
+    k: usize,
+    urdf_path: &Path,
+    package_paths: &[PathBuf],
+    materials: &HashMap<&str, [f32; 4]>,
+    problems: &mut Vec<String>,
+) -> Visual {
+    let label = match &v.name {
+        Some(name) => format!("visual `{name}`"),
+        None => format!("visual #{k}"),
+    };
+    let positive = |values: &[f64]| values.iter().all(|x| x.is_finite() && *x > 0.0);
+    let geometry = match &v.geometry {
+        urdf_rs::Geometry::Box { size } => {
+            if !positive(&size.0) {
+                problems.push(format!(
+                    "{label}: box size {:?} must be positive and finite",
+                    size.0
+                ));
+            }
+            Geometry::Box {
+                size: Vector3::from(size.0),
+            }
+        }
+        urdf_rs::Geometry::Cylinder { radius, length } => {
+            if !positive(&[*radius, *length]) {
+                problems.push(format!(
+                    "{label}: cylinder radius {radius} and length {length} must be positive and finite"
+                ));
+            }
+            Geometry::Cylinder {
+                radius: *radius,
+                length: *length,
+            }
+        }
+        urdf_rs::Geometry::Capsule { radius, length } => {
+            if !(positive(&[*radius]) && length.is_finite() && *length >= 0.0) {
+                problems.push(format!(
+                    "{label}: capsule radius {radius} must be positive and length {length} non-negative"
+                ));
+            }
+            Geometry::Capsule {
+                radius: *radius,
+                length: *length,
+            }
+        }
+        urdf_rs::Geometry::Sphere { radius } => {
+            if !positive(&[*radius]) {
+                problems.push(format!(
+                    "{label}: sphere radius {radius} must be positive and finite"
+                ));
+            }
+            Geometry::Sphere { radius: *radius }
+        }
+        urdf_rs::Geometry::Mesh { filename, scale } => {
+            let scale = scale.map_or(Vector3::repeat(1.0), |s| Vector3::from(s.0));
+            if !scale.iter().all(|s| s.is_finite() && *s != 0.0) {
+                problems.push(format!(
+                    "{label}: mesh scale [{}, {}, {}] must be finite and non-zero",
+                    scale.x, scale.y, scale.z
+                ));
+            }
+            let resolved = package::resolve(filename, urdf_path, package_paths);
+            if resolved.is_none() {
+                problems.push(format!(
+                    "{label}: mesh `{filename}` not found (searched --package-path, \
+                     ROS_PACKAGE_PATH and the URDF's parent folders)"
+                ));
+            }
+            Geometry::Mesh {
+                uri: filename.clone(),
+                path: resolved,
+                scale,
+            }
+        }
+    };
+    let rgba = v.material.as_ref().and_then(|m| match &m.color {
+        Some(c) => Some(rgba(c)),
+        None => materials.get(m.name.as_str()).copied(),
+    });
+    Visual {
+        name: v.name.clone(),
+        link_from_visual: kinematics::isometry_from_pose(&v.origin),
+        geometry,
+        rgba,
+    }
+}
+
+/// Cuts `<texture>` elements without a `filename` out of the text (urdf-rs requires the
+/// attribute; urdfdom does not). Returns the text unchanged when there are none.
+fn strip_empty_textures<'a>(xml: &'a str, doc: &roxmltree::Document) -> std::borrow::Cow<'a, str> {
+    let ranges: Vec<std::ops::Range<usize>> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("texture") && n.attribute("filename").is_none())
+        .map(|n| n.range())
+        .collect();
+    if ranges.is_empty() {
+        return xml.into();
+    }
+    let mut out = String::with_capacity(xml.len());
+    let mut last = 0;
+    for r in ranges {
+        if r.start >= last {
+            out.push_str(&xml[last..r.start]);
+            last = r.end;
+        }
+    }
+    out.push_str(&xml[last..]);
+    out.into()
+}
+
+/// After urdf-rs failed: find the first link or joint whose content urdf-rs cannot read,
+/// mirroring urdf-rs's requirements (required elements and attributes, numbers and vectors).
+/// Best effort: `None` when nothing specific is found.
+fn locate_parse_problem(doc: &roxmltree::Document) -> Option<String> {
+    let robot = doc.root_element();
+    let version_1_2 = robot
+        .attribute("version")
+        .and_then(|v| v.trim().split_once('.'))
+        .and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?)))
+        .is_some_and(|v| v >= (1, 2));
+    for node in robot.children().filter(|n| n.is_element()) {
+        let tag = node.tag_name().name();
+        let what = match tag {
+            "link" | "joint" | "material" => tag,
+            _ => continue,
+        };
+        let name = node.attribute("name");
+        let problem = match name {
+            None => Some(format!("a <{what}> has no `name` attribute")),
+            Some(_) => match what {
+                "link" => check_link(node),
+                "joint" => check_joint(node, version_1_2),
+                _ => check_material(node),
+            },
+        };
+        if let Some(p) = problem {
+            return Some(match name {
+                Some(n) => format!("{what} `{n}`: {p}"),
+                None => p,
+            });
+        }
+    }
+    None
+}
+
+type Check = Option<String>;
+
+fn child<'a, 'i>(node: roxmltree::Node<'a, 'i>, tag: &str) -> Option<roxmltree::Node<'a, 'i>> {
+    node.children().find(|c| c.has_tag_name(tag))
+}
+
+fn check_number(node: roxmltree::Node, attr: &str, required: bool) -> Check {
+    match node.attribute(attr) {
+        None if required => Some(format!(
+            "<{}> has no `{attr}` attribute",
+            node.tag_name().name()
+        )),
+        None => None,
+        Some(v) if v.trim().parse::<f64>().is_err() => Some(format!(
+            "<{}> {attr}=\"{v}\" is not a number",
+            node.tag_name().name()
+        )),
+        Some(_) => None,
+    }
+}
+
+fn check_vector(node: roxmltree::Node, attr: &str, n: usize, required: bool) -> Check {
+    match node.attribute(attr) {
+        None if required => Some(format!(
+            "<{}> has no `{attr}` attribute",
+            node.tag_name().name()
+        )),
+        None => None,
+        Some(v) => {
+            let count = v
+                .split_whitespace()
+                .filter(|s| s.parse::<f64>().is_ok())
+                .count();
+            let words = v.split_whitespace().count();
+            (count != n || words != n).then(|| {
+                format!(
+                    "<{}> {attr}=\"{v}\" is not {n} numbers",
+                    node.tag_name().name()
+                )
+            })
+        }
+    }
+}
+
+fn check_origin(node: roxmltree::Node) -> Check {
+    let origin = child(node, "origin")?;
+    check_vector(origin, "xyz", 3, false).or_else(|| check_vector(origin, "rpy", 3, false))
+}
+
+fn check_required(node: roxmltree::Node, tag: &str) -> Result<(), String> {
+    match child(node, tag) {
+        Some(_) => Ok(()),
+        None => Err(format!("<{}> has no <{tag}>", node.tag_name().name())),
+    }
+}
+
+fn check_link(link: roxmltree::Node) -> Check {
+    if let Some(inertial) = child(link, "inertial") {
+        if let Some(p) = check_origin(inertial) {
+            return Some(format!("inertial {p}"));
+        }
+        match child(inertial, "mass") {
+            None => return Some("<inertial> has no <mass>".into()),
+            Some(mass) => {
+                if let Some(p) = check_number(mass, "value", true) {
+                    return Some(p);
+                }
+            }
+        }
+        match child(inertial, "inertia") {
+            None => return Some("<inertial> has no <inertia>".into()),
+            Some(inertia) => {
+                for attr in ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"] {
+                    if let Some(p) = check_number(inertia, attr, true) {
+                        return Some(p);
+                    }
+                }
+            }
+        }
+    }
+    for (k, element) in link
+        .children()
+        .filter(|c| c.has_tag_name("visual") || c.has_tag_name("collision"))
+        .enumerate()
+    {
+        let label = format!(
+            "<{}> #{k}{}",
+            element.tag_name().name(),
+            element
+                .attribute("name")
+                .map(|n| format!(" `{n}`"))
+                .unwrap_or_default()
+        );
+        let problem = check_origin(element)
+            .or_else(|| check_geometry(element).err())
+            .or_else(|| {
+                child(element, "material")
+                    .filter(|_| element.has_tag_name("visual"))
+                    .and_then(check_material)
+            });
+        if let Some(p) = problem {
+            return Some(format!("{label}: {p}"));
+        }
+    }
+    None
+}
+
+fn check_geometry(element: roxmltree::Node) -> Result<(), String> {
+    check_required(element, "geometry")?;
+    let geometry = child(element, "geometry").ok_or_else(String::new)?;
+    let Some(shape) = geometry.children().find(|c| c.is_element()) else {
+        return Err("<geometry> is empty".into());
+    };
+    let problem = match shape.tag_name().name() {
+        "box" => check_vector(shape, "size", 3, true),
+        "cylinder" | "capsule" => {
+            check_number(shape, "radius", true).or_else(|| check_number(shape, "length", true))
+        }
+        "sphere" => check_number(shape, "radius", true),
+        "mesh" => shape
+            .attribute("filename")
+            .is_none()
+            .then(|| "<mesh> has no `filename` attribute".to_string())
+            .or_else(|| check_vector(shape, "scale", 3, false)),
+        other => Some(format!("unknown geometry <{other}>")),
+    };
+    problem.map_or(Ok(()), Err)
+}
+
+fn check_material(material: roxmltree::Node) -> Check {
+    if material.attribute("name").is_none() {
+        return Some("<material> has no `name` attribute".into());
+    }
+    child(material, "color").and_then(|c| check_vector(c, "rgba", 4, true))
+}
+
+fn check_joint(joint: roxmltree::Node, version_1_2: bool) -> Check {
+    const TYPES: [&str; 7] = [
+        "revolute",
+        "continuous",
+        "prismatic",
+        "fixed",
+        "floating",
+        "planar",
+        "spherical",
+    ];
+    match joint.attribute("type") {
+        None => return Some("<joint> has no `type` attribute".into()),
+        Some(t) if !TYPES.contains(&t) => {
+            return Some(format!(
+                "unknown joint type `{t}` (expected one of {})",
+                TYPES.join(", ")
+            ));
+        }
+        Some(_) => {}
+    }
+    for role in ["parent", "child"] {
+        match child(joint, role) {
+            None => return Some(format!("<joint> has no <{role}>")),
+            Some(n) if n.attribute("link").is_none() => {
+                return Some(format!("<{role}> has no `link` attribute"));
+            }
+            Some(_) => {}
+        }
+    }
+    if let Some(p) = check_origin(joint) {
+        return Some(p);
+    }
+    if let Some(p) = child(joint, "axis").and_then(|a| check_vector(a, "xyz", 3, true)) {
+        return Some(p);
+    }
+    if let Some(limit) = child(joint, "limit") {
+        for attr in ["lower", "upper", "effort"] {
+            if let Some(p) = check_number(limit, attr, false) {
+                return Some(p);
+            }
+        }
+        if let Some(p) = check_number(limit, "velocity", !version_1_2) {
+            return Some(p);
+        }
+    }
+    if let Some(mimic) = child(joint, "mimic") {
+        if mimic.attribute("joint").is_none() {
+            return Some("<mimic> has no `joint` attribute".into());
+        }
+        for attr in ["multiplier", "offset"] {
+            if let Some(p) = check_number(mimic, attr, false) {
+                return Some(p);
+            }
+        }
+    }
+    if let Some(s) = child(joint, "safety_controller") {
+        if let Some(p) = check_number(s, "k_velocity", true) {
+            return Some(p);
+        }
+    }
+    None
+}
+
+impl Model {
+    /// Index of the link named `name`.
+    pub fn link_index(&self, name: &str) -> Option<usize> {
+        self.links.iter().position(|l| l.name == name)
+    }
+
+    /// Whether any link has a problem (validation finding, unresolved mesh, bad visual).
+    pub fn has_problems(&self) -> bool {
+        self.links.iter().any(|l| !l.problems.is_empty())
+    }
+
+    /// Errors, naming the file, link and rule, when a link that should become a body cannot:
+    /// a link with an `<inertial>` and a mass other than 0 whose mass properties break a rule of
+    /// [`MassProperties::validate`] (negative or NaN mass, non-finite values, not positive
+    /// definite, triangle inequality) or whose pose is not finite; or when no link has a
+    /// positive mass at all. Links without `<inertial>` or with mass exactly 0 are frames, not
+    /// bodies, and are skipped. Visual problems (unresolved meshes) do not block simulation.
+    pub fn check_simulable(&self) -> Result<(), ModelError> {
+        for link in &self.links {
+            let Some(mp) = &link.inertial else { continue };
+            if mp.mass == 0.0 {
+                continue;
+            }
+            let mut rules = mp.validate();
+            if !pose_is_finite(&link.model_from_link) {
+                rules.push(NON_FINITE_POSE.to_string());
+            }
+            if !rules.is_empty() {
+                return Err(ModelError::NotSimulable {
+                    path: self.path.clone(),
+                    link: link.name.clone(),
+                    rule: rules.join("; "),
+                });
+            }
+        }
+        if !self.links.iter().any(Link::has_mass) {
+            return Err(ModelError::NothingToSimulate {
+                path: self.path.clone(),
+            });
+        }
+        Ok(())
+    }
+
+    /// The whole model as one rigid body in the model (root link) frame: the sum of the links
+    /// with a positive mass ([`Link::has_mass`]), each moved by its `model_from_link`. Inertia
+    /// about the total centre of mass, model axes. `None` when no link has mass.
+    pub fn total_mass_properties(&self) -> Option<MassProperties> {
+        let parts: Vec<MassProperties> = self
+            .links
+            .iter()
+            .filter(|l| l.has_mass())
+            .filter_map(|l| Some(l.inertial?.transformed(&l.model_from_link)))
+            .collect();
+        MassProperties::combine(&parts)
+    }
+}

@@ -1,0 +1,304 @@
+//! MCAP recordings with Foxglove's well-known protobuf schemas.
+//!
+//! Layout of a file written by [`McapSink`]:
+//!
+//! | topic      | schema (protobuf)          | one message per recorded step holding                      |
+//! |------------|----------------------------|------------------------------------------------------------|
+//! | `/tf`      | `foxglove.FrameTransforms` | one `FrameTransform` per link frame: `parent_frame_id = "world"`, `child_frame_id` = frame id, the pose `world_from_link` |
+//! | `/bodies`  | `tumble.BodyStates`        | per body: linear and angular velocity (world), angular momentum about the centre of mass (world), kinetic and potential energy; plus the totals |
+//!
+//! Every message's `timestamp` = log time = publish time = simulation time in integer ns.
+//! The schema of `/bodies` is a self-contained `FileDescriptorSet` (it includes
+//! `google/protobuf/timestamp.proto`), so generic protobuf readers decode it.
+//! A metadata record named `tumble` holds the scene, integrator settings and tool version
+//! (see [`RecordingLayout::metadata`]). Chunks are zstd-compressed; the summary and indexes are
+//! written by `finish()`, which is always called explicitly. The file is written under
+//! `<path>.part` and renamed onto `path` only once it is complete.
+
+use super::{Frame, RecordingLayout, Sink};
+use anyhow::Context;
+use foxglove::Encode;
+use foxglove::messages::{FrameTransform, FrameTransforms, Quaternion, Timestamp, Vector3};
+use prost::Message;
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+/// Topic of the link transforms.
+pub const TF_TOPIC: &str = "/tf";
+/// Topic of the per-body velocities, energies and momenta.
+pub const BODIES_TOPIC: &str = "/bodies";
+/// Name of the MCAP metadata record holding the scene and settings.
+pub const METADATA_NAME: &str = "tumble";
+/// Schema name of the `/bodies` messages.
+pub const BODY_STATES_SCHEMA: &str = "tumble.BodyStates";
+
+/// Protobuf messages of the `/bodies` topic (`package tumble`).
+pub mod proto {
+    /// `tumble.Vector3`
+    #[derive(Clone, PartialEq, prost::Message)]
+    pub struct Vector3 {
+        #[prost(double, tag = "1")]
+        pub x: f64,
+        #[prost(double, tag = "2")]
+        pub y: f64,
+        #[prost(double, tag = "3")]
+        pub z: f64,
+    }
+
+    /// `tumble.BodyState`: one body at one instant, world frame, SI units.
+    #[derive(Clone, PartialEq, prost::Message)]
+    pub struct BodyState {
+        /// The body's frame id (as in `/tf`).
+        #[prost(string, tag = "1")]
+        pub name: String,
+        /// Velocity of the centre of mass, m/s.
+        #[prost(message, optional, tag = "2")]
+        pub linear_velocity: Option<Vector3>,
+        /// Angular velocity, rad/s.
+        #[prost(message, optional, tag = "3")]
+        pub angular_velocity: Option<Vector3>,
+        /// Angular momentum about the centre of mass, kg m^2/s.
+        #[prost(message, optional, tag = "4")]
+        pub angular_momentum: Option<Vector3>,
+        /// J
+        #[prost(double, tag = "5")]
+        pub kinetic_energy: f64,
+        /// J, zero at the world origin.
+        #[prost(double, tag = "6")]
+        pub potential_energy: f64,
+    }
+
+    /// `tumble.BodyStates`: every body at one recorded step.
+    #[derive(Clone, PartialEq, prost::Message)]
+    pub struct BodyStates {
+        #[prost(message, optional, tag = "1")]
+        pub timestamp: Option<prost_types::Timestamp>,
+        /// Integrator step index.
+        #[prost(uint64, tag = "2")]
+        pub step: u64,
+        #[prost(message, repeated, tag = "3")]
+        pub bodies: Vec<BodyState>,
+        /// Sum of kinetic and potential energy over all bodies, J.
+        #[prost(double, tag = "4")]
+        pub total_energy: f64,
+    }
+}
+
+/// The `FileDescriptorSet` describing [`proto::BodyStates`], built from the message definitions
+/// above (kept in one place: the field numbers here must match the `prost` tags).
+pub fn body_states_descriptor() -> Vec<u8> {
+    use prost_types::field_descriptor_proto::{Label, Type};
+    use prost_types::{DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet};
+
+    fn field(name: &str, number: i32, ty: Type, label: Label, type_name: Option<&str>) -> FieldDescriptorProto {
+        FieldDescriptorProto {
+            name: Some(name.into()),
+            number: Some(number),
+            label: Some(label as i32),
+            r#type: Some(ty as i32),
+            type_name: type_name.map(str::to_string),
+            json_name: None,
+            ..Default::default()
+        }
+    }
+    fn message(name: &str, fields: Vec<FieldDescriptorProto>) -> DescriptorProto {
+        DescriptorProto { name: Some(name.into()), field: fields, ..Default::default() }
+    }
+    let one = Label::Optional;
+    let timestamp_file = FileDescriptorProto {
+        name: Some("google/protobuf/timestamp.proto".into()),
+        package: Some("google.protobuf".into()),
+        message_type: vec![message(
+            "Timestamp",
+            vec![
+                field("seconds", 1, Type::Int64, one, None),
+                field("nanos", 2, Type::Int32, one, None),
+            ],
+        )],
+        syntax: Some("proto3".into()),
+        ..Default::default()
+    };
+    let vec3 = |name: &str, n| field(name, n, Type::Message, one, Some(".tumble.Vector3"));
+    let tumble_file = FileDescriptorProto {
+        name: Some("tumble/BodyStates.proto".into()),
+        package: Some("tumble".into()),
+        dependency: vec!["google/protobuf/timestamp.proto".into()],
+        message_type: vec![
+            message(
+                "Vector3",
+                vec![
+                    field("x", 1, Type::Double, one, None),
+                    field("y", 2, Type::Double, one, None),
+                    field("z", 3, Type::Double, one, None),
+                ],
+            ),
+            message(
+                "BodyState",
+                vec![
+                    field("name", 1, Type::String, one, None),
+                    vec3("linear_velocity", 2),
+                    vec3("angular_velocity", 3),
+                    vec3("angular_momentum", 4),
+                    field("kinetic_energy", 5, Type::Double, one, None),
+                    field("potential_energy", 6, Type::Double, one, None),
+                ],
+            ),
+            message(
+                "BodyStates",
+                vec![
+                    field("timestamp", 1, Type::Message, one, Some(".google.protobuf.Timestamp")),
+                    field("step", 2, Type::Uint64, one, None),
+                    field("bodies", 3, Type::Message, Label::Repeated, Some(".tumble.BodyState")),
+                    field("total_energy", 4, Type::Double, one, None),
+                ],
+            ),
+        ],
+        syntax: Some("proto3".into()),
+        ..Default::default()
+    };
+    FileDescriptorSet { file: vec![timestamp_file, tumble_file] }.encode_to_vec()
+}
+
+/// The path a sink writes to before the file is complete.
+pub fn part_path(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".part");
+    PathBuf::from(name)
+}
+
+/// Writes an MCAP file; see the module documentation for its layout.
+pub struct McapSink {
+    writer: mcap::Writer<BufWriter<File>>,
+    path: PathBuf,
+    part: PathBuf,
+    tf_channel: u16,
+    bodies_channel: u16,
+    sequence: u32,
+    frame_ids: Vec<String>,
+    body_names: Vec<String>,
+    buf: Vec<u8>,
+}
+
+fn vec3(v: &nalgebra::Vector3<f64>) -> proto::Vector3 {
+    proto::Vector3 { x: v.x, y: v.y, z: v.z }
+}
+
+/// Simulation time in ns as a Foxglove timestamp (seconds since t = 0).
+fn foxglove_time(time_ns: i64) -> Timestamp {
+    let ns = time_ns.max(0) as u64;
+    Timestamp::new((ns / 1_000_000_000) as u32, (ns % 1_000_000_000) as u32)
+}
+
+impl McapSink {
+    /// Creates `<path>.part`, writes the schemas, channels and metadata.
+    pub fn create(path: &Path, layout: &RecordingLayout) -> anyhow::Result<Self> {
+        let part = part_path(path);
+        let file = File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
+        let mut writer = mcap::WriteOptions::new()
+            .profile("")
+            .library(format!("tumble {}", crate::VERSION))
+            .create(BufWriter::new(file))
+            .with_context(|| format!("cannot write {}", part.display()))?;
+        let tf_schema = FrameTransforms::get_schema().context("foxglove.FrameTransforms has no schema")?;
+        let tf_schema_id = writer.add_schema(&tf_schema.name, &tf_schema.encoding, &tf_schema.data)?;
+        let tf_channel = writer.add_channel(tf_schema_id, TF_TOPIC, "protobuf", &BTreeMap::new())?;
+        let bodies_schema_id = writer.add_schema(BODY_STATES_SCHEMA, "protobuf", &body_states_descriptor())?;
+        let bodies_channel = writer.add_channel(bodies_schema_id, BODIES_TOPIC, "protobuf", &BTreeMap::new())?;
+        writer.write_metadata(&mcap::records::Metadata {
+            name: METADATA_NAME.into(),
+            metadata: layout.metadata.clone(),
+        })?;
+        Ok(Self {
+            writer,
+            path: path.to_path_buf(),
+            part,
+            tf_channel,
+            bodies_channel,
+            sequence: 0,
+            frame_ids: layout.frames.iter().map(|f| f.frame_id.clone()).collect(),
+            body_names: layout.bodies.iter().map(|b| b.name.clone()).collect(),
+            buf: Vec::new(),
+        })
+    }
+
+    fn write_message(&mut self, channel_id: u16, time_ns: u64) -> anyhow::Result<()> {
+        let header = mcap::records::MessageHeader {
+            channel_id,
+            sequence: self.sequence,
+            log_time: time_ns,
+            publish_time: time_ns,
+        };
+        self.writer.write_to_known_channel(&header, &self.buf)?;
+        Ok(())
+    }
+}
+
+impl Sink for McapSink {
+    fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
+        let time_ns = u64::try_from(frame.time_ns).context("negative simulation time")?;
+        let stamp = foxglove_time(frame.time_ns);
+        let transforms = FrameTransforms {
+            transforms: frame
+                .world_from_link
+                .iter()
+                .zip(&self.frame_ids)
+                .map(|(pose, frame_id)| {
+                    let t = pose.translation.vector;
+                    let q = pose.rotation.quaternion().coords; // (x, y, z, w)
+                    FrameTransform {
+                        timestamp: Some(stamp),
+                        parent_frame_id: "world".into(),
+                        child_frame_id: frame_id.clone(),
+                        translation: Some(Vector3 { x: t.x, y: t.y, z: t.z }),
+                        rotation: Some(Quaternion { x: q.x, y: q.y, z: q.z, w: q.w }),
+                    }
+                })
+                .collect(),
+        };
+        self.buf.clear();
+        Message::encode(&transforms, &mut self.buf)?;
+        self.write_message(self.tf_channel, time_ns)?;
+
+        let states = proto::BodyStates {
+            timestamp: Some(prost_types::Timestamp {
+                seconds: (time_ns / 1_000_000_000) as i64,
+                nanos: (time_ns % 1_000_000_000) as i32,
+            }),
+            step: frame.step,
+            bodies: frame
+                .bodies
+                .iter()
+                .zip(&self.body_names)
+                .map(|(b, name)| proto::BodyState {
+                    name: name.clone(),
+                    linear_velocity: Some(vec3(&b.linvel_world)),
+                    angular_velocity: Some(vec3(&b.angvel_world)),
+                    angular_momentum: Some(vec3(&b.angmom_world)),
+                    kinetic_energy: b.kinetic_energy,
+                    potential_energy: b.potential_energy,
+                })
+                .collect(),
+            total_energy: frame.bodies.iter().map(|b| b.kinetic_energy + b.potential_energy).sum(),
+        };
+        self.buf.clear();
+        states.encode(&mut self.buf)?;
+        self.write_message(self.bodies_channel, time_ns)?;
+        self.sequence = self.sequence.wrapping_add(1);
+        Ok(())
+    }
+
+    fn finish(mut self: Box<Self>) -> anyhow::Result<()> {
+        self.writer
+            .finish()
+            .with_context(|| format!("cannot finish {}", self.part.display()))?;
+        let McapSink { writer, part, path, .. } = *self;
+        let file = writer.into_inner().into_inner().map_err(|e| e.into_error())?;
+        file.sync_all().ok();
+        drop(file);
+        std::fs::rename(&part, &path)
+            .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))?;
+        Ok(())
+    }
+}

@@ -1,0 +1,106 @@
+//! Where results go. One [`Sink`] trait; implementations for MCAP ([`mcap`]) and Rerun ([`rerun`]).
+//!
+//! A recorder receives a [`RecordingLayout`] once (what frames exist, what they look like, the
+//! metadata) and then one [`Frame`] per recorded step. It knows nothing of integrators.
+
+pub mod mcap;
+pub mod rerun;
+
+use crate::model::Visual;
+use nalgebra::{Isometry3, Vector3};
+use std::collections::BTreeMap;
+
+/// Everything a recorder needs to know before the first frame.
+#[derive(Debug, Clone, Default)]
+pub struct RecordingLayout {
+    /// Application/recording name (e.g. the scene's file stem). ASCII letters, digits, `_ -`.
+    pub name: String,
+    /// One entry per recorded link frame, in the order of [`Frame::world_from_link`].
+    pub frames: Vec<FrameLayout>,
+    /// One entry per simulated body, in the order of [`Frame::bodies`].
+    pub bodies: Vec<BodyLayout>,
+    /// Scene text, integrator settings, tool version, ... (written as MCAP metadata and as
+    /// Rerun recording properties / a text document).
+    pub metadata: BTreeMap<String, String>,
+}
+
+/// A recorded link frame.
+#[derive(Debug, Clone)]
+pub struct FrameLayout {
+    /// Frame id used in both recordings: the link name, prefixed `name/` when the scene gave the
+    /// model a `name`. The parent of every frame is `"world"`.
+    pub frame_id: String,
+    /// The model (robot) this link belongs to: the scene's `name` for the model if given,
+    /// else the URDF `<robot name>`. Used as the root of the Rerun entity tree.
+    pub model: String,
+    /// The URDF link name (without prefix).
+    pub link: String,
+    /// Visual geometry in the link frame.
+    pub visuals: Vec<Visual>,
+}
+
+/// A simulated body (a link with mass, or a whole model locked rigid).
+#[derive(Debug, Clone)]
+pub struct BodyLayout {
+    /// Name used for per-body series and velocity messages (= the frame id of its link).
+    pub name: String,
+    /// Index into [`RecordingLayout::frames`] of the frame the body moves.
+    pub frame: usize,
+    pub mass: f64,
+    /// Pose of the body's principal frame (origin at the centre of mass, axes along the
+    /// principal axes) in the link frame.
+    pub link_from_principal: Isometry3<f64>,
+    /// Principal moments of inertia about the centre of mass, kg m^2.
+    pub principal_moments: Vector3<f64>,
+}
+
+impl BodyLayout {
+    /// Semi-axes of the uniform-density solid ellipsoid with the same mass and principal moments:
+    /// `I1 = m (b^2 + c^2) / 5` etc., so `a^2 = 5 (I2 + I3 - I1) / (2 m)`.
+    /// Moments that break the triangle inequality give a zero axis (clamped, never NaN).
+    pub fn inertia_ellipsoid_radii(&self) -> Vector3<f64> {
+        let i = self.principal_moments;
+        let k = 5.0 / (2.0 * self.mass);
+        Vector3::new(
+            (k * (i.y + i.z - i.x)).max(0.0).sqrt(),
+            (k * (i.x + i.z - i.y)).max(0.0).sqrt(),
+            (k * (i.x + i.y - i.z)).max(0.0).sqrt(),
+        )
+    }
+}
+
+/// The state of one body at a recorded step, world frame, SI units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BodyState {
+    /// Velocity of the centre of mass, m/s.
+    pub linvel_world: Vector3<f64>,
+    /// Angular velocity, rad/s.
+    pub angvel_world: Vector3<f64>,
+    /// Angular momentum about the body's own centre of mass, kg m^2/s (conserved without torque).
+    pub angmom_world: Vector3<f64>,
+    /// Translational plus rotational kinetic energy, J.
+    pub kinetic_energy: f64,
+    /// Gravitational potential energy `-m g . c` (zero at the world origin), J.
+    pub potential_energy: f64,
+}
+
+/// One recorded step.
+#[derive(Debug, Clone, Copy)]
+pub struct Frame<'a> {
+    /// Integrator step index (0 = initial state).
+    pub step: u64,
+    /// Simulation time, integer nanoseconds (= `step * dt_ns`).
+    pub time_ns: i64,
+    /// Pose of each link frame in the world, in the order of [`RecordingLayout::frames`].
+    pub world_from_link: &'a [Isometry3<f64>],
+    /// Per-body state, in the order of [`RecordingLayout::bodies`].
+    pub bodies: &'a [BodyState],
+}
+
+/// A recording being written.
+pub trait Sink {
+    /// Record one step. Frames arrive in increasing time.
+    fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()>;
+    /// Flush everything and close the file so that readers see a complete recording.
+    fn finish(self: Box<Self>) -> anyhow::Result<()>;
+}

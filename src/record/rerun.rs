@@ -1,0 +1,924 @@
+//! Rerun `.rrd` recordings (rerun 0.36; view with Rerun 0.36/0.37).
+//!
+//! # Timelines
+//!
+//! Exactly two, both on every time-varying row; there is no wall-clock timeline (`log_time`,
+//! `log_tick`):
+//!
+//! | timeline   | kind     | value                                                          |
+//! |------------|----------|----------------------------------------------------------------|
+//! | `sim_time` | duration | [`Frame::time_ns`], integer nanoseconds (bit-identical to MCAP) |
+//! | `step`     | sequence | [`Frame::step`], the integrator step index                     |
+//!
+//! # Transform frames
+//!
+//! Named frames, as in ROS and in the MCAP `/tf` channel: every recorded link frame is a child of
+//! `world`, and its frame id is exactly [`FrameLayout::frame_id`]. The viewer's root entity `/`
+//! is placed in the `world` frame, so the default 3D view shows everything.
+//!
+//! # Entities
+//!
+//! `<model>` is [`FrameLayout::model`], `<link>` is [`FrameLayout::link`], `<body>` is
+//! [`BodyLayout::name`] split at `/` (so `arm/link1` gives two path parts). Each name is one entity
+//! path part (special characters are escaped, as Rerun does for URDF names).
+//!
+//! | entity                                        | archetypes                                   | time     |
+//! |-----------------------------------------------|----------------------------------------------|----------|
+//! | `/`                                           | `CoordinateFrame("world")`, `ViewCoordinates` (right-handed, Z up) | static |
+//! | `/__properties`                               | `RecordingInfo` (name only, no start time)    | static   |
+//! | `/__properties/metadata`                      | one text field per [`RecordingLayout::metadata`] entry | static |
+//! | `/metadata`                                   | `TextDocument` (Markdown list of the metadata) | static  |
+//! | `/<model>/visual_geometries/<link>/<visual>`  | `CoordinateFrame(frame_id)`, `InstancePoses3D` (visual origin, mesh scale), and one of `Boxes3D`, `Ellipsoids3D` (sphere), `Cylinders3D`, `Capsules3D`, `Asset3D` (stl, obj, glb, gltf) | static |
+//! | `/<model>/inertia/<link>`                     | `CoordinateFrame(frame_id)`, `InstancePoses3D` (principal frame), `Ellipsoids3D` (equivalent uniform ellipsoid, wireframe) | static |
+//! | `/<model>/world_from_link/<link>`             | `Transform3D` (translation, quaternion xyzw, `parent_frame = "world"`, `child_frame = frame_id`), f32 | both timelines |
+//! | `/plots/energy/<body>`                        | `Scalars` [kinetic, potential, total] (J), `SeriesLines` names (static) | both timelines |
+//! | `/plots/angular_momentum/<body>`              | `Scalars` [\|L\|] about the body's centre of mass (kg m²/s), `SeriesLines` (static) | both timelines |
+//! | `/plots/scene/energy`                         | `Scalars` [kinetic, potential, total] summed over all bodies (J), `SeriesLines` (static) | both timelines |
+//!
+//! `<visual>` is the URDF `<visual name=...>`, else `visual_<i>` with `i` the index among the
+//! link's visuals: the same paths and frame attachment (a `CoordinateFrame` naming the link frame
+//! plus an `InstancePoses3D` for the visual origin) as Rerun 0.36's own URDF importer, so a URDF
+//! dropped into the viewer lines up with the recording. Differences from the importer: URDF
+//! capsules are centred on their origin (the importer leaves `Capsules3D`'s one end at the
+//! origin); DAE meshes and meshes whose file was not found are skipped with a warning (see
+//! [`RerunSink::warnings`]); a glTF file is embedded alone (external buffers are not).
+//! Colours come from the URDF material (linear RGBA), white when there is none, as in the importer.
+//!
+//! Inertia ellipsoids ([`BodyLayout::inertia_ellipsoid_radii`]) are on their own entities so they
+//! can be toggled in the viewer; [`RerunOptions::ellipsoids`] `= false` leaves them out.
+//!
+//! # Writing
+//!
+//! Time-varying data is buffered and sent by columns (`send_columns`) every
+//! [`BATCH_FRAMES`] frames and on [`Sink::finish`], so memory stays bounded. The file is written
+//! as `<path>.part` and renamed onto `<path>` by [`Sink::finish`] after the footer is written and
+//! the file synced; on error, or when the sink is dropped unfinished, `<path>.part` is removed
+//! and nothing appears under `<path>`.
+//!
+//! # Reproducibility
+//!
+//! Same layout and frames give a byte-identical file. Plain `RecordingStream::save` cannot: every
+//! row and chunk carries a Rerun TUID (wall-clock nanoseconds plus a random per-thread counter),
+//! the `SetStoreInfo` message has one too, the properties chunk holds `Timestamp::now()`, and
+//! rows logged with `log` are grouped into chunks by a timer. So this module (1) sends every
+//! chunk itself, never row by row, (2) records the name but no start time in the properties, and
+//! (3) writes through its own [`LogSink`] that renumbers TUIDs with a counter (time part 0,
+//! increasing in send order, so Rerun's ordering semantics are kept) before encoding. The
+//! recording id is the layout name plus a hash of the name and metadata: the same inputs give
+//! the same id, different scenes or settings do not get merged by the viewer.
+
+use super::{BodyLayout, Frame, FrameLayout, RecordingLayout, Sink};
+use crate::model::{Geometry, Visual};
+use anyhow::{Context, Result, anyhow, bail};
+use nalgebra::Isometry3;
+use rerun::external::re_log_encoding::{CrateVersion, Encoder, EncodingOptions};
+use rerun::log::{Chunk, ChunkId, LogMsg, RowId};
+use rerun::sink::{LogSink, SinkFlushError};
+use rerun::{
+    AsComponents, EntityPath, EntityPathPart, RecordingStream, RecordingStreamBuilder,
+    SerializedComponentBatch, TimeColumn, TimePoint,
+};
+use std::collections::BTreeSet;
+use std::fs::File;
+use std::io::{BufWriter, Write as _};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+
+/// Name of the duration timeline (integer nanoseconds of simulated time).
+pub const SIM_TIME_TIMELINE: &str = "sim_time";
+/// Name of the sequence timeline (integrator step index).
+pub const STEP_TIMELINE: &str = "step";
+/// The parent frame of every link frame.
+pub const WORLD_FRAME: &str = "world";
+/// Frames buffered before a batch of columns is sent.
+pub const BATCH_FRAMES: usize = 1000;
+/// Series names of the energy plots, in the order of the values.
+pub const ENERGY_SERIES: [&str; 3] = ["kinetic", "potential", "total"];
+
+/// What to write besides the trajectories.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RerunOptions {
+    /// Write the equivalent inertia ellipsoid of every body (`/<model>/inertia/<link>`).
+    pub ellipsoids: bool,
+}
+
+impl Default for RerunOptions {
+    fn default() -> Self {
+        Self { ellipsoids: true }
+    }
+}
+
+/// Entity of visual `index` of a link: `/<model>/visual_geometries/<link>/<name or visual_<index>>`.
+pub fn visual_entity_path(model: &str, link: &str, index: usize, name: Option<&str>) -> EntityPath {
+    let leaf = match name {
+        Some(name) if !name.is_empty() => name.to_owned(),
+        _ => format!("visual_{index}"),
+    };
+    entity(&[model, "visual_geometries", link, &leaf])
+}
+
+/// Entity of a body's inertia ellipsoid: `/<model>/inertia/<link>`.
+pub fn inertia_entity_path(model: &str, link: &str) -> EntityPath {
+    entity(&[model, "inertia", link])
+}
+
+/// Entity holding the `world -> frame_id` transforms of a link: `/<model>/world_from_link/<link>`.
+pub fn transform_entity_path(model: &str, link: &str) -> EntityPath {
+    entity(&[model, "world_from_link", link])
+}
+
+/// Entity of a body's energy plot: `/plots/energy/<body split at '/'>`.
+pub fn energy_entity_path(body: &str) -> EntityPath {
+    plot_path("energy", body)
+}
+
+/// Entity of a body's angular momentum plot: `/plots/angular_momentum/<body split at '/'>`.
+pub fn angular_momentum_entity_path(body: &str) -> EntityPath {
+    plot_path("angular_momentum", body)
+}
+
+/// Entity of the whole scene's energy plot: `/plots/scene/energy`.
+pub fn scene_energy_entity_path() -> EntityPath {
+    entity(&["plots", "scene", "energy"])
+}
+
+fn entity(parts: &[&str]) -> EntityPath {
+    EntityPath::new(parts.iter().map(|p| EntityPathPart::new(*p)).collect())
+}
+
+fn plot_path(kind: &str, body: &str) -> EntityPath {
+    let mut parts = vec![EntityPathPart::new("plots"), EntityPathPart::new(kind)];
+    parts.extend(
+        body.split('/')
+            .filter(|p| !p.is_empty())
+            .map(EntityPathPart::new),
+    );
+    EntityPath::new(parts)
+}
+
+/// Application id accepted by Rerun: ASCII letters, digits, `_ - space [ ] :`, at most 180 chars.
+fn application_id(name: &str) -> String {
+    let id: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "_- []:".contains(c) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .take(180)
+        .collect();
+    if id.trim().is_empty() {
+        "tumble".to_owned()
+    } else {
+        id
+    }
+}
+
+/// Deterministic recording id: the app id and a 64-bit FNV-1a hash of name and metadata.
+fn recording_id(layout: &RecordingLayout) -> String {
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for &b in bytes.iter().chain(&[0xff]) {
+            hash ^= u64::from(b);
+            hash = hash.wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    eat(layout.name.as_bytes());
+    for (key, value) in &layout.metadata {
+        eat(key.as_bytes());
+        eat(value.as_bytes());
+    }
+    format!("{}-{hash:016x}", application_id(&layout.name))
+}
+
+fn f32x3(v: &nalgebra::Vector3<f64>) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
+}
+
+/// Quaternion as `[x, y, z, w]` in f32.
+fn quat_xyzw(iso: &Isometry3<f64>) -> [f32; 4] {
+    let q = iso.rotation.quaternion();
+    [q.i as f32, q.j as f32, q.k as f32, q.w as f32]
+}
+
+fn color(rgba: Option<[f32; 4]>) -> rerun::Rgba32 {
+    match rgba {
+        Some([r, g, b, a]) => rerun::Rgba32::from_linear_unmultiplied_rgba_f32(r, g, b, a),
+        None => rerun::Rgba32::WHITE,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The file writer: a LogSink that renumbers TUIDs, then encodes.
+
+/// Where the encoded stream goes; shared between the [`RerunSink`] and the [`RrdFileSink`] that
+/// the recording stream's forwarding thread owns.
+struct FileState {
+    encoder: Option<Encoder<BufWriter<File>>>,
+    /// Last TUID handed out (counter part; the time part is 0).
+    last_id: u64,
+    /// First error met by the forwarding thread (it cannot return errors).
+    error: Option<String>,
+}
+
+impl FileState {
+    fn next_id(&mut self) -> u128 {
+        self.last_id += 1;
+        u128::from(self.last_id)
+    }
+
+    fn write(&mut self, msg: LogMsg) -> Result<()> {
+        let msg = match msg {
+            LogMsg::SetStoreInfo(mut info) => {
+                info.row_id = *RowId::from_u128(self.next_id());
+                LogMsg::SetStoreInfo(info)
+            }
+            LogMsg::ArrowMsg(store_id, arrow_msg) => {
+                let chunk = Chunk::from_arrow_msg(&arrow_msg)?;
+                let chunk_id = ChunkId::from_u128(self.next_id());
+                let row_ids: Vec<RowId> = (0..chunk.num_rows())
+                    .map(|_| RowId::from_u128(self.next_id()))
+                    .collect();
+                let chunk = Chunk::from_native_row_ids(
+                    chunk_id,
+                    chunk.entity_path().clone(),
+                    None,
+                    &row_ids,
+                    chunk.timelines().clone(),
+                    chunk.components().clone(),
+                )?;
+                LogMsg::ArrowMsg(store_id, chunk.to_arrow_msg()?)
+            }
+            other => other,
+        };
+        let encoder = self
+            .encoder
+            .as_mut()
+            .ok_or_else(|| anyhow!("message after the recording was closed"))?;
+        encoder.append(&msg)?;
+        Ok(())
+    }
+}
+
+fn lock(state: &Mutex<FileState>) -> MutexGuard<'_, FileState> {
+    state
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// [`LogSink`] writing a reproducible `.rrd` (see the module doc).
+struct RrdFileSink {
+    state: Arc<Mutex<FileState>>,
+}
+
+impl LogSink for RrdFileSink {
+    fn send(&self, msg: LogMsg) {
+        let mut state = lock(&self.state);
+        if state.error.is_none()
+            && let Err(err) = state.write(msg)
+        {
+            state.error = Some(format!("{err:#}"));
+        }
+    }
+
+    fn flush_blocking(&self, _timeout: Duration) -> Result<(), SinkFlushError> {
+        let mut state = lock(&self.state);
+        if let Some(err) = &state.error {
+            return Err(SinkFlushError::failed(err.clone()));
+        }
+        if let Some(encoder) = state.encoder.as_mut() {
+            encoder
+                .flush_blocking()
+                .map_err(|err| SinkFlushError::failed(err.to_string()))?;
+        }
+        Ok(())
+    }
+
+    fn defers_finalization_to_shutdown(&self) -> bool {
+        true
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The sink.
+
+/// Per link frame: where its transforms go.
+struct FrameTrack {
+    entity: EntityPath,
+    frame_id: String,
+}
+
+/// Per body: where its plots go.
+struct BodyTrack {
+    energy: EntityPath,
+    angular_momentum: EntityPath,
+}
+
+/// Columns of the frames not yet sent.
+#[derive(Default)]
+struct Buffer {
+    time_ns: Vec<i64>,
+    step: Vec<i64>,
+    /// `[frame][row]`
+    translation: Vec<Vec<[f32; 3]>>,
+    quaternion: Vec<Vec<[f32; 4]>>,
+    /// `[body]`: kinetic, potential, total per row, flattened.
+    energy: Vec<Vec<f64>>,
+    angular_momentum: Vec<Vec<f64>>,
+    scene_energy: Vec<f64>,
+}
+
+impl Buffer {
+    fn new(frames: usize, bodies: usize) -> Self {
+        Self {
+            translation: vec![Vec::new(); frames],
+            quaternion: vec![Vec::new(); frames],
+            energy: vec![Vec::new(); bodies],
+            angular_momentum: vec![Vec::new(); bodies],
+            ..Self::default()
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.time_ns.len()
+    }
+
+    fn clear(&mut self) {
+        self.time_ns.clear();
+        self.step.clear();
+        self.scene_energy.clear();
+        for v in &mut self.translation {
+            v.clear();
+        }
+        for v in &mut self.quaternion {
+            v.clear();
+        }
+        for v in &mut self.energy {
+            v.clear();
+        }
+        for v in &mut self.angular_momentum {
+            v.clear();
+        }
+    }
+}
+
+/// Writes a [`RecordingLayout`] and its frames as a Rerun `.rrd` file (see the module doc).
+pub struct RerunSink {
+    rec: Option<RecordingStream>,
+    state: Arc<Mutex<FileState>>,
+    part_path: PathBuf,
+    final_path: PathBuf,
+    frames: Vec<FrameTrack>,
+    bodies: Vec<BodyTrack>,
+    buffer: Buffer,
+    last_time_ns: Option<i64>,
+    warnings: Vec<String>,
+    done: bool,
+}
+
+/// Opens `<path>.part` and writes the static layout. See the module doc for what is written.
+pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> Result<RerunSink> {
+    let part_path = part_path(path);
+    let file = File::create(&part_path)
+        .with_context(|| format!("cannot create {}", part_path.display()))?;
+    let encoder = Encoder::new_eager(
+        CrateVersion::LOCAL,
+        EncodingOptions::PROTOBUF_COMPRESSED,
+        BufWriter::new(file),
+    );
+    let state = Arc::new(Mutex::new(FileState {
+        encoder: None,
+        last_id: 0,
+        error: None,
+    }));
+    // From here on, an early return drops `sink`, which removes the part file.
+    let mut sink = RerunSink {
+        rec: None,
+        state: state.clone(),
+        part_path,
+        final_path: path.to_owned(),
+        frames: Vec::new(),
+        bodies: Vec::new(),
+        buffer: Buffer::new(layout.frames.len(), layout.bodies.len()),
+        last_time_ns: None,
+        warnings: Vec::new(),
+        done: false,
+    };
+    lock(&state).encoder = Some(encoder.context("cannot write the .rrd header")?);
+
+    let builder = RecordingStreamBuilder::new(application_id(&layout.name))
+        .enabled(true)
+        .recording_id(recording_id(layout))
+        .send_properties(true);
+    let (_enabled, store_info, _properties, batcher_config, batcher_hooks, _blueprint) =
+        builder.into_args();
+    // The builder's properties hold `Timestamp::now()`: replace them by the name alone.
+    let properties = rerun::RecordingInfo::new().with_name(layout.name.clone());
+    let rec = RecordingStream::new(
+        store_info,
+        Some(properties),
+        batcher_config,
+        batcher_hooks,
+        Box::new(RrdFileSink { state }),
+    )
+    .context("cannot start the Rerun recording stream")?;
+    rec.set_log_time_enabled(false);
+    rec.set_log_tick_enabled(false);
+    sink.rec = Some(rec);
+
+    sink.write_layout(layout, options)?;
+    Ok(sink)
+}
+
+fn part_path(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".part");
+    PathBuf::from(name)
+}
+
+/// A static chunk with one row holding all the given archetypes.
+fn static_chunk(entity: EntityPath, archetypes: &[&dyn AsComponents]) -> Result<Chunk> {
+    let batches: Vec<SerializedComponentBatch> = archetypes
+        .iter()
+        .flat_map(|a| a.as_serialized_batches())
+        .collect();
+    Ok(Chunk::builder(entity)
+        .with_serialized_batches(RowId::new(), TimePoint::default(), batches)
+        .build()?)
+}
+
+fn instance_pose(iso: &Isometry3<f64>, scale: Option<[f32; 3]>) -> rerun::InstancePoses3D {
+    let pose = rerun::InstancePoses3D::new()
+        .with_translations([f32x3(&iso.translation.vector)])
+        .with_quaternions([rerun::Quaternion::from_xyzw(quat_xyzw(iso))]);
+    match scale {
+        Some(scale) => pose.with_scales([scale]),
+        None => pose,
+    }
+}
+
+impl RerunSink {
+    /// Meshes that were skipped (DAE, unresolved or unreadable files), one line each.
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    fn rec(&self) -> Result<&RecordingStream> {
+        self.rec
+            .as_ref()
+            .ok_or_else(|| anyhow!("the Rerun recording is closed"))
+    }
+
+    fn send(&self, chunk: Chunk) -> Result<()> {
+        self.rec()?.send_chunk(chunk);
+        self.check_sink()
+    }
+
+    /// Surfaces an error of the file writer (it runs on Rerun's forwarding thread).
+    fn check_sink(&self) -> Result<()> {
+        match &lock(&self.state).error {
+            Some(err) => bail!("writing {}: {err}", self.part_path.display()),
+            None => Ok(()),
+        }
+    }
+
+    fn warn(&mut self, message: String) {
+        eprintln!("warning: {message}");
+        self.warnings.push(message);
+    }
+
+    fn write_layout(&mut self, layout: &RecordingLayout, options: &RerunOptions) -> Result<()> {
+        self.send(static_chunk(
+            EntityPath::root(),
+            &[
+                &rerun::CoordinateFrame::new(WORLD_FRAME),
+                &rerun::ViewCoordinates::RIGHT_HAND_Z_UP(),
+            ],
+        )?)?;
+        self.write_metadata(layout)?;
+
+        let mut used = BTreeSet::new();
+        for frame in &layout.frames {
+            let entity = transform_entity_path(&frame.model, &frame.link);
+            if !used.insert(entity.clone()) {
+                bail!(
+                    "two recorded frames share model {:?} and link {:?}",
+                    frame.model,
+                    frame.link
+                );
+            }
+            for (index, visual) in frame.visuals.iter().enumerate() {
+                let mut entity =
+                    visual_entity_path(&frame.model, &frame.link, index, visual.name.as_deref());
+                if !used.insert(entity.clone()) {
+                    // Two visuals of one link with the same name: keep both.
+                    entity = visual_entity_path(
+                        &frame.model,
+                        &frame.link,
+                        index,
+                        Some(&format!(
+                            "{}_{index}",
+                            visual.name.as_deref().unwrap_or("visual")
+                        )),
+                    );
+                    used.insert(entity.clone());
+                }
+                self.write_visual(entity, frame, visual)?;
+            }
+            self.frames.push(FrameTrack {
+                entity,
+                frame_id: frame.frame_id.clone(),
+            });
+        }
+
+        let mut used_inertia = BTreeSet::new();
+        for (i, body) in layout.bodies.iter().enumerate() {
+            let frame = layout.frames.get(body.frame).with_context(|| {
+                format!(
+                    "body {:?} refers to frame {} of {}",
+                    body.name,
+                    body.frame,
+                    layout.frames.len()
+                )
+            })?;
+            if options.ellipsoids {
+                let mut entity = inertia_entity_path(&frame.model, &frame.link);
+                if !used_inertia.insert(entity.clone()) {
+                    entity = inertia_entity_path(&frame.model, &format!("{}_{i}", frame.link));
+                    used_inertia.insert(entity.clone());
+                }
+                self.write_inertia(entity, frame, body)?;
+            }
+            let track = BodyTrack {
+                energy: energy_entity_path(&body.name),
+                angular_momentum: angular_momentum_entity_path(&body.name),
+            };
+            self.send(static_chunk(
+                track.energy.clone(),
+                &[&rerun::SeriesLines::new().with_names(ENERGY_SERIES)],
+            )?)?;
+            self.send(static_chunk(
+                track.angular_momentum.clone(),
+                &[&rerun::SeriesLines::new().with_names(["|L|"])],
+            )?)?;
+            self.bodies.push(track);
+        }
+        if !layout.bodies.is_empty() {
+            self.send(static_chunk(
+                scene_energy_entity_path(),
+                &[&rerun::SeriesLines::new().with_names(ENERGY_SERIES)],
+            )?)?;
+        }
+        Ok(())
+    }
+
+    fn write_metadata(&mut self, layout: &RecordingLayout) -> Result<()> {
+        if layout.metadata.is_empty() {
+            return Ok(());
+        }
+        let mut values = rerun::AnyValues::default();
+        let mut markdown = format!("# {}\n", layout.name);
+        for (key, value) in &layout.metadata {
+            values =
+                values.with_component::<rerun::components::Text>(key.as_str(), [value.as_str()]);
+            if value.contains('\n') {
+                markdown.push_str(&format!("\n## {key}\n\n```\n{value}\n```\n"));
+            } else {
+                markdown.push_str(&format!("\n- **{key}**: {value}\n"));
+            }
+        }
+        self.send(static_chunk(
+            EntityPath::properties() / EntityPathPart::new("metadata"),
+            &[&values],
+        )?)?;
+        self.send(static_chunk(
+            entity(&["metadata"]),
+            &[&rerun::TextDocument::from_markdown(markdown)],
+        )?)
+    }
+
+    fn write_visual(
+        &mut self,
+        entity: EntityPath,
+        frame: &FrameLayout,
+        visual: &Visual,
+    ) -> Result<()> {
+        let frame_id = rerun::CoordinateFrame::new(frame.frame_id.as_str());
+        let colors = [color(visual.rgba)];
+        let origin = &visual.link_from_visual;
+        let chunk = match &visual.geometry {
+            Geometry::Box { size } => static_chunk(
+                entity,
+                &[
+                    &frame_id,
+                    &instance_pose(origin, None),
+                    &rerun::Boxes3D::from_sizes([f32x3(size)]).with_colors(colors),
+                ],
+            )?,
+            Geometry::Sphere { radius } => static_chunk(
+                entity,
+                &[
+                    &frame_id,
+                    &instance_pose(origin, None),
+                    &rerun::Ellipsoids3D::from_radii([*radius as f32]).with_colors(colors),
+                ],
+            )?,
+            Geometry::Cylinder { radius, length } => static_chunk(
+                entity,
+                &[
+                    &frame_id,
+                    &instance_pose(origin, None),
+                    &rerun::Cylinders3D::from_lengths_and_radii([*length as f32], [*radius as f32])
+                        .with_colors(colors),
+                ],
+            )?,
+            Geometry::Capsule { radius, length } => static_chunk(
+                entity,
+                &[
+                    &frame_id,
+                    &instance_pose(origin, None),
+                    // Rerun's capsule runs from the origin to +z; URDF's is centred.
+                    &rerun::Capsules3D::from_lengths_and_radii([*length as f32], [*radius as f32])
+                        .with_translations([[0.0, 0.0, -0.5 * *length as f32]])
+                        .with_colors(colors),
+                ],
+            )?,
+            Geometry::Mesh { uri, path, scale } => {
+                let Some(path) = path else {
+                    self.warn(format!(
+                        "{entity}: mesh {uri:?} was not found, left out of the Rerun recording"
+                    ));
+                    return Ok(());
+                };
+                let ext = path
+                    .extension()
+                    .and_then(|e| e.to_str())
+                    .unwrap_or("")
+                    .to_ascii_lowercase();
+                if !matches!(ext.as_str(), "stl" | "obj" | "glb" | "gltf") {
+                    self.warn(format!(
+                        "{entity}: mesh {uri:?} has a format Rerun cannot show (.{ext}), left out of the Rerun recording"
+                    ));
+                    return Ok(());
+                }
+                let asset = match rerun::Asset3D::from_file_path(path) {
+                    Ok(asset) => asset.with_albedo_factor(color(visual.rgba)),
+                    Err(err) => {
+                        self.warn(format!(
+                            "{entity}: cannot read mesh {}: {err}, left out of the Rerun recording",
+                            path.display()
+                        ));
+                        return Ok(());
+                    }
+                };
+                static_chunk(
+                    entity,
+                    &[
+                        &frame_id,
+                        &instance_pose(origin, Some(f32x3(scale))),
+                        &asset,
+                    ],
+                )?
+            }
+        };
+        self.send(chunk)
+    }
+
+    fn write_inertia(
+        &mut self,
+        entity: EntityPath,
+        frame: &FrameLayout,
+        body: &BodyLayout,
+    ) -> Result<()> {
+        let radii = body.inertia_ellipsoid_radii();
+        self.send(static_chunk(
+            entity,
+            &[
+                &rerun::CoordinateFrame::new(frame.frame_id.as_str()),
+                &instance_pose(&body.link_from_principal, None),
+                &rerun::Ellipsoids3D::from_half_sizes([f32x3(&radii)])
+                    .with_colors([rerun::Rgba32::from_unmultiplied_rgba(255, 160, 0, 255)])
+                    .with_fill_mode(rerun::FillMode::MajorWireframe),
+            ],
+        )?)
+    }
+
+    /// Sends the buffered frames as one chunk per entity.
+    fn flush_buffer(&mut self) -> Result<()> {
+        if self.buffer.len() == 0 {
+            return Ok(());
+        }
+        let rec = self.rec()?;
+        let buffer = &self.buffer;
+        let n = buffer.len();
+        let times = || {
+            [
+                TimeColumn::new_duration_nanos(SIM_TIME_TIMELINE, buffer.time_ns.iter().copied()),
+                TimeColumn::new_sequence(STEP_TIMELINE, buffer.step.iter().copied()),
+            ]
+        };
+        for (i, track) in self.frames.iter().enumerate() {
+            let transforms = rerun::Transform3D::update_fields()
+                .with_many_translation(buffer.translation[i].iter().copied())
+                .with_many_quaternion(
+                    buffer.quaternion[i]
+                        .iter()
+                        .map(|q| rerun::Quaternion::from_xyzw(*q)),
+                )
+                .with_many_parent_frame(std::iter::repeat_n(WORLD_FRAME, n))
+                .with_many_child_frame(std::iter::repeat_n(track.frame_id.as_str(), n));
+            rec.send_columns(
+                track.entity.clone(),
+                times(),
+                transforms.columns_of_unit_batches()?,
+            )?;
+        }
+        for (i, track) in self.bodies.iter().enumerate() {
+            rec.send_columns(
+                track.energy.clone(),
+                times(),
+                rerun::Scalars::new(buffer.energy[i].iter().copied())
+                    .columns(std::iter::repeat_n(3, n))?,
+            )?;
+            rec.send_columns(
+                track.angular_momentum.clone(),
+                times(),
+                rerun::Scalars::new(buffer.angular_momentum[i].iter().copied())
+                    .columns_of_unit_batches()?,
+            )?;
+        }
+        if !self.bodies.is_empty() {
+            rec.send_columns(
+                scene_energy_entity_path(),
+                times(),
+                rerun::Scalars::new(buffer.scene_energy.iter().copied())
+                    .columns(std::iter::repeat_n(3, n))?,
+            )?;
+        }
+        self.buffer.clear();
+        self.check_sink()
+    }
+
+    /// Flushes, closes the stream, writes the footer, syncs and renames `<path>.part` to `<path>`.
+    fn close(&mut self) -> Result<()> {
+        self.flush_buffer()?;
+        let rec = self.rec.take().context("the Rerun recording is closed")?;
+        rec.flush_blocking()
+            .with_context(|| format!("flushing {}", self.part_path.display()))?;
+        // Dropping the last handle joins Rerun's threads; the file sink is dropped with them.
+        drop(rec);
+        let encoder = {
+            let mut state = lock(&self.state);
+            if let Some(err) = &state.error {
+                bail!("writing {}: {err}", self.part_path.display());
+            }
+            state.encoder.take().context("the .rrd encoder is gone")?
+        };
+        let mut encoder = encoder;
+        encoder
+            .finish()
+            .with_context(|| format!("writing the footer of {}", self.part_path.display()))?;
+        let mut writer = encoder.into_inner()?;
+        writer.flush()?;
+        let file = writer.into_inner().map_err(|err| err.into_error())?;
+        file.sync_all()
+            .with_context(|| format!("syncing {}", self.part_path.display()))?;
+        drop(file);
+        std::fs::rename(&self.part_path, &self.final_path).with_context(|| {
+            format!(
+                "renaming {} to {}",
+                self.part_path.display(),
+                self.final_path.display()
+            )
+        })?;
+        self.done = true;
+        Ok(())
+    }
+}
+
+impl Sink for RerunSink {
+    fn write(&mut self, frame: &Frame<'_>) -> Result<()> {
+        if frame.world_from_link.len() != self.frames.len() {
+            bail!(
+                "frame has {} link poses, the layout {}",
+                frame.world_from_link.len(),
+                self.frames.len()
+            );
+        }
+        if frame.bodies.len() != self.bodies.len() {
+            bail!(
+                "frame has {} body states, the layout {}",
+                frame.bodies.len(),
+                self.bodies.len()
+            );
+        }
+        if let Some(last) = self.last_time_ns
+            && frame.time_ns <= last
+        {
+            bail!("frame time {} ns is not after {} ns", frame.time_ns, last);
+        }
+        self.last_time_ns = Some(frame.time_ns);
+        let buffer = &mut self.buffer;
+        buffer.time_ns.push(frame.time_ns);
+        buffer
+            .step
+            .push(i64::try_from(frame.step).context("step does not fit an i64")?);
+        for (i, pose) in frame.world_from_link.iter().enumerate() {
+            buffer.translation[i].push(f32x3(&pose.translation.vector));
+            buffer.quaternion[i].push(quat_xyzw(pose));
+        }
+        let (mut kinetic, mut potential) = (0.0, 0.0);
+        for (i, body) in frame.bodies.iter().enumerate() {
+            let total = body.kinetic_energy + body.potential_energy;
+            buffer.energy[i].extend([body.kinetic_energy, body.potential_energy, total]);
+            buffer.angular_momentum[i].push(body.angmom_world.norm());
+            kinetic += body.kinetic_energy;
+            potential += body.potential_energy;
+        }
+        buffer
+            .scene_energy
+            .extend([kinetic, potential, kinetic + potential]);
+        if buffer.len() >= BATCH_FRAMES {
+            self.flush_buffer()?;
+        }
+        Ok(())
+    }
+
+    fn finish(mut self: Box<Self>) -> Result<()> {
+        self.close()
+    }
+}
+
+impl Drop for RerunSink {
+    fn drop(&mut self) {
+        if !self.done {
+            // Unfinished (error or early return): stop Rerun's threads, then remove the part file.
+            drop(self.rec.take());
+            lock(&self.state).encoder = None;
+            let _ = std::fs::remove_file(&self.part_path);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn entity_paths_follow_the_urdf_importer_and_document() {
+        assert_eq!(
+            visual_entity_path("robot", "base_link", 0, Some("shell")).to_string(),
+            "/robot/visual_geometries/base_link/shell"
+        );
+        assert_eq!(
+            visual_entity_path("robot", "base_link", 2, None).to_string(),
+            "/robot/visual_geometries/base_link/visual_2"
+        );
+        assert_eq!(
+            visual_entity_path("robot", "base_link", 1, Some("")).to_string(),
+            "/robot/visual_geometries/base_link/visual_1"
+        );
+        assert_eq!(
+            inertia_entity_path("arm", "link1").to_string(),
+            "/arm/inertia/link1"
+        );
+        assert_eq!(
+            transform_entity_path("arm", "link1").to_string(),
+            "/arm/world_from_link/link1"
+        );
+        assert_eq!(
+            energy_entity_path("arm/link1").to_string(),
+            "/plots/energy/arm/link1"
+        );
+        assert_eq!(
+            angular_momentum_entity_path("box").to_string(),
+            "/plots/angular_momentum/box"
+        );
+        assert_eq!(
+            scene_energy_entity_path().to_string(),
+            "/plots/scene/energy"
+        );
+        // A name with a slash stays one part (escaped), as in Rerun's URDF importer.
+        let odd = visual_entity_path("my robot", "a/b", 0, None);
+        assert_eq!(odd.len(), 4);
+        assert_eq!(odd.as_slice()[2].unescaped_str(), "a/b");
+    }
+
+    #[test]
+    fn ids_are_valid_and_deterministic() {
+        assert_eq!(application_id("two.boxes/v1"), "two_boxes_v1");
+        assert_eq!(application_id(""), "tumble");
+        let mut layout = RecordingLayout {
+            name: "scene".into(),
+            ..Default::default()
+        };
+        let a = recording_id(&layout);
+        assert_eq!(a, recording_id(&layout.clone()));
+        assert!(a.starts_with("scene-"));
+        layout.metadata.insert("dt".into(), "0.001".into());
+        assert_ne!(a, recording_id(&layout));
+    }
+}

@@ -1,0 +1,418 @@
+//! TOML scene files: what is simulated, and only that.
+//!
+//! ```toml
+//! [sim]
+//! dt = 0.001                    # s, > 0                                   (default 0.001)
+//! duration = 5.0                # s, >= 0                                  (default 5.0)
+//! gravity = [0.0, 0.0, -9.81]   # m/s^2, world frame; [0,0,0] = off       (default [0, 0, -9.81])
+//! integrator = "variational"    # see `tumble simulate --help`             (default "variational")
+//! log_every = 10                # record every Nth step, >= 1              (default 10)
+//! newton_tol = 1e-12            # relative Newton residual                 (default 1e-12)
+//! newton_max_iters = 10         # Newton iteration cap                     (default 10)
+//! jacobian = "analytic"         # "analytic" | "approximate" (the seed's)  (default "analytic")
+//! potential = "symmetric"       # "symmetric" | "end-point" (the seed's)   (default "symmetric")
+//!
+//! [[model]]                     # one or more
+//! urdf = "box.urdf"             # relative to the scene file
+//! name = "box1"                 # optional: frame ids become "box1/<link>"
+//! position = [0.0, 0.0, 1.0]    # world position of the root link frame, m    (default 0)
+//! rpy = [0.0, 0.0, 0.0]         # world orientation of the root link frame, rad, R = Rz Ry Rx (default 0)
+//! linvel = [0.0, 0.0, 0.0]      # initial velocity of every body's centre of mass, world, m/s (default 0)
+//! angvel = [0.0, 5.0, 0.1]      # initial angular velocity of every body, world, rad/s (default 0)
+//! package_paths = ["../share"]  # optional extra package:// search folders, relative to the scene
+//! ```
+//!
+//! Every link with positive mass becomes one free rigid body at its forward-kinematics pose
+//! (zero joint configuration). Links without mass are not simulated and not recorded.
+//! Unknown keys and bad values are errors naming the key.
+
+use crate::model::{Model, urdf};
+use crate::record::{BodyLayout, FrameLayout, RecordingLayout};
+use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
+use crate::sim::BodyInit;
+use anyhow::{Context, bail};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use serde::Deserialize;
+use std::collections::{BTreeMap, HashSet};
+use std::path::{Path, PathBuf};
+
+/// The `[sim]` table.
+#[derive(Debug, Clone, PartialEq, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimSettings {
+    pub dt: f64,
+    pub duration: f64,
+    pub gravity: [f64; 3],
+    pub integrator: String,
+    pub log_every: u64,
+    pub newton_tol: f64,
+    pub newton_max_iters: u32,
+    pub jacobian: Jacobian,
+    pub potential: Potential,
+}
+
+impl Default for SimSettings {
+    fn default() -> Self {
+        let v = VariationalSettings::default();
+        Self {
+            dt: 0.001,
+            duration: 5.0,
+            gravity: [0.0, 0.0, -9.81],
+            integrator: IntegratorKind::Variational.name().into(),
+            log_every: 10,
+            newton_tol: v.newton_tol,
+            newton_max_iters: v.newton_max_iters,
+            jacobian: v.jacobian,
+            potential: v.potential,
+        }
+    }
+}
+
+/// One `[[model]]` entry.
+#[derive(Debug, Clone, PartialEq, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelEntry {
+    pub urdf: PathBuf,
+    #[serde(default)]
+    pub name: Option<String>,
+    #[serde(default)]
+    pub position: [f64; 3],
+    #[serde(default)]
+    pub rpy: [f64; 3],
+    #[serde(default)]
+    pub linvel: [f64; 3],
+    #[serde(default)]
+    pub angvel: [f64; 3],
+    #[serde(default)]
+    pub package_paths: Vec<PathBuf>,
+}
+
+impl ModelEntry {
+    /// A model at `position` with everything else zero.
+    pub fn at(urdf: PathBuf, position: [f64; 3]) -> Self {
+        Self {
+            urdf,
+            name: None,
+            position,
+            rpy: [0.0; 3],
+            linvel: [0.0; 3],
+            angvel: [0.0; 3],
+            package_paths: Vec::new(),
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    #[serde(default)]
+    sim: SimSettings,
+    #[serde(default, rename = "model")]
+    models: Vec<ModelEntry>,
+}
+
+/// A parsed scene. Relative paths in it are relative to `base_dir`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// Where the scene came from (a `.toml` file, or the URDF of a one-model scene).
+    pub source: PathBuf,
+    pub base_dir: PathBuf,
+    /// The scene text as given (empty for a URDF given directly).
+    pub text: String,
+    pub sim: SimSettings,
+    pub models: Vec<ModelEntry>,
+}
+
+/// Command-line overrides of `[sim]` values (`None` = keep the scene's).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SimOverrides {
+    pub dt: Option<f64>,
+    pub duration: Option<f64>,
+    pub gravity: Option<[f64; 3]>,
+    pub integrator: Option<String>,
+    pub log_every: Option<u64>,
+    pub newton_tol: Option<f64>,
+    pub newton_max_iters: Option<u32>,
+    pub jacobian: Option<Jacobian>,
+    pub potential: Option<Potential>,
+}
+
+impl Scene {
+    /// Reads a scene file.
+    pub fn load(path: &Path) -> anyhow::Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read scene {}", path.display()))?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses scene text; `path` names the file in errors and anchors relative paths.
+    pub fn parse(text: &str, path: &Path) -> anyhow::Result<Self> {
+        let file: SceneFile = toml::from_str(text)
+            .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.to_string().trim_end()))?;
+        let scene = Self {
+            source: path.to_path_buf(),
+            base_dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
+            text: text.to_string(),
+            sim: file.sim,
+            models: file.models,
+        };
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// A one-model scene around a URDF given directly: default `[sim]`, the model at the origin.
+    pub fn from_urdf(urdf: &Path) -> Self {
+        Self {
+            source: urdf.to_path_buf(),
+            base_dir: PathBuf::new(),
+            text: String::new(),
+            sim: SimSettings::default(),
+            models: vec![ModelEntry::at(urdf.to_path_buf(), [0.0; 3])],
+        }
+    }
+
+    /// Applies command-line overrides, then validates again.
+    pub fn apply(&mut self, o: &SimOverrides) -> anyhow::Result<()> {
+        let s = &mut self.sim;
+        if let Some(v) = o.dt {
+            s.dt = v;
+        }
+        if let Some(v) = o.duration {
+            s.duration = v;
+        }
+        if let Some(v) = o.gravity {
+            s.gravity = v;
+        }
+        if let Some(v) = &o.integrator {
+            s.integrator = v.clone();
+        }
+        if let Some(v) = o.log_every {
+            s.log_every = v;
+        }
+        if let Some(v) = o.newton_tol {
+            s.newton_tol = v;
+        }
+        if let Some(v) = o.newton_max_iters {
+            s.newton_max_iters = v;
+        }
+        if let Some(v) = o.jacobian {
+            s.jacobian = v;
+        }
+        if let Some(v) = o.potential {
+            s.potential = v;
+        }
+        self.validate()
+    }
+
+    /// Checks every value; errors name the file and the key.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        let file = self.source.display();
+        let s = &self.sim;
+        let positive = |key: &str, v: f64| -> anyhow::Result<()> {
+            if !(v.is_finite() && v > 0.0) {
+                bail!("{file}: sim.{key} must be a positive finite number (got {v})");
+            }
+            Ok(())
+        };
+        positive("dt", s.dt)?;
+        positive("newton_tol", s.newton_tol)?;
+        if !(s.duration.is_finite() && s.duration >= 0.0) {
+            bail!("{file}: sim.duration must be a finite number >= 0 (got {})", s.duration);
+        }
+        if s.log_every == 0 {
+            bail!("{file}: sim.log_every must be at least 1");
+        }
+        if s.newton_max_iters == 0 {
+            bail!("{file}: sim.newton_max_iters must be at least 1");
+        }
+        finite3(&format!("{file}: sim.gravity"), &s.gravity)?;
+        if IntegratorKind::from_name(&s.integrator).is_none() {
+            let names: Vec<_> = IntegratorKind::ALL.iter().map(|k| k.name()).collect();
+            bail!(
+                "{file}: sim.integrator: unknown integrator {:?} (expected one of: {})",
+                s.integrator,
+                names.join(", ")
+            );
+        }
+        if self.models.is_empty() {
+            bail!("{file}: no [[model]] entry: the scene simulates nothing");
+        }
+        let mut names = HashSet::new();
+        for (i, m) in self.models.iter().enumerate() {
+            let key = format!("{file}: model[{i}]");
+            finite3(&format!("{key}.position"), &m.position)?;
+            finite3(&format!("{key}.rpy"), &m.rpy)?;
+            finite3(&format!("{key}.linvel"), &m.linvel)?;
+            finite3(&format!("{key}.angvel"), &m.angvel)?;
+            if let Some(name) = &m.name {
+                if name.is_empty() || name.contains('/') || name.trim() != name {
+                    bail!("{key}.name must be non-empty, without '/' or surrounding spaces (got {name:?})");
+                }
+                if !names.insert(name.clone()) {
+                    bail!("{key}.name: {name:?} is used by another model");
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of integrator steps: `round(duration / dt)`.
+    pub fn steps(&self) -> u64 {
+        (self.sim.duration / self.sim.dt).round() as u64
+    }
+
+    pub fn integrator(&self) -> IntegratorKind {
+        IntegratorKind::from_name(&self.sim.integrator).unwrap_or(IntegratorKind::Variational)
+    }
+
+    pub fn variational_settings(&self) -> VariationalSettings {
+        VariationalSettings {
+            newton_tol: self.sim.newton_tol,
+            newton_max_iters: self.sim.newton_max_iters,
+            jacobian: self.sim.jacobian,
+            potential: self.sim.potential,
+        }
+    }
+
+    pub fn gravity(&self) -> Vector3<f64> {
+        Vector3::from(self.sim.gravity)
+    }
+
+    /// The scene's settings and provenance, as written into recordings' metadata.
+    pub fn metadata(&self) -> BTreeMap<String, String> {
+        let s = &self.sim;
+        let mut m = BTreeMap::new();
+        m.insert("tool".into(), "tumble".into());
+        m.insert("tool_version".into(), crate::VERSION.into());
+        m.insert("scene_file".into(), self.source.display().to_string());
+        m.insert("scene".into(), self.text.clone());
+        m.insert("integrator".into(), s.integrator.clone());
+        m.insert("dt".into(), format!("{:?}", s.dt));
+        m.insert("duration".into(), format!("{:?}", s.duration));
+        m.insert("steps".into(), self.steps().to_string());
+        m.insert("gravity".into(), format!("{:?}", s.gravity));
+        m.insert("log_every".into(), s.log_every.to_string());
+        m.insert("newton_tol".into(), format!("{:?}", s.newton_tol));
+        m.insert("newton_max_iters".into(), s.newton_max_iters.to_string());
+        m.insert("jacobian".into(), s.jacobian.name().into());
+        m.insert("potential".into(), s.potential.name().into());
+        m.insert(
+            "settings_json".into(),
+            serde_json::to_string(&SceneFile { sim: s.clone(), models: self.models.clone() })
+                .unwrap_or_default(),
+        );
+        m
+    }
+
+    /// Loads the models and builds what is simulated and recorded.
+    pub fn build(&self) -> anyhow::Result<World> {
+        let mut world = World::default();
+        let mut frame_ids = HashSet::new();
+        for (i, entry) in self.models.iter().enumerate() {
+            let urdf_path = self.base_dir.join(&entry.urdf);
+            let package_paths: Vec<PathBuf> =
+                entry.package_paths.iter().map(|p| self.base_dir.join(p)).collect();
+            let model = urdf::load(&urdf_path, &package_paths)?;
+            model.check_simulable()?;
+            let before = world.layout.frames.len();
+            add_model(&mut world, &model, entry);
+            if world.layout.frames.len() == before {
+                bail!(
+                    "{}: model[{i}] ({}) has no link with positive mass: nothing to simulate",
+                    self.source.display(),
+                    urdf_path.display()
+                );
+            }
+            for f in &world.layout.frames[before..] {
+                if !frame_ids.insert(f.frame_id.clone()) {
+                    bail!(
+                        "{}: model[{i}]: frame id {:?} is used by an earlier model; give the model a `name`",
+                        self.source.display(),
+                        f.frame_id
+                    );
+                }
+            }
+        }
+        world.layout.name = self
+            .source
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "tumble".into());
+        world.layout.metadata = self.metadata();
+        Ok(world)
+    }
+}
+
+fn finite3(key: &str, v: &[f64; 3]) -> anyhow::Result<()> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        bail!("{key} must hold three finite numbers (got {v:?})")
+    }
+}
+
+/// What a scene builds: the bodies' initial states and how link frames follow them.
+#[derive(Debug, Clone, Default)]
+pub struct World {
+    pub layout: RecordingLayout,
+    pub bodies: Vec<BodyInit>,
+    /// Per recorded frame (same order as `layout.frames`): the body it moves with and the
+    /// constant pose of the link in that body's principal frame.
+    pub attachments: Vec<Attachment>,
+}
+
+/// A link frame riding on a body.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Attachment {
+    pub body: usize,
+    pub body_from_link: Isometry3<f64>,
+}
+
+/// `R = Rz(yaw) Ry(pitch) Rx(roll)`, the URDF convention.
+pub fn rotation_from_rpy(rpy: &[f64; 3]) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2])
+}
+
+/// One free body per link with positive mass.
+fn add_model(world: &mut World, model: &Model, entry: &ModelEntry) {
+    let world_from_model = Isometry3::from_parts(
+        Translation3::from(Vector3::from(entry.position)),
+        rotation_from_rpy(&entry.rpy),
+    );
+    let model_label = entry.name.clone().unwrap_or_else(|| model.name.clone());
+    for link in &model.links {
+        let Some(mp) = link.inertial.as_ref().filter(|mp| mp.mass > 0.0) else {
+            continue;
+        };
+        let (moments, link_from_principal_rot) = mp.principal();
+        let link_from_principal = Isometry3::from_parts(Translation3::from(mp.com), link_from_principal_rot);
+        let world_from_body = world_from_model * link.model_from_link * link_from_principal;
+        let frame_id = match &entry.name {
+            Some(prefix) => format!("{prefix}/{}", link.name),
+            None => link.name.clone(),
+        };
+        let body = world.bodies.len();
+        let frame = world.layout.frames.len();
+        world.bodies.push(BodyInit {
+            mass: mp.mass,
+            principal_moments: moments,
+            world_from_body,
+            linvel_world: Vector3::from(entry.linvel),
+            angvel_world: Vector3::from(entry.angvel),
+        });
+        world.attachments.push(Attachment { body, body_from_link: link_from_principal.inverse() });
+        world.layout.frames.push(FrameLayout {
+            frame_id: frame_id.clone(),
+            model: model_label.clone(),
+            link: link.name.clone(),
+            visuals: link.visuals.clone(),
+        });
+        world.layout.bodies.push(BodyLayout {
+            name: frame_id,
+            frame,
+            mass: mp.mass,
+            link_from_principal,
+            principal_moments: moments,
+        });
+    }
+}

@@ -1,0 +1,9 @@
+//! How bodies move: the batch of free rigid bodies and the integrators that step it.
+
+pub mod bodies;
+pub mod integrators;
+pub mod reference;
+pub mod so3;
+
+pub use bodies::{BodyInit, Bodies};
+pub use integrators::{Integrator, IntegratorKind, StepStats};
