@@ -6,7 +6,7 @@
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use std::hint::black_box;
-use tumble::sim::integrators::{Integrator, IntegratorKind, VariationalSettings};
+use tumble::sim::integrators::{IntegratorKind, VariationalSettings};
 use tumble::sim::{BodyInit, Bodies};
 
 /// `n` differently initialised asymmetric bodies (deterministic pseudo-random spread).

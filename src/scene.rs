@@ -26,12 +26,13 @@
 //! (zero joint configuration). Links without mass are not simulated and not recorded.
 //! Unknown keys and bad values are errors naming the key.
 
+use crate::model::kinematics::rotation_from_rpy;
 use crate::model::{Model, urdf};
 use crate::record::{BodyLayout, FrameLayout, RecordingLayout};
 use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
 use crate::sim::BodyInit;
 use anyhow::{Context, bail};
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, Vector3};
 use serde::Deserialize;
 use std::collections::{BTreeMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -368,16 +369,11 @@ pub struct Attachment {
     pub body_from_link: Isometry3<f64>,
 }
 
-/// `R = Rz(yaw) Ry(pitch) Rx(roll)`, the URDF convention.
-pub fn rotation_from_rpy(rpy: &[f64; 3]) -> UnitQuaternion<f64> {
-    UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2])
-}
-
 /// One free body per link with positive mass.
 fn add_model(world: &mut World, model: &Model, entry: &ModelEntry) {
     let world_from_model = Isometry3::from_parts(
         Translation3::from(Vector3::from(entry.position)),
-        rotation_from_rpy(&entry.rpy),
+        rotation_from_rpy(entry.rpy),
     );
     let model_label = entry.name.clone().unwrap_or_else(|| model.name.clone());
     for link in &model.links {

@@ -6,33 +6,7 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::Path;
 use tumble::record::rerun::RerunOptions;
-use tumble::record::{Frame, Sink};
 use tumble::scene::Scene;
-
-/// A sink keeping every frame in memory: the reference the files are compared with.
-#[derive(Default)]
-struct Memory {
-    frames: std::sync::Arc<std::sync::Mutex<Vec<(i64, Vec<[f64; 7]>)>>>,
-}
-
-impl Sink for Memory {
-    fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
-        let poses = frame
-            .world_from_link
-            .iter()
-            .map(|p| {
-                let t = p.translation.vector;
-                let q = p.rotation.quaternion().coords;
-                [t.x, t.y, t.z, q.x, q.y, q.z, q.w]
-            })
-            .collect();
-        self.frames.lock().unwrap().push((frame.time_ns, poses));
-        Ok(())
-    }
-    fn finish(self: Box<Self>) -> anyhow::Result<()> {
-        Ok(())
-    }
-}
 
 fn scene(dir: &Path) -> Scene {
     let models = common::root().join("models");
@@ -66,24 +40,6 @@ angvel = [1.0, -2.0, 0.5]
     Scene::load(&path).unwrap()
 }
 
-/// The frames the simulation produces, captured in memory by a second, independent run.
-fn reference_frames(scene: &Scene) -> (Vec<String>, Vec<(i64, Vec<[f64; 7]>)>) {
-    let world = scene.build().unwrap();
-    let memory = Memory::default();
-    let frames = memory.frames.clone();
-    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(memory)];
-    let mut integ = scene.integrator().build(scene.sim.dt, &scene.variational_settings());
-    let settings = tumble::run::RunSettings {
-        steps: scene.steps(),
-        log_every: scene.sim.log_every,
-        gravity: scene.gravity(),
-    };
-    tumble::run::run(&world, integ.as_mut(), &settings, &mut sinks).unwrap();
-    let ids = world.layout.frames.iter().map(|f| f.frame_id.clone()).collect();
-    let frames = frames.lock().unwrap().clone();
-    (ids, frames)
-}
-
 #[test]
 fn mcap_and_rrd_read_back_by_independent_readers() {
     let dir = tempfile::tempdir().unwrap();
@@ -92,7 +48,7 @@ fn mcap_and_rrd_read_back_by_independent_readers() {
     let out = tumble::commands::simulate::simulate(&scene, &stem, &RerunOptions { ellipsoids: true }).unwrap();
     assert_eq!(out.mcap, dir.path().join("out/run.mcap"));
     assert!(!dir.path().join("out/run.mcap.part").exists());
-    let (frame_ids, expected) = reference_frames(&scene);
+    let (frame_ids, expected) = common::reference_frames(&scene);
     // 0.5 s / 0.002 s = 250 steps, every 5th recorded plus the initial state: 51 frames.
     assert_eq!(expected.len(), 51);
     assert!(frame_ids.iter().any(|f| f.starts_with("arm/")), "{frame_ids:?}");

@@ -380,6 +380,14 @@ pub struct RerunSink {
 }
 
 /// Opens `<path>.part` and writes the static layout. See the module doc for what is written.
+impl RerunSink {
+    /// Opens `<path>.part` and writes the static layout. See the module doc for what is written.
+    pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> Result<Self> {
+        create(path, layout, options)
+    }
+}
+
+/// Opens `<path>.part` and writes the static layout. See the module doc for what is written.
 pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> Result<RerunSink> {
     let part_path = part_path(path);
     let file = File::create(&part_path)
@@ -409,7 +417,9 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
     };
     lock(&state).encoder = Some(encoder.context("cannot write the .rrd header")?);
 
-    let builder = RecordingStreamBuilder::new(application_id(&layout.name))
+    let app_id = rerun::ApplicationId::try_new(application_id(&layout.name))
+        .map_err(|e| anyhow!("recording name {:?}: {e}", layout.name))?;
+    let builder = RecordingStreamBuilder::new(app_id)
         .enabled(true)
         .recording_id(recording_id(layout))
         .send_properties(true);
@@ -582,8 +592,9 @@ impl RerunSink {
         let mut values = rerun::AnyValues::default();
         let mut markdown = format!("# {}\n", layout.name);
         for (key, value) in &layout.metadata {
-            values =
-                values.with_component::<rerun::components::Text>(key.as_str(), [value.as_str()]);
+            let field = rerun::ComponentIdentifier::try_new(key)
+                .map_err(|e| anyhow!("metadata key {key:?}: {e}"))?;
+            values = values.with_component::<rerun::components::Text>(field, [value.as_str()]);
             if value.contains('\n') {
                 markdown.push_str(&format!("\n## {key}\n\n```\n{value}\n```\n"));
             } else {

@@ -43,3 +43,49 @@ pub fn run_py(script: &str, args: &[&Path]) -> serde_json::Value {
 pub fn venv_bin(name: &str) -> PathBuf {
     python().parent().unwrap().join(name)
 }
+
+/// Poses as `[tx, ty, tz, qx, qy, qz, qw]`, one per recorded frame, with the frame's time in ns.
+pub type Recorded = Vec<(i64, Vec<[f64; 7]>)>;
+
+/// A sink keeping every frame in memory: the reference recordings are compared with.
+#[derive(Default)]
+pub struct Memory {
+    pub frames: std::sync::Arc<std::sync::Mutex<Recorded>>,
+}
+
+impl tumble::record::Sink for Memory {
+    fn write(&mut self, frame: &tumble::record::Frame<'_>) -> anyhow::Result<()> {
+        let poses = frame
+            .world_from_link
+            .iter()
+            .map(|p| {
+                let t = p.translation.vector;
+                let q = p.rotation.quaternion().coords;
+                [t.x, t.y, t.z, q.x, q.y, q.z, q.w]
+            })
+            .collect();
+        self.frames.lock().unwrap().push((frame.time_ns, poses));
+        Ok(())
+    }
+    fn finish(self: Box<Self>) -> anyhow::Result<()> {
+        Ok(())
+    }
+}
+
+/// Runs `scene` into memory: the frame ids and every recorded frame.
+pub fn reference_frames(scene: &tumble::scene::Scene) -> (Vec<String>, Recorded) {
+    let world = scene.build().unwrap();
+    let memory = Memory::default();
+    let frames = memory.frames.clone();
+    let mut sinks: Vec<Box<dyn tumble::record::Sink>> = vec![Box::new(memory)];
+    let mut integ = scene.integrator().build(scene.sim.dt, &scene.variational_settings());
+    let settings = tumble::run::RunSettings {
+        steps: scene.steps(),
+        log_every: scene.sim.log_every,
+        gravity: scene.gravity(),
+    };
+    tumble::run::run(&world, integ.as_mut(), &settings, &mut sinks).unwrap();
+    let ids = world.layout.frames.iter().map(|f| f.frame_id.clone()).collect();
+    let frames = frames.lock().unwrap().clone();
+    (ids, frames)
+}
