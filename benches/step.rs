@@ -7,7 +7,7 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use std::hint::black_box;
 use tumble::sim::integrators::{IntegratorKind, VariationalSettings};
-use tumble::sim::{BodyInit, Bodies};
+use tumble::sim::{Bodies, BodyInit};
 
 /// `n` differently initialised asymmetric bodies (deterministic pseudo-random spread).
 pub fn batch(n: usize) -> Vec<BodyInit> {

@@ -5,7 +5,11 @@ use crate::commands::{inspect::InspectArgs, simulate::SimulateArgs};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser, Debug)]
-#[command(name = "tumble", version, about = "URDF links as free rigid bodies: variational integration, MCAP and Rerun recordings")]
+#[command(
+    name = "tumble",
+    version,
+    about = "URDF links as free rigid bodies: variational integration, MCAP and Rerun recordings"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
@@ -16,5 +20,5 @@ pub enum Command {
     /// Print every link's mass, centre of mass and inertia, validated, and the model's totals.
     Inspect(InspectArgs),
     /// Simulate a scene (or a URDF) and write STEM.mcap and STEM.rrd.
-    Simulate(SimulateArgs),
+    Simulate(Box<SimulateArgs>),
 }

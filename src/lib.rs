@@ -4,13 +4,13 @@
 //! Data flows one way: scene → model → bodies → stepper → recorders. The integrator knows no
 //! URDF; a recorder knows no integrator.
 
-pub mod model;
-pub mod record;
-pub mod scene;
-pub mod sim;
 pub mod cli;
 pub mod commands;
+pub mod model;
+pub mod record;
 pub mod run;
+pub mod scene;
+pub mod sim;
 
 /// The tool's version, written into every recording's metadata.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -56,7 +56,13 @@ impl FrameBuilder {
     }
 
     /// Fills the buffers from `bodies` and returns the frame of step `step`.
-    pub fn frame(&mut self, bodies: &Bodies, gravity: &Vector3<f64>, step: u64, dt_secs: f64) -> Frame<'_> {
+    pub fn frame(
+        &mut self,
+        bodies: &Bodies,
+        gravity: &Vector3<f64>,
+        step: u64,
+        dt_secs: f64,
+    ) -> Frame<'_> {
         self.poses.clear();
         self.poses.extend(
             self.attachments
@@ -97,7 +103,10 @@ pub fn run(
     let dt = integrator.dt();
     let g = settings.gravity;
     let angmom0: Vec<Vector3<f64>> = (0..bodies.len()).map(|i| bodies.angmom_world(i)).collect();
-    let mut summary = RunSummary { energy_initial: total_energy(&bodies, &g), ..Default::default() };
+    let mut summary = RunSummary {
+        energy_initial: total_energy(&bodies, &g),
+        ..Default::default()
+    };
     let mut frames = FrameBuilder::new(world);
     let log_every = settings.log_every.max(1);
 

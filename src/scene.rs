@@ -29,8 +29,8 @@
 use crate::model::kinematics::rotation_from_rpy;
 use crate::model::{Model, urdf};
 use crate::record::{BodyLayout, FrameLayout, RecordingLayout};
-use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
 use crate::sim::BodyInit;
+use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Translation3, Vector3};
 use serde::Deserialize;
@@ -218,7 +218,10 @@ impl Scene {
         positive("dt", s.dt)?;
         positive("newton_tol", s.newton_tol)?;
         if !(s.duration.is_finite() && s.duration >= 0.0) {
-            bail!("{file}: sim.duration must be a finite number >= 0 (got {})", s.duration);
+            bail!(
+                "{file}: sim.duration must be a finite number >= 0 (got {})",
+                s.duration
+            );
         }
         if s.log_every == 0 {
             bail!("{file}: sim.log_every must be at least 1");
@@ -247,7 +250,9 @@ impl Scene {
             finite3(&format!("{key}.angvel"), &m.angvel)?;
             if let Some(name) = &m.name {
                 if name.is_empty() || name.contains('/') || name.trim() != name {
-                    bail!("{key}.name must be non-empty, without '/' or surrounding spaces (got {name:?})");
+                    bail!(
+                        "{key}.name must be non-empty, without '/' or surrounding spaces (got {name:?})"
+                    );
                 }
                 if !names.insert(name.clone()) {
                     bail!("{key}.name: {name:?} is used by another model");
@@ -299,8 +304,11 @@ impl Scene {
         m.insert("potential".into(), s.potential.name().into());
         m.insert(
             "settings_json".into(),
-            serde_json::to_string(&SceneFile { sim: s.clone(), models: self.models.clone() })
-                .unwrap_or_default(),
+            serde_json::to_string(&SceneFile {
+                sim: s.clone(),
+                models: self.models.clone(),
+            })
+            .unwrap_or_default(),
         );
         m
     }
@@ -311,10 +319,14 @@ impl Scene {
         let mut frame_ids = HashSet::new();
         for (i, entry) in self.models.iter().enumerate() {
             let urdf_path = self.base_dir.join(&entry.urdf);
-            let package_paths: Vec<PathBuf> =
-                entry.package_paths.iter().map(|p| self.base_dir.join(p)).collect();
-            let model = urdf::load(&urdf_path, &package_paths)?;
-            model.check_simulable()?;
+            let package_paths: Vec<PathBuf> = entry
+                .package_paths
+                .iter()
+                .map(|p| self.base_dir.join(p))
+                .collect();
+            let model = urdf::load(&urdf_path, &package_paths)
+                .and_then(|m| m.check_simulable().map(|()| m))
+                .with_context(|| format!("{}: model[{i}]", self.source.display()))?;
             let before = world.layout.frames.len();
             add_model(&mut world, &model, entry);
             if world.layout.frames.len() == before {
@@ -381,7 +393,8 @@ fn add_model(world: &mut World, model: &Model, entry: &ModelEntry) {
             continue;
         };
         let (moments, link_from_principal_rot) = mp.principal();
-        let link_from_principal = Isometry3::from_parts(Translation3::from(mp.com), link_from_principal_rot);
+        let link_from_principal =
+            Isometry3::from_parts(Translation3::from(mp.com), link_from_principal_rot);
         let world_from_body = world_from_model * link.model_from_link * link_from_principal;
         let frame_id = match &entry.name {
             Some(prefix) => format!("{prefix}/{}", link.name),
@@ -396,7 +409,10 @@ fn add_model(world: &mut World, model: &Model, entry: &ModelEntry) {
             linvel_world: Vector3::from(entry.linvel),
             angvel_world: Vector3::from(entry.angvel),
         });
-        world.attachments.push(Attachment { body, body_from_link: link_from_principal.inverse() });
+        world.attachments.push(Attachment {
+            body,
+            body_from_link: link_from_principal.inverse(),
+        });
         world.layout.frames.push(FrameLayout {
             frame_id: frame_id.clone(),
             model: model_label.clone(),

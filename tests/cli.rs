@@ -54,13 +54,29 @@ fn simulate_writes_both_files_and_says_where() {
     let dir = tempfile::tempdir().unwrap();
     let scene = common::root().join("models/box.toml");
     let out = tumble(
-        &["simulate", scene.to_str().unwrap(), "--out", "runs/box", "--duration", "0.1"],
+        &[
+            "simulate",
+            scene.to_str().unwrap(),
+            "--out",
+            "runs/box",
+            "--duration",
+            "0.1",
+        ],
         dir.path(),
     );
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert_eq!(files(dir.path()), [PathBuf::from("runs/box.mcap"), PathBuf::from("runs/box.rrd")]);
-    assert!(stdout.contains("runs/box.mcap") && stdout.contains("runs/box.rrd"), "{stdout}");
+    assert_eq!(
+        files(dir.path()),
+        [
+            PathBuf::from("runs/box.mcap"),
+            PathBuf::from("runs/box.rrd")
+        ]
+    );
+    assert!(
+        stdout.contains("runs/box.mcap") && stdout.contains("runs/box.rrd"),
+        "{stdout}"
+    );
     assert!(stdout.contains("rerun runs/box.rrd"), "{stdout}");
     assert!(stdout.contains("100 steps"), "{stdout}");
 }
@@ -73,7 +89,10 @@ fn simulate_without_arguments_runs_the_default_scene() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     assert_eq!(
         files(dir.path()),
-        [PathBuf::from("logs/default.mcap"), PathBuf::from("logs/default.rrd")]
+        [
+            PathBuf::from("logs/default.mcap"),
+            PathBuf::from("logs/default.rrd")
+        ]
     );
     assert!(text(&out.stdout).contains("rerun logs/default.rrd"));
 }
@@ -99,14 +118,20 @@ fn simulate_a_urdf_directly() {
         dir.path(),
     );
     assert!(out.status.success(), "{}", text(&out.stderr));
-    assert_eq!(files(dir.path()), [PathBuf::from("th.mcap"), PathBuf::from("th.rrd")]);
+    assert_eq!(
+        files(dir.path()),
+        [PathBuf::from("th.mcap"), PathBuf::from("th.rrd")]
+    );
 }
 
 #[test]
 fn bad_scene_is_one_message_and_no_files() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("s.toml"), "[sim]\ndt = 0.01\nspeed = 3\n[[model]]\nurdf = \"x.urdf\"\n")
-        .unwrap();
+    std::fs::write(
+        dir.path().join("s.toml"),
+        "[sim]\ndt = 0.01\nspeed = 3\n[[model]]\nurdf = \"x.urdf\"\n",
+    )
+    .unwrap();
     let out = tumble(&["simulate", "s.toml", "--out", "o"], dir.path());
     assert_error(&out, &["s.toml", "speed"]);
     assert_eq!(files(dir.path()), [PathBuf::from("s.toml")]);
@@ -138,12 +163,21 @@ fn bad_flags_and_missing_files() {
     let scene = box_scene.to_str().unwrap();
     let out = tumble(&["simulate", scene, "--dt", "0", "--out", "o"], dir.path());
     assert_error(&out, &["sim.dt"]);
-    let out = tumble(&["simulate", scene, "--integrator", "euler99", "--out", "o"], dir.path());
+    let out = tumble(
+        &["simulate", scene, "--integrator", "euler99", "--out", "o"],
+        dir.path(),
+    );
     assert_error(&out, &["euler99"]);
-    let out = tumble(&["simulate", scene, "--angvel", "1,2,3", "--out", "o"], dir.path());
+    let out = tumble(
+        &["simulate", scene, "--angvel", "1,2,3", "--out", "o"],
+        dir.path(),
+    );
     assert_error(&out, &["--angvel"]);
     // clap rejects malformed vectors with its usage error (exit 2).
-    let out = tumble(&["simulate", scene, "--gravity", "1,2", "--out", "o"], dir.path());
+    let out = tumble(
+        &["simulate", scene, "--gravity", "1,2", "--out", "o"],
+        dir.path(),
+    );
     assert_eq!(out.status.code(), Some(2));
     assert!(text(&out.stderr).contains("three comma-separated numbers"));
     assert!(files(dir.path()).is_empty(), "{:?}", files(dir.path()));
@@ -156,7 +190,10 @@ fn unwritable_output_is_an_error() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("blocker"), "").unwrap();
     let scene = common::root().join("models/box.toml");
-    let out = tumble(&["simulate", scene.to_str().unwrap(), "--out", "blocker/run"], dir.path());
+    let out = tumble(
+        &["simulate", scene.to_str().unwrap(), "--out", "blocker/run"],
+        dir.path(),
+    );
     assert_error(&out, &["blocker"]);
     assert_eq!(files(dir.path()), [PathBuf::from("blocker")]);
 }

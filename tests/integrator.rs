@@ -3,7 +3,7 @@
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use tumble::sim::integrators::{Integrator, Potential, Variational, VariationalSettings};
 use tumble::sim::reference::{Axisymmetric, parabola, rotation_error};
-use tumble::sim::{BodyInit, Bodies};
+use tumble::sim::{Bodies, BodyInit};
 
 fn body(moments: Vector3<f64>, q: UnitQuaternion<f64>, angvel_world: Vector3<f64>) -> BodyInit {
     BodyInit {
@@ -15,7 +15,13 @@ fn body(moments: Vector3<f64>, q: UnitQuaternion<f64>, angvel_world: Vector3<f64
     }
 }
 
-fn run(init: &BodyInit, dt: f64, steps: u64, settings: VariationalSettings, g: Vector3<f64>) -> Bodies {
+fn run(
+    init: &BodyInit,
+    dt: f64,
+    steps: u64,
+    settings: VariationalSettings,
+    g: Vector3<f64>,
+) -> Bodies {
     let mut bodies = Bodies::new(std::slice::from_ref(init));
     let mut integ = Variational::new(dt, settings);
     integ.init(&bodies);
@@ -67,7 +73,10 @@ fn momentum_conserved_and_energy_bounded_over_1e5_steps() {
     assert!(e_err_first < 5e-4, "energy error {e_err_first:e}");
     // No drift: the last tenth's maximum error is no larger than the first tenth's (within 10 %).
     // Measured ratio 1.00.
-    assert!(e_err_last <= 1.1 * e_err_first, "energy drift: {e_err_first:e} -> {e_err_last:e}");
+    assert!(
+        e_err_last <= 1.1 * e_err_first,
+        "energy drift: {e_err_first:e} -> {e_err_last:e}"
+    );
 }
 
 /// Global order 2 in orientation against the axisymmetric closed form.
@@ -84,12 +93,16 @@ fn orientation_converges_with_order_two() {
         reference.world_from_body_0,
         reference.world_from_body_0 * reference.omega_body_0,
     );
-    let t_end = 4.0;
-    let settings = VariationalSettings { newton_tol: 1e-15, newton_max_iters: 50, ..Default::default() };
+    let t_end: f64 = 4.0;
+    let settings = VariationalSettings {
+        newton_tol: 1e-15,
+        newton_max_iters: 50,
+        ..Default::default()
+    };
     let errors: Vec<f64> = [0.02, 0.01, 0.005, 0.0025]
         .iter()
         .map(|&dt| {
-            let steps = (t_end / dt as f64).round() as u64;
+            let steps = (t_end / dt).round() as u64;
             let b = run(&init, dt, steps, settings, Vector3::zeros());
             rotation_error(&b.world_from_body[0], &reference.orientation(t_end))
         })
@@ -97,7 +110,10 @@ fn orientation_converges_with_order_two() {
     for w in errors.windows(2) {
         let order = (w[0] / w[1]).log2();
         // Measured orders 2.00, 2.00, 2.00.
-        assert!((order - 2.0).abs() < 0.1, "errors {errors:?}, order {order}");
+        assert!(
+            (order - 2.0).abs() < 0.1,
+            "errors {errors:?}, order {order}"
+        );
     }
     // The error itself is small: measured 1.3e-3 rad at dt = 0.02 s.
     assert!(errors[0] < 1e-2, "{errors:?}");
@@ -112,24 +128,39 @@ fn parabola_exact_with_symmetric_potential_and_offset_with_end_point() {
     let dt = 0.01;
     let t = 1.0;
     let steps = 100;
-    let (c_exact, v_exact) = parabola(&init.world_from_body.translation.vector, &init.linvel_world, &g, t);
+    let (c_exact, v_exact) = parabola(
+        &init.world_from_body.translation.vector,
+        &init.linvel_world,
+        &g,
+        t,
+    );
 
     let sym = run(&init, dt, steps, VariationalSettings::default(), g);
     // Round-off over 100 steps: measured 2.2e-16 m and 1.8e-15 m/s.
-    assert!((sym.com_world[0] - c_exact).norm() < 1e-13, "{}", sym.com_world[0] - c_exact);
+    assert!(
+        (sym.com_world[0] - c_exact).norm() < 1e-13,
+        "{}",
+        sym.com_world[0] - c_exact
+    );
     assert!((sym.linvel_world[0] - v_exact).norm() < 1e-12);
 
     let end = run(
         &init,
         dt,
         steps,
-        VariationalSettings { potential: Potential::EndPoint, ..Default::default() },
+        VariationalSettings {
+            potential: Potential::EndPoint,
+            ..Default::default()
+        },
         g,
     );
     let offset = end.com_world[0] - c_exact;
     let predicted = -g * (t * dt / 2.0); // the position lags by t h g / 2 = 0.04905 m (upwards)
     // Exact up to round-off: measured difference 1e-15 m.
-    assert!((offset - predicted).norm() < 1e-12, "offset {offset}, predicted {predicted}");
+    assert!(
+        (offset - predicted).norm() < 1e-12,
+        "offset {offset}, predicted {predicted}"
+    );
     assert!((predicted.norm() - 0.04905).abs() < 1e-12);
 }
 

@@ -45,18 +45,25 @@ fn mcap_and_rrd_read_back_by_independent_readers() {
     let dir = tempfile::tempdir().unwrap();
     let scene = scene(dir.path());
     let stem = dir.path().join("out/run");
-    let out = tumble::commands::simulate::simulate(&scene, &stem, &RerunOptions { ellipsoids: true }).unwrap();
+    let out =
+        tumble::commands::simulate::simulate(&scene, &stem, &RerunOptions { ellipsoids: true })
+            .unwrap();
     assert_eq!(out.mcap, dir.path().join("out/run.mcap"));
     assert!(!dir.path().join("out/run.mcap.part").exists());
     let (frame_ids, expected) = common::reference_frames(&scene);
     // 0.5 s / 0.002 s = 250 steps, every 5th recorded plus the initial state: 51 frames.
     assert_eq!(expected.len(), 51);
-    assert!(frame_ids.iter().any(|f| f.starts_with("arm/")), "{frame_ids:?}");
+    assert!(
+        frame_ids.iter().any(|f| f.starts_with("arm/")),
+        "{frame_ids:?}"
+    );
 
     // 1. The mcap crate: summary present, two channels with the declared schemas, every message's
     //    log time = publish time = k * 10 ms.
     let bytes = std::fs::read(&out.mcap).unwrap();
-    let summary = mcap::Summary::read(&bytes).unwrap().expect("summary present");
+    let summary = mcap::Summary::read(&bytes)
+        .unwrap()
+        .expect("summary present");
     let topics: BTreeMap<String, String> = summary
         .channels
         .values()
@@ -68,7 +75,11 @@ fn mcap_and_rrd_read_back_by_independent_readers() {
     for message in mcap::MessageStream::new(&bytes).unwrap() {
         let message = message.unwrap();
         assert_eq!(message.log_time, message.publish_time);
-        assert_eq!(message.log_time % 10_000_000, 0, "times are whole multiples of 5 * 2 ms");
+        assert_eq!(
+            message.log_time % 10_000_000,
+            0,
+            "times are whole multiples of 5 * 2 ms"
+        );
         count += 1;
     }
     assert_eq!(count, 2 * 51);
@@ -92,12 +103,18 @@ fn mcap_and_rrd_read_back_by_independent_readers() {
     assert_eq!(py["schemas"]["/tf"], "foxglove.FrameTransforms");
     assert_eq!(py["metadata"]["tumble"]["integrator"], "variational");
     for (j, id) in frame_ids.iter().enumerate() {
-        let rows = py["frames"][id].as_array().unwrap_or_else(|| panic!("frame {id} missing"));
+        let rows = py["frames"][id]
+            .as_array()
+            .unwrap_or_else(|| panic!("frame {id} missing"));
         assert_eq!(rows.len(), expected.len());
         for (row, (t, poses)) in rows.iter().zip(&expected) {
             assert_eq!(row[0].as_i64().unwrap(), *t);
             for k in 0..7 {
-                assert_eq!(row[k + 1].as_f64().unwrap(), poses[j][k], "{id} t={t} k={k}");
+                assert_eq!(
+                    row[k + 1].as_f64().unwrap(),
+                    poses[j][k],
+                    "{id} t={t} k={k}"
+                );
             }
         }
     }
@@ -110,8 +127,12 @@ fn mcap_and_rrd_read_back_by_independent_readers() {
         let l = |r: &serde_json::Value| [3, 4, 5].map(|k| r[k].as_f64().unwrap());
         let (l0, l1) = (l(&rows[0]), l(rows.last().unwrap()));
         let n0 = (l0[0] * l0[0] + l0[1] * l0[1] + l0[2] * l0[2]).sqrt();
-        let d = ((l0[0] - l1[0]).powi(2) + (l0[1] - l1[1]).powi(2) + (l0[2] - l1[2]).powi(2)).sqrt();
-        assert!(d <= 1e-12 * n0.max(1e-300), "{name}: |ΔL| = {d:e}, |L| = {n0:e}");
+        let d =
+            ((l0[0] - l1[0]).powi(2) + (l0[1] - l1[1]).powi(2) + (l0[2] - l1[2]).powi(2)).sqrt();
+        assert!(
+            d <= 1e-12 * n0.max(1e-300),
+            "{name}: |ΔL| = {d:e}, |L| = {n0:e}"
+        );
     }
 
     // 3. rerun-sdk 0.36.3: `rerun rrd verify` accepts the file and the dataframe API reads back
@@ -130,16 +151,23 @@ fn mcap_and_rrd_read_back_by_independent_readers() {
     let rrd = common::run_py("read_rrd.py", &[&out.rrd]);
     for id in &frame_ids {
         let mcap_rows = py["frames"][id].as_array().unwrap();
-        let rrd_rows = rrd["frames"][id].as_array().unwrap_or_else(|| panic!("rrd lacks frame {id}"));
+        let rrd_rows = rrd["frames"][id]
+            .as_array()
+            .unwrap_or_else(|| panic!("rrd lacks frame {id}"));
         assert_eq!(rrd_rows.len(), mcap_rows.len(), "{id}");
         for (a, b) in rrd_rows.iter().zip(mcap_rows) {
             assert_eq!(a[0].as_i64(), b[0].as_i64(), "{id}: sim_time");
             // f32 storage: relative eps 6e-8 on values ≲ 3 m → 2e-7 m; quaternions up to sign.
             for k in 1..4 {
                 let (x, y) = (a[k].as_f64().unwrap(), b[k].as_f64().unwrap());
-                assert!((x - y).abs() <= 1e-6 * y.abs().max(1.0), "{id} k={k}: {x} vs {y}");
+                assert!(
+                    (x - y).abs() <= 1e-6 * y.abs().max(1.0),
+                    "{id} k={k}: {x} vs {y}"
+                );
             }
-            let dot: f64 = (4..8).map(|k| a[k].as_f64().unwrap() * b[k].as_f64().unwrap()).sum();
+            let dot: f64 = (4..8)
+                .map(|k| a[k].as_f64().unwrap() * b[k].as_f64().unwrap())
+                .sum();
             assert!((dot.abs() - 1.0).abs() < 1e-6, "{id}: quaternion dot {dot}");
         }
     }

@@ -20,8 +20,18 @@ fn one_link_urdf(xyz: [f64; 3], rpy: [f64; 3], mass: f64, i: &Matrix3<f64>) -> S
     </inertial>
   </link>
 </robot>"#,
-        xyz[0], xyz[1], xyz[2], rpy[0], rpy[1], rpy[2],
-        i[(0, 0)], i[(0, 1)], i[(0, 2)], i[(1, 1)], i[(1, 2)], i[(2, 2)]
+        xyz[0],
+        xyz[1],
+        xyz[2],
+        rpy[0],
+        rpy[1],
+        rpy[2],
+        i[(0, 0)],
+        i[(0, 1)],
+        i[(0, 2)],
+        i[(1, 1)],
+        i[(1, 2)],
+        i[(2, 2)]
     )
 }
 
@@ -47,8 +57,13 @@ fn scene_with(dir: &Path, urdf_text: &str, model_keys: &str, sim: &str) -> Scene
 }
 
 fn pose_matrix(p: &[f64; 7]) -> (Vector3<f64>, Matrix3<f64>) {
-    let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(p[6], p[3], p[4], p[5]));
-    (Vector3::new(p[0], p[1], p[2]), q.to_rotation_matrix().into_inner())
+    let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+        p[6], p[3], p[4], p[5],
+    ));
+    (
+        Vector3::new(p[0], p[1], p[2]),
+        q.to_rotation_matrix().into_inner(),
+    )
 }
 
 /// A rotated, offset inertial frame (`<origin xyz rpy>` with a diagonal tensor) and the same
@@ -66,8 +81,18 @@ fn rotated_offset_inertial_frame_moves_like_an_aligned_one() {
     let sim = "dt = 0.001\nduration = 1.0\ngravity = [0.0, 0.0, -9.81]\nlog_every = 50";
     let a_dir = tempfile::tempdir().unwrap();
     let b_dir = tempfile::tempdir().unwrap();
-    let a = scene_with(a_dir.path(), &one_link_urdf(com, rpy, 2.0, &diag), model, sim);
-    let b = scene_with(b_dir.path(), &one_link_urdf(com, [0.0; 3], 2.0, &rotated_tensor), model, sim);
+    let a = scene_with(
+        a_dir.path(),
+        &one_link_urdf(com, rpy, 2.0, &diag),
+        model,
+        sim,
+    );
+    let b = scene_with(
+        b_dir.path(),
+        &one_link_urdf(com, [0.0; 3], 2.0, &rotated_tensor),
+        model,
+        sim,
+    );
     let (_, frames_a) = common::reference_frames(&a);
     let (_, frames_b) = common::reference_frames(&b);
     assert_eq!(frames_a.len(), 21);
@@ -88,11 +113,14 @@ fn rotated_offset_inertial_frame_moves_like_an_aligned_one() {
         worst_com = worst_com.max((com_world - expected).norm());
     }
     // Both runs solve the same rotational problem in differently ordered principal frames, so
-    // they agree to accumulated round-off (measured 4e-14 over 1000 steps).
-    assert!(worst_pose < 1e-10, "poses differ by {worst_pose:e}");
+    // they agree to accumulated round-off (measured 2.2e-15 over 1000 steps).
+    assert!(worst_pose < 1e-12, "poses differ by {worst_pose:e}");
     // The symmetric potential makes the centre-of-mass update exact; only round-off remains
-    // (measured 2e-15 m).
-    assert!(worst_com < 1e-12, "centre of mass off the parabola by {worst_com:e} m");
+    // (measured 5.7e-14 m).
+    assert!(
+        worst_com < 1e-12,
+        "centre of mass off the parabola by {worst_com:e} m"
+    );
 }
 
 /// The scene `rpy` is `R = Rz(yaw) Ry(pitch) Rx(roll)` (fixed axes x, y, z), as in URDF.
@@ -100,17 +128,29 @@ fn rotated_offset_inertial_frame_moves_like_an_aligned_one() {
 fn scene_rpy_is_rz_ry_rx() {
     let dir = tempfile::tempdir().unwrap();
     let rpy = [0.7, -0.3, 1.9];
-    let urdf = one_link_urdf([0.0; 3], [0.0; 3], 1.0, &Matrix3::from_diagonal(&Vector3::new(1.0, 2.0, 2.5)));
+    let urdf = one_link_urdf(
+        [0.0; 3],
+        [0.0; 3],
+        1.0,
+        &Matrix3::from_diagonal(&Vector3::new(1.0, 2.0, 2.5)),
+    );
     let scene = scene_with(
         dir.path(),
         &urdf,
-        &format!("position = [0.5, -1.0, 2.0]\nrpy = [{}, {}, {}]", rpy[0], rpy[1], rpy[2]),
+        &format!(
+            "position = [0.5, -1.0, 2.0]\nrpy = [{}, {}, {}]",
+            rpy[0], rpy[1], rpy[2]
+        ),
         "duration = 0.0\ngravity = [0.0, 0.0, 0.0]",
     );
     let (_, frames) = common::reference_frames(&scene);
     let (p, r) = pose_matrix(&frames[0].1[0]);
     // Quaternion -> matrix round trip: a few ulps.
-    assert!((r - rz_ry_rx(rpy)).norm() < 1e-14, "{r} vs {}", rz_ry_rx(rpy));
+    assert!(
+        (r - rz_ry_rx(rpy)).norm() < 1e-14,
+        "{r} vs {}",
+        rz_ry_rx(rpy)
+    );
     assert!((p - Vector3::new(0.5, -1.0, 2.0)).norm() < 1e-15);
     // A point on the link's x axis ends up along the first column.
     let x_world = Point3::from(p) + r * Vector3::x();
@@ -119,12 +159,19 @@ fn scene_rpy_is_rz_ry_rx() {
 
 fn load_err(text: &str) -> String {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(common::root().join("models/box.urdf"), dir.path().join("box.urdf")).unwrap();
+    std::fs::copy(
+        common::root().join("models/box.urdf"),
+        dir.path().join("box.urdf"),
+    )
+    .unwrap();
     let path = dir.path().join("bad.toml");
     std::fs::write(&path, text).unwrap();
     let result = Scene::load(&path).and_then(|s| s.build().map(|_| ()));
     let message = format!("{:#}", result.expect_err("scene should be rejected"));
-    assert!(message.contains("bad.toml"), "error does not name the file: {message}");
+    assert!(
+        message.contains("bad.toml"),
+        "error does not name the file: {message}"
+    );
     message
 }
 
@@ -132,25 +179,52 @@ fn load_err(text: &str) -> String {
 fn scene_errors_name_file_and_key() {
     let model = "[[model]]\nurdf = \"box.urdf\"\n";
     let cases: &[(String, &[&str])] = &[
-        (format!("[sim]\ndtt = 0.1\n{model}"), &["dtt", "unknown field"]),
-        (format!("[sim]\ndt = -0.1\n{model}"), &["sim.dt", "positive"]),
+        (
+            format!("[sim]\ndtt = 0.1\n{model}"),
+            &["dtt", "unknown field"],
+        ),
+        (
+            format!("[sim]\ndt = -0.1\n{model}"),
+            &["sim.dt", "positive"],
+        ),
         (format!("[sim]\ndt = nan\n{model}"), &["sim.dt"]),
-        (format!("[sim]\nduration = -1.0\n{model}"), &["sim.duration"]),
+        (
+            format!("[sim]\nduration = -1.0\n{model}"),
+            &["sim.duration"],
+        ),
         (format!("[sim]\nlog_every = 0\n{model}"), &["sim.log_every"]),
-        (format!("[sim]\nintegrator = \"rk99\"\n{model}"), &["sim.integrator", "rk99", "variational"]),
-        (format!("[sim]\ngravity = [0.0, 9.81]\n{model}"), &["gravity"]),
-        (format!("[sim]\ngravity = [0.0, inf, 0.0]\n{model}"), &["sim.gravity"]),
-        (format!("{model}angvel = [nan, 0.0, 0.0]\n"), &["model[0].angvel"]),
+        (
+            format!("[sim]\nintegrator = \"rk99\"\n{model}"),
+            &["sim.integrator", "rk99", "variational"],
+        ),
+        (
+            format!("[sim]\ngravity = [0.0, 9.81]\n{model}"),
+            &["gravity"],
+        ),
+        (
+            format!("[sim]\ngravity = [0.0, inf, 0.0]\n{model}"),
+            &["sim.gravity"],
+        ),
+        (
+            format!("{model}angvel = [nan, 0.0, 0.0]\n"),
+            &["model[0].angvel"],
+        ),
         (format!("{model}colour = \"red\"\n"), &["colour"]),
         ("[sim]\ndt = 0.01\n".to_string(), &["no [[model]]"]),
-        ("[[model]]\nurdf = \"missing.urdf\"\n".to_string(), &["missing.urdf"]),
+        (
+            "[[model]]\nurdf = \"missing.urdf\"\n".to_string(),
+            &["missing.urdf"],
+        ),
         (format!("{model}{model}"), &["frame id", "box", "name"]),
         (format!("{model}name = \"a/b\"\n"), &["model[0].name"]),
     ];
     for (text, needles) in cases {
         let message = load_err(text);
         for needle in *needles {
-            assert!(message.contains(needle), "{needle:?} not in error {message:?} for scene:\n{text}");
+            assert!(
+                message.contains(needle),
+                "{needle:?} not in error {message:?} for scene:\n{text}"
+            );
         }
     }
 }
@@ -164,7 +238,9 @@ fn bundled_scenes_build_and_conserve() {
         let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{name}: {e:#}"));
         let world = scene.build().unwrap_or_else(|e| panic!("{name}: {e:#}"));
         assert!(!world.bodies.is_empty());
-        let mut integ = scene.integrator().build(scene.sim.dt, &scene.variational_settings());
+        let mut integ = scene
+            .integrator()
+            .build(scene.sim.dt, &scene.variational_settings());
         let settings = tumble::run::RunSettings {
             steps: scene.steps().min(2000),
             log_every: scene.sim.log_every,
@@ -172,12 +248,18 @@ fn bundled_scenes_build_and_conserve() {
         };
         let summary = tumble::run::run(&world, integ.as_mut(), &settings, &mut []).unwrap();
         // Torque-free about each centre of mass: angular momentum is conserved to round-off by
-        // the variational scheme (measured below 1e-13 for all four scenes).
-        assert!(summary.angmom_rel_change_max < 1e-11, "{name}: {}", summary.angmom_rel_change_max);
-        // Energy error of a second-order symplectic scheme is O((omega dt)^2) and bounded: with
-        // omega dt <= 0.02 here the relative error stays below 1e-3 (measured up to 6e-5).
-        let rel = (summary.energy_final - summary.energy_initial).abs() / summary.energy_initial.abs();
-        assert!(rel < 1e-3, "{name}: relative energy change {rel:e}");
+        // the variational scheme (measured at most 2.0e-14, the arm, over 2000 steps).
+        assert!(
+            summary.angmom_rel_change_max < 1e-12,
+            "{name}: {}",
+            summary.angmom_rel_change_max
+        );
+        // Energy error of a second-order symplectic scheme oscillates with amplitude
+        // O((omega dt)^2) <= 4e-4 for omega dt <= 0.02 here, much less for nearly steady spins
+        // (measured at most 1.8e-8, the T-handle, over 2000 steps).
+        let rel =
+            (summary.energy_final - summary.energy_initial).abs() / summary.energy_initial.abs();
+        assert!(rel < 1e-6, "{name}: relative energy change {rel:e}");
         assert_eq!(summary.stats.newton_failures, 0, "{name}");
     }
 }
@@ -197,5 +279,9 @@ fn default_scene_t_handle_flips() {
         .iter()
         .map(|(_, poses)| pose_matrix(&poses[handle]).1.column(1).dot(&y0))
         .fold(f64::INFINITY, f64::min);
-    assert!(min_dot < -0.9, "the handle never flipped: min y.y0 = {min_dot}");
+    // Measured -0.99999999957: a full flip.
+    assert!(
+        min_dot < -0.9,
+        "the handle never flipped: min y.y0 = {min_dot}"
+    );
 }

@@ -199,7 +199,7 @@ pub fn render_text(model: &Model) -> String {
             "  {:<18}{} m, rotation xyzw {}",
             "origin in model",
             row(&[t.x, t.y, t.z]),
-            row(&link.model_from_link.rotation.coords.as_slice().to_vec())
+            row(link.model_from_link.rotation.coords.as_slice())
         );
         let _ = writeln!(out, "  {:<18}{} kg", "mass", num(mp.mass));
         let _ = writeln!(

@@ -10,7 +10,9 @@ use nalgebra::Vector3;
 pub fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     if parts.len() != 3 {
-        return Err(format!("expected three comma-separated numbers x,y,z, got {s:?}"));
+        return Err(format!(
+            "expected three comma-separated numbers x,y,z, got {s:?}"
+        ));
     }
     let mut v = [0.0; 3];
     for (slot, p) in v.iter_mut().zip(&parts) {

@@ -1,9 +1,9 @@
 //! `tumble simulate [SCENE.toml | MODEL.urdf] [--out STEM]`: runs a scene and writes
 //! `STEM.mcap` and `STEM.rrd`.
 
+use crate::record::Sink;
 use crate::record::mcap::McapSink;
 use crate::record::rerun::{RerunOptions, RerunSink};
-use crate::record::Sink;
 use crate::run::{RunSettings, RunSummary};
 use crate::scene::{Scene, SimOverrides};
 use crate::sim::integrators::{Jacobian, Potential};
@@ -95,7 +95,9 @@ pub fn default_scene_path() -> PathBuf {
 /// Reads the scene the arguments name and applies the overrides.
 pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
     let input = args.input.clone().unwrap_or_else(default_scene_path);
-    let is_urdf = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("urdf"));
+    let is_urdf = input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("urdf"));
     let mut scene = if is_urdf {
         let mut scene = Scene::from_urdf(&input);
         let model = &mut scene.models[0];
@@ -137,7 +139,11 @@ pub struct Outputs {
 }
 
 /// Runs `scene` and writes `<stem>.mcap` and `<stem>.rrd`.
-pub fn simulate(scene: &Scene, stem: &Path, rerun_options: &RerunOptions) -> anyhow::Result<Outputs> {
+pub fn simulate(
+    scene: &Scene,
+    stem: &Path,
+    rerun_options: &RerunOptions,
+) -> anyhow::Result<Outputs> {
     let world = scene.build()?;
     if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -148,7 +154,9 @@ pub fn simulate(scene: &Scene, stem: &Path, rerun_options: &RerunOptions) -> any
         Box::new(McapSink::create(&mcap, &world.layout)?),
         Box::new(RerunSink::create(&rrd, &world.layout, rerun_options)?),
     ];
-    let mut integrator = scene.integrator().build(scene.sim.dt, &scene.variational_settings());
+    let mut integrator = scene
+        .integrator()
+        .build(scene.sim.dt, &scene.variational_settings());
     let settings = RunSettings {
         steps: scene.steps(),
         log_every: scene.sim.log_every,
@@ -166,7 +174,12 @@ pub fn simulate(scene: &Scene, stem: &Path, rerun_options: &RerunOptions) -> any
     if let Some(e) = finish_error {
         return Err(e);
     }
-    Ok(Outputs { mcap, rrd, summary, bodies: world.bodies.len() })
+    Ok(Outputs {
+        mcap,
+        rrd,
+        summary,
+        bodies: world.bodies.len(),
+    })
 }
 
 /// `stem` with `.ext` appended (a stem may itself contain dots).
@@ -184,14 +197,21 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         Path::new("logs").join(name)
     });
     let started = std::time::Instant::now();
-    let out = simulate(&scene, &stem, &RerunOptions { ellipsoids: !args.no_ellipsoids })?;
+    let out = simulate(
+        &scene,
+        &stem,
+        &RerunOptions {
+            ellipsoids: !args.no_ellipsoids,
+        },
+    )?;
     let wall = started.elapsed().as_secs_f64();
     let s = &out.summary;
     println!(
         "simulated {} bodies for {} steps of {} s ({} s) with {} in {wall:.2} s wall time",
         out.bodies, s.steps, scene.sim.dt, scene.sim.duration, scene.sim.integrator
     );
-    let rel_energy = (s.energy_final - s.energy_initial) / s.energy_initial.abs().max(f64::MIN_POSITIVE);
+    let rel_energy =
+        (s.energy_final - s.energy_initial) / s.energy_initial.abs().max(f64::MIN_POSITIVE);
     println!(
         "energy {:.9e} J -> {:.9e} J (relative change {rel_energy:.2e}); angular momentum relative change max {:.2e}",
         s.energy_initial, s.energy_final, s.angmom_rel_change_max
@@ -210,7 +230,13 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     println!("  {}", out.mcap.display());
     println!("  {}", out.rrd.display());
     println!("view them with:");
-    println!("  rerun {}        (Rerun viewer 0.36/0.37: pip install rerun-sdk==0.36.3)", out.rrd.display());
-    println!("  Foxglove: open {} (3D panel, frame \"world\"; plots from /bodies)", out.mcap.display());
+    println!(
+        "  rerun {}        (Rerun viewer 0.36/0.37: pip install rerun-sdk==0.36.3)",
+        out.rrd.display()
+    );
+    println!(
+        "  Foxglove: open {} (3D panel, frame \"world\"; plots from /bodies)",
+        out.mcap.display()
+    );
     Ok(())
 }

@@ -218,7 +218,7 @@ impl MassProperties {
             ));
         }
         let m = self.principal_moments();
-        if !(m[0] > 0.0) {
+        if m[0].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             problems.push(format!(
                 "inertia is not positive definite: principal moments {}, {}, {} kg m^2 \
                  (all must be > 0)",

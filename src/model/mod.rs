@@ -71,12 +71,26 @@ pub struct Visual {
 #[derive(Debug, Clone)]
 pub enum Geometry {
     /// Full side lengths.
-    Box { size: Vector3<f64> },
-    Cylinder { radius: f64, length: f64 },
-    Sphere { radius: f64 },
+    Box {
+        size: Vector3<f64>,
+    },
+    Cylinder {
+        radius: f64,
+        length: f64,
+    },
+    Sphere {
+        radius: f64,
+    },
     /// URDF 1.1 capsule: `length` is the straight part only; two hemispheres are added.
-    Capsule { radius: f64, length: f64 },
+    Capsule {
+        radius: f64,
+        length: f64,
+    },
     /// A mesh file. `path` is the resolved file (`None` when `package://`/relative resolution
     /// failed; `uri` keeps what the URDF said).
-    Mesh { uri: String, path: Option<PathBuf>, scale: Vector3<f64> },
+    Mesh {
+        uri: String,
+        path: Option<PathBuf>,
+        scale: Vector3<f64>,
+    },
 }

@@ -669,10 +669,10 @@ fn check_joint(joint: roxmltree::Node, version_1_2: bool) -> Check {
             }
         }
     }
-    if let Some(s) = child(joint, "safety_controller") {
-        if let Some(p) = check_number(s, "k_velocity", true) {
-            return Some(p);
-        }
+    if let Some(s) = child(joint, "safety_controller")
+        && let Some(p) = check_number(s, "k_velocity", true)
+    {
+        return Some(p);
     }
     None
 }

@@ -90,9 +90,17 @@ pub mod proto {
 /// above (kept in one place: the field numbers here must match the `prost` tags).
 pub fn body_states_descriptor() -> Vec<u8> {
     use prost_types::field_descriptor_proto::{Label, Type};
-    use prost_types::{DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet};
+    use prost_types::{
+        DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet,
+    };
 
-    fn field(name: &str, number: i32, ty: Type, label: Label, type_name: Option<&str>) -> FieldDescriptorProto {
+    fn field(
+        name: &str,
+        number: i32,
+        ty: Type,
+        label: Label,
+        type_name: Option<&str>,
+    ) -> FieldDescriptorProto {
         FieldDescriptorProto {
             name: Some(name.into()),
             number: Some(number),
@@ -104,7 +112,11 @@ pub fn body_states_descriptor() -> Vec<u8> {
         }
     }
     fn message(name: &str, fields: Vec<FieldDescriptorProto>) -> DescriptorProto {
-        DescriptorProto { name: Some(name.into()), field: fields, ..Default::default() }
+        DescriptorProto {
+            name: Some(name.into()),
+            field: fields,
+            ..Default::default()
+        }
     }
     let one = Label::Optional;
     let timestamp_file = FileDescriptorProto {
@@ -148,9 +160,21 @@ pub fn body_states_descriptor() -> Vec<u8> {
             message(
                 "BodyStates",
                 vec![
-                    field("timestamp", 1, Type::Message, one, Some(".google.protobuf.Timestamp")),
+                    field(
+                        "timestamp",
+                        1,
+                        Type::Message,
+                        one,
+                        Some(".google.protobuf.Timestamp"),
+                    ),
                     field("step", 2, Type::Uint64, one, None),
-                    field("bodies", 3, Type::Message, Label::Repeated, Some(".tumble.BodyState")),
+                    field(
+                        "bodies",
+                        3,
+                        Type::Message,
+                        Label::Repeated,
+                        Some(".tumble.BodyState"),
+                    ),
                     field("total_energy", 4, Type::Double, one, None),
                 ],
             ),
@@ -158,7 +182,10 @@ pub fn body_states_descriptor() -> Vec<u8> {
         syntax: Some("proto3".into()),
         ..Default::default()
     };
-    FileDescriptorSet { file: vec![timestamp_file, tumble_file] }.encode_to_vec()
+    FileDescriptorSet {
+        file: vec![timestamp_file, tumble_file],
+    }
+    .encode_to_vec()
 }
 
 /// The path a sink writes to before the file is complete.
@@ -182,7 +209,11 @@ pub struct McapSink {
 }
 
 fn vec3(v: &nalgebra::Vector3<f64>) -> proto::Vector3 {
-    proto::Vector3 { x: v.x, y: v.y, z: v.z }
+    proto::Vector3 {
+        x: v.x,
+        y: v.y,
+        z: v.z,
+    }
 }
 
 /// Simulation time in ns as a Foxglove timestamp (seconds since t = 0).
@@ -195,17 +226,23 @@ impl McapSink {
     /// Creates `<path>.part`, writes the schemas, channels and metadata.
     pub fn create(path: &Path, layout: &RecordingLayout) -> anyhow::Result<Self> {
         let part = part_path(path);
-        let file = File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
+        let file =
+            File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
         let mut writer = mcap::WriteOptions::new()
             .profile("")
             .library(format!("tumble {}", crate::VERSION))
             .create(BufWriter::new(file))
             .with_context(|| format!("cannot write {}", part.display()))?;
-        let tf_schema = FrameTransforms::get_schema().context("foxglove.FrameTransforms has no schema")?;
-        let tf_schema_id = writer.add_schema(&tf_schema.name, &tf_schema.encoding, &tf_schema.data)?;
-        let tf_channel = writer.add_channel(tf_schema_id, TF_TOPIC, "protobuf", &BTreeMap::new())?;
-        let bodies_schema_id = writer.add_schema(BODY_STATES_SCHEMA, "protobuf", &body_states_descriptor())?;
-        let bodies_channel = writer.add_channel(bodies_schema_id, BODIES_TOPIC, "protobuf", &BTreeMap::new())?;
+        let tf_schema =
+            FrameTransforms::get_schema().context("foxglove.FrameTransforms has no schema")?;
+        let tf_schema_id =
+            writer.add_schema(&tf_schema.name, &tf_schema.encoding, &tf_schema.data)?;
+        let tf_channel =
+            writer.add_channel(tf_schema_id, TF_TOPIC, "protobuf", &BTreeMap::new())?;
+        let bodies_schema_id =
+            writer.add_schema(BODY_STATES_SCHEMA, "protobuf", &body_states_descriptor())?;
+        let bodies_channel =
+            writer.add_channel(bodies_schema_id, BODIES_TOPIC, "protobuf", &BTreeMap::new())?;
         writer.write_metadata(&mcap::records::Metadata {
             name: METADATA_NAME.into(),
             metadata: layout.metadata.clone(),
@@ -251,8 +288,17 @@ impl Sink for McapSink {
                         timestamp: Some(stamp),
                         parent_frame_id: "world".into(),
                         child_frame_id: frame_id.clone(),
-                        translation: Some(Vector3 { x: t.x, y: t.y, z: t.z }),
-                        rotation: Some(Quaternion { x: q.x, y: q.y, z: q.z, w: q.w }),
+                        translation: Some(Vector3 {
+                            x: t.x,
+                            y: t.y,
+                            z: t.z,
+                        }),
+                        rotation: Some(Quaternion {
+                            x: q.x,
+                            y: q.y,
+                            z: q.z,
+                            w: q.w,
+                        }),
                     }
                 })
                 .collect(),
@@ -280,7 +326,11 @@ impl Sink for McapSink {
                     potential_energy: b.potential_energy,
                 })
                 .collect(),
-            total_energy: frame.bodies.iter().map(|b| b.kinetic_energy + b.potential_energy).sum(),
+            total_energy: frame
+                .bodies
+                .iter()
+                .map(|b| b.kinetic_energy + b.potential_energy)
+                .sum(),
         };
         self.buf.clear();
         states.encode(&mut self.buf)?;
@@ -293,8 +343,13 @@ impl Sink for McapSink {
         self.writer
             .finish()
             .with_context(|| format!("cannot finish {}", self.part.display()))?;
-        let McapSink { writer, part, path, .. } = *self;
-        let file = writer.into_inner().into_inner().map_err(|e| e.into_error())?;
+        let McapSink {
+            writer, part, path, ..
+        } = *self;
+        let file = writer
+            .into_inner()
+            .into_inner()
+            .map_err(|e| e.into_error())?;
         file.sync_all().ok();
         drop(file);
         std::fs::rename(&part, &path)

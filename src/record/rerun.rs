@@ -57,7 +57,9 @@
 //!
 //! # Reproducibility
 //!
-//! Same layout and frames give a byte-identical file. Plain `RecordingStream::save` cannot: every
+//! Same layout and frames give the same recording: equal chunks, row ids, times and values
+//! (`rerun rrd print -vvv` prints the same). The bytes are not guaranteed equal: Rerun's Arrow
+//! IPC encoding is not canonical. Plain `RecordingStream::save` cannot: every
 //! row and chunk carries a Rerun TUID (wall-clock nanoseconds plus a random per-thread counter),
 //! the `SetStoreInfo` message has one too, the properties chunk holds `Timestamp::now()`, and
 //! rows logged with `log` are grouped into chunks by a timer. So this module (1) sends every

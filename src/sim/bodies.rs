@@ -70,7 +70,10 @@ impl Bodies {
 
     /// Pose of body `i`'s principal frame in the world.
     pub fn world_from_body(&self, i: usize) -> Isometry3<f64> {
-        Isometry3::from_parts(Translation3::from(self.com_world[i]), self.world_from_body[i])
+        Isometry3::from_parts(
+            Translation3::from(self.com_world[i]),
+            self.world_from_body[i],
+        )
     }
 
     /// Body-frame angular velocity `Ω = J^-1 M`.

@@ -5,5 +5,5 @@ pub mod integrators;
 pub mod reference;
 pub mod so3;
 
-pub use bodies::{BodyInit, Bodies};
+pub use bodies::{Bodies, BodyInit};
 pub use integrators::{Integrator, IntegratorKind, StepStats};

@@ -46,7 +46,10 @@ pub fn parabola(
     gravity: &Vector3<f64>,
     t_secs: f64,
 ) -> (Vector3<f64>, Vector3<f64>) {
-    (c0 + v0 * t_secs + gravity * (0.5 * t_secs * t_secs), v0 + gravity * t_secs)
+    (
+        c0 + v0 * t_secs + gravity * (0.5 * t_secs * t_secs),
+        v0 + gravity * t_secs,
+    )
 }
 
 /// The angle of the rotation taking `a` to `b`, rad (geodesic distance on SO(3)).

@@ -253,7 +253,8 @@ mod tests {
                 d[i] = eps;
                 let kp = Coefficients::new((x + d).norm_squared());
                 let km = Coefficients::new((x - d).norm_squared());
-                let fd = (t_transpose_times(&(x + d), &kp, &m) - t_transpose_times(&(x - d), &km, &m))
+                let fd = (t_transpose_times(&(x + d), &kp, &m)
+                    - t_transpose_times(&(x - d), &km, &m))
                     / (2.0 * eps);
                 // O(ε^2) truncation + eps/ε round-off ≈ 1e-10. Measured ≤ 2e-10.
                 assert!(

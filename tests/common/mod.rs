@@ -78,14 +78,21 @@ pub fn reference_frames(scene: &tumble::scene::Scene) -> (Vec<String>, Recorded)
     let memory = Memory::default();
     let frames = memory.frames.clone();
     let mut sinks: Vec<Box<dyn tumble::record::Sink>> = vec![Box::new(memory)];
-    let mut integ = scene.integrator().build(scene.sim.dt, &scene.variational_settings());
+    let mut integ = scene
+        .integrator()
+        .build(scene.sim.dt, &scene.variational_settings());
     let settings = tumble::run::RunSettings {
         steps: scene.steps(),
         log_every: scene.sim.log_every,
         gravity: scene.gravity(),
     };
     tumble::run::run(&world, integ.as_mut(), &settings, &mut sinks).unwrap();
-    let ids = world.layout.frames.iter().map(|f| f.frame_id.clone()).collect();
+    let ids = world
+        .layout
+        .frames
+        .iter()
+        .map(|f| f.frame_id.clone())
+        .collect();
     let frames = frames.lock().unwrap().clone();
     (ids, frames)
 }

@@ -102,14 +102,25 @@ pub fn solve_xi(
         let residual = inertia_body.component_mul(&xi) - so3::t_transpose_times(&xi, &k, &h_m);
         let res_max = residual.amax();
         if res_max <= settings.newton_tol * scale {
-            return NewtonSolve { xi, coefficients: k, iterations, converged: true };
+            return NewtonSolve {
+                xi,
+                coefficients: k,
+                iterations,
+                converged: true,
+            };
         }
         if iterations >= settings.newton_max_iters || !res_max.is_finite() {
-            return NewtonSolve { xi, coefficients: k, iterations, converged: false };
+            return NewtonSolve {
+                xi,
+                coefficients: k,
+                iterations,
+                converged: false,
+            };
         }
         let jac = match settings.jacobian {
             Jacobian::Analytic => {
-                Matrix3::from_diagonal(inertia_body) - so3::t_transpose_times_jacobian(&xi, &k, &h_m)
+                Matrix3::from_diagonal(inertia_body)
+                    - so3::t_transpose_times_jacobian(&xi, &k, &h_m)
             }
             Jacobian::Approximate => {
                 Matrix3::from_diagonal(inertia_body) * so3::t_inverse_matrix(&xi)
@@ -117,7 +128,14 @@ pub fn solve_xi(
         };
         match solve3(&jac, &residual) {
             Some(delta) => xi -= delta,
-            None => return NewtonSolve { xi, coefficients: k, iterations, converged: false },
+            None => {
+                return NewtonSolve {
+                    xi,
+                    coefficients: k,
+                    iterations,
+                    converged: false,
+                };
+            }
         }
         iterations += 1;
     }
@@ -155,7 +173,11 @@ pub struct Variational {
 
 impl Variational {
     pub fn new(dt_secs: f64, settings: VariationalSettings) -> Self {
-        Self { settings, dt_secs, xi: Vec::new() }
+        Self {
+            settings,
+            dt_secs,
+            xi: Vec::new(),
+        }
     }
 
     /// The per-body `ξ` of the next step (after [`Integrator::init`]).
@@ -196,7 +218,13 @@ impl Integrator for Variational {
         let mut stats = StepStats::default();
         for i in 0..bodies.len() {
             let m = bodies.angmom_body[i];
-            let solve = solve_xi(&bodies.inertia_body[i], &m, self.dt_secs, &self.xi[i], &self.settings);
+            let solve = solve_xi(
+                &bodies.inertia_body[i],
+                &m,
+                self.dt_secs,
+                &self.xi[i],
+                &self.settings,
+            );
             stats.newton_iters_max = stats.newton_iters_max.max(solve.iterations);
             stats.newton_failures += u32::from(!solve.converged);
             let xi = solve.xi;
@@ -239,7 +267,10 @@ mod tests {
         let omega = Vector3::new(0.2, 0.25, 0.1); // |Ω| ≈ 0.34 rad/s
         let m = j.component_mul(&omega);
         let h = 1.0; // h|Ω| ≈ 0.34
-        let settings = VariationalSettings { newton_tol: 1e-14, ..Default::default() };
+        let settings = VariationalSettings {
+            newton_tol: 1e-14,
+            ..Default::default()
+        };
         let solve = solve_xi(&j, &m, h, &(omega * h), &settings);
         assert!(solve.converged);
         // Measured 3 iterations; linear convergence at this ratio would need > 10.
