@@ -286,7 +286,7 @@ mod tests {
         };
         let slow = solve_xi(&j, &m, h, &(omega * h), &approx);
         assert!(slow.converged);
-        // The approximate Jacobian converges only linearly: measured 18 iterations.
+        // The approximate Jacobian converges only linearly: measured 12 iterations.
         assert!(slow.iterations > solve.iterations);
         assert!((slow.xi - solve.xi).amax() < 1e-12);
     }
