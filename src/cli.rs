@@ -1,7 +1,9 @@
 //! Command-line definitions (clap). Each command's arguments live beside its code in
 //! [`crate::commands`].
 
-use crate::commands::{inspect::InspectArgs, simulate::SimulateArgs};
+use crate::commands::{
+    bench::BenchArgs, inspect::InspectArgs, simulate::SimulateArgs, trade::TradeArgs,
+};
 use clap::{Parser, Subcommand};
 
 #[derive(Parser, Debug)]
@@ -21,4 +23,9 @@ pub enum Command {
     Inspect(InspectArgs),
     /// Simulate a scene (or a URDF) and write STEM.mcap and STEM.rrd.
     Simulate(Box<SimulateArgs>),
+    /// Measure the speed/accuracy trade of every integrator on a scene: table, CSV, JSON,
+    /// work-precision and energy plots, and a side-by-side recording.
+    Trade(TradeArgs),
+    /// Time N bodies stepped K steps (no recording); prints `ns_per_body_step=<median>` last.
+    Bench(BenchArgs),
 }

@@ -6,11 +6,13 @@
 
 pub mod cli;
 pub mod commands;
+pub mod fsutil;
 pub mod model;
 pub mod record;
 pub mod run;
 pub mod scene;
 pub mod sim;
+pub mod trade;
 
 /// The tool's version, written into every recording's metadata.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");

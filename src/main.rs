@@ -12,6 +12,8 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Inspect(args) => commands::inspect::run(args).map(|ok| if ok { 0 } else { 1 }),
         Command::Simulate(args) => commands::simulate::run(args).map(|()| 0),
+        Command::Trade(args) => commands::trade::run(args).map(|()| 0),
+        Command::Bench(args) => commands::bench::run(args).map(|()| 0),
     };
     match result {
         Ok(code) => ExitCode::from(code),

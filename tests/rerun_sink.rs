@@ -140,6 +140,7 @@ fn layout(mesh_dir: &Path) -> RecordingLayout {
         frames,
         bodies,
         metadata,
+        topic_groups: Vec::new(),
     }
 }
 

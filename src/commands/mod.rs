@@ -1,8 +1,10 @@
 //! One module per command verb; each exposes its clap `Args` struct and a `run` function.
 //! `main.rs` is the only place that turns results into exit codes.
 
+pub mod bench;
 pub mod inspect;
 pub mod simulate;
+pub mod trade;
 
 use nalgebra::Vector3;
 

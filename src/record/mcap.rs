@@ -7,6 +7,9 @@
 //! | `/tf`      | `foxglove.FrameTransforms` | one `FrameTransform` per link frame: `parent_frame_id = "world"`, `child_frame_id` = frame id, the pose `world_from_link` |
 //! | `/bodies`  | `tumble.BodyStates`        | per body: linear and angular velocity (world), angular momentum about the centre of mass (world), kinetic and potential energy; plus the totals |
 //!
+//! With [`RecordingLayout::topic_groups`] the two topics are repeated per group under its prefix
+//! (`/rk4/tf`, `/rk4/bodies`, ...), each holding only the group's frames and bodies.
+//!
 //! Every message's `timestamp` = log time = publish time = simulation time in integer ns.
 //! The schema of `/bodies` is a self-contained `FileDescriptorSet` (it includes
 //! `google/protobuf/timestamp.proto`), so generic protobuf readers decode it.
@@ -189,10 +192,13 @@ pub fn body_states_descriptor() -> Vec<u8> {
 }
 
 /// The path a sink writes to before the file is complete.
-pub fn part_path(path: &Path) -> PathBuf {
-    let mut name = path.as_os_str().to_owned();
-    name.push(".part");
-    PathBuf::from(name)
+pub use crate::fsutil::part_path;
+
+/// The two channels of one topic group.
+struct ChannelGroup {
+    tf_channel: u16,
+    bodies_channel: u16,
+    group: super::TopicGroup,
 }
 
 /// Writes an MCAP file; see the module documentation for its layout.
@@ -200,8 +206,7 @@ pub struct McapSink {
     writer: mcap::Writer<BufWriter<File>>,
     path: PathBuf,
     part: PathBuf,
-    tf_channel: u16,
-    bodies_channel: u16,
+    groups: Vec<ChannelGroup>,
     sequence: u32,
     frame_ids: Vec<String>,
     body_names: Vec<String>,
@@ -237,12 +242,26 @@ impl McapSink {
             FrameTransforms::get_schema().context("foxglove.FrameTransforms has no schema")?;
         let tf_schema_id =
             writer.add_schema(&tf_schema.name, &tf_schema.encoding, &tf_schema.data)?;
-        let tf_channel =
-            writer.add_channel(tf_schema_id, TF_TOPIC, "protobuf", &BTreeMap::new())?;
         let bodies_schema_id =
             writer.add_schema(BODY_STATES_SCHEMA, "protobuf", &body_states_descriptor())?;
-        let bodies_channel =
-            writer.add_channel(bodies_schema_id, BODIES_TOPIC, "protobuf", &BTreeMap::new())?;
+        let mut groups = Vec::new();
+        for group in layout.groups() {
+            let tf_topic = format!("{}{TF_TOPIC}", group.prefix);
+            let bodies_topic = format!("{}{BODIES_TOPIC}", group.prefix);
+            let tf_channel =
+                writer.add_channel(tf_schema_id, &tf_topic, "protobuf", &BTreeMap::new())?;
+            let bodies_channel = writer.add_channel(
+                bodies_schema_id,
+                &bodies_topic,
+                "protobuf",
+                &BTreeMap::new(),
+            )?;
+            groups.push(ChannelGroup {
+                tf_channel,
+                bodies_channel,
+                group,
+            });
+        }
         writer.write_metadata(&mcap::records::Metadata {
             name: METADATA_NAME.into(),
             metadata: layout.metadata.clone(),
@@ -251,8 +270,7 @@ impl McapSink {
             writer,
             path: path.to_path_buf(),
             part,
-            tf_channel,
-            bodies_channel,
+            groups,
             sequence: 0,
             frame_ids: layout.frames.iter().map(|f| f.frame_id.clone()).collect(),
             body_names: layout.bodies.iter().map(|b| b.name.clone()).collect(),
@@ -276,65 +294,69 @@ impl Sink for McapSink {
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
         let time_ns = u64::try_from(frame.time_ns).context("negative simulation time")?;
         let stamp = foxglove_time(frame.time_ns);
-        let transforms = FrameTransforms {
-            transforms: frame
-                .world_from_link
-                .iter()
-                .zip(&self.frame_ids)
-                .map(|(pose, frame_id)| {
-                    let t = pose.translation.vector;
-                    let q = pose.rotation.quaternion().coords; // (x, y, z, w)
-                    FrameTransform {
-                        timestamp: Some(stamp),
-                        parent_frame_id: "world".into(),
-                        child_frame_id: frame_id.clone(),
-                        translation: Some(Vector3 {
-                            x: t.x,
-                            y: t.y,
-                            z: t.z,
-                        }),
-                        rotation: Some(Quaternion {
-                            x: q.x,
-                            y: q.y,
-                            z: q.z,
-                            w: q.w,
-                        }),
-                    }
-                })
-                .collect(),
-        };
-        self.buf.clear();
-        Message::encode(&transforms, &mut self.buf)?;
-        self.write_message(self.tf_channel, time_ns)?;
+        for g in 0..self.groups.len() {
+            let (tf_channel, bodies_channel) =
+                (self.groups[g].tf_channel, self.groups[g].bodies_channel);
+            let frames = self.groups[g].group.frames.clone();
+            let bodies = self.groups[g].group.bodies.clone();
+            let transforms = FrameTransforms {
+                transforms: frame.world_from_link[frames.clone()]
+                    .iter()
+                    .zip(&self.frame_ids[frames])
+                    .map(|(pose, frame_id)| {
+                        let t = pose.translation.vector;
+                        let q = pose.rotation.quaternion().coords; // (x, y, z, w)
+                        FrameTransform {
+                            timestamp: Some(stamp),
+                            parent_frame_id: "world".into(),
+                            child_frame_id: frame_id.clone(),
+                            translation: Some(Vector3 {
+                                x: t.x,
+                                y: t.y,
+                                z: t.z,
+                            }),
+                            rotation: Some(Quaternion {
+                                x: q.x,
+                                y: q.y,
+                                z: q.z,
+                                w: q.w,
+                            }),
+                        }
+                    })
+                    .collect(),
+            };
+            self.buf.clear();
+            Message::encode(&transforms, &mut self.buf)?;
+            self.write_message(tf_channel, time_ns)?;
 
-        let states = proto::BodyStates {
-            timestamp: Some(prost_types::Timestamp {
-                seconds: (time_ns / 1_000_000_000) as i64,
-                nanos: (time_ns % 1_000_000_000) as i32,
-            }),
-            step: frame.step,
-            bodies: frame
-                .bodies
-                .iter()
-                .zip(&self.body_names)
-                .map(|(b, name)| proto::BodyState {
-                    name: name.clone(),
-                    linear_velocity: Some(vec3(&b.linvel_world)),
-                    angular_velocity: Some(vec3(&b.angvel_world)),
-                    angular_momentum: Some(vec3(&b.angmom_world)),
-                    kinetic_energy: b.kinetic_energy,
-                    potential_energy: b.potential_energy,
-                })
-                .collect(),
-            total_energy: frame
-                .bodies
-                .iter()
-                .map(|b| b.kinetic_energy + b.potential_energy)
-                .sum(),
-        };
-        self.buf.clear();
-        states.encode(&mut self.buf)?;
-        self.write_message(self.bodies_channel, time_ns)?;
+            let states = &frame.bodies[bodies.clone()];
+            let message = proto::BodyStates {
+                timestamp: Some(prost_types::Timestamp {
+                    seconds: (time_ns / 1_000_000_000) as i64,
+                    nanos: (time_ns % 1_000_000_000) as i32,
+                }),
+                step: frame.step,
+                bodies: states
+                    .iter()
+                    .zip(&self.body_names[bodies])
+                    .map(|(b, name)| proto::BodyState {
+                        name: name.clone(),
+                        linear_velocity: Some(vec3(&b.linvel_world)),
+                        angular_velocity: Some(vec3(&b.angvel_world)),
+                        angular_momentum: Some(vec3(&b.angmom_world)),
+                        kinetic_energy: b.kinetic_energy,
+                        potential_energy: b.potential_energy,
+                    })
+                    .collect(),
+                total_energy: states
+                    .iter()
+                    .map(|b| b.kinetic_energy + b.potential_energy)
+                    .sum(),
+            };
+            self.buf.clear();
+            message.encode(&mut self.buf)?;
+            self.write_message(bodies_channel, time_ns)?;
+        }
         self.sequence = self.sequence.wrapping_add(1);
         Ok(())
     }

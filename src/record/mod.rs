@@ -22,6 +22,36 @@ pub struct RecordingLayout {
     /// Scene text, integrator settings, tool version, ... (written as MCAP metadata and as
     /// Rerun recording properties / a text document).
     pub metadata: BTreeMap<String, String>,
+    /// MCAP topic groups: each group gets its own `<prefix>/tf` and `<prefix>/bodies` topics
+    /// holding only its frames and bodies (e.g. one group per integrator in `tumble trade`).
+    /// Empty: one group with the empty prefix, i.e. the topics `/tf` and `/bodies`.
+    pub topic_groups: Vec<TopicGroup>,
+}
+
+/// A contiguous run of frames and bodies published under one topic prefix.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TopicGroup {
+    /// Topic prefix starting with `/` (e.g. `/rk4`), or empty.
+    pub prefix: String,
+    /// Indices into [`RecordingLayout::frames`].
+    pub frames: std::ops::Range<usize>,
+    /// Indices into [`RecordingLayout::bodies`].
+    pub bodies: std::ops::Range<usize>,
+}
+
+impl RecordingLayout {
+    /// The topic groups, or the single default group covering everything.
+    pub fn groups(&self) -> Vec<TopicGroup> {
+        if self.topic_groups.is_empty() {
+            vec![TopicGroup {
+                prefix: String::new(),
+                frames: 0..self.frames.len(),
+                bodies: 0..self.bodies.len(),
+            }]
+        } else {
+            self.topic_groups.clone()
+        }
+    }
 }
 
 /// A recorded link frame.

@@ -445,11 +445,7 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
     Ok(sink)
 }
 
-fn part_path(path: &Path) -> PathBuf {
-    let mut name = path.as_os_str().to_owned();
-    name.push(".part");
-    PathBuf::from(name)
-}
+use crate::fsutil::part_path;
 
 /// A static chunk with one row holding all the given archetypes.
 fn static_chunk(entity: EntityPath, archetypes: &[&dyn AsComponents]) -> Result<Chunk> {

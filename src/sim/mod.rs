@@ -4,6 +4,7 @@ pub mod bodies;
 pub mod integrators;
 pub mod reference;
 pub mod so3;
+pub mod workload;
 
 pub use bodies::{Bodies, BodyInit};
 pub use integrators::{Integrator, IntegratorKind, StepStats};

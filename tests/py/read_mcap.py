@@ -32,14 +32,14 @@ def main(path):
             count += 1
             schemas[channel.topic] = schema.name
             times_agree &= message.log_time == message.publish_time
-            if channel.topic == "/tf":
+            if channel.topic.endswith("/tf"):
                 for tf in decoded.transforms:
                     times_agree &= stamp_ns(tf.timestamp) == message.log_time
                     times_agree &= tf.parent_frame_id == "world"
                     t, q = tf.translation, tf.rotation
                     frames.setdefault(tf.child_frame_id, []).append(
                         [message.log_time, t.x, t.y, t.z, q.x, q.y, q.z, q.w])
-            elif channel.topic == "/bodies":
+            elif channel.topic.endswith("/bodies"):
                 times_agree &= stamp_ns(decoded.timestamp) == message.log_time
                 for b in decoded.bodies:
                     L, w, v = b.angular_momentum, b.angular_velocity, b.linear_velocity

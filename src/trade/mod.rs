@@ -1,0 +1,97 @@
+//! The speed/accuracy trade: every integrator at a range of step sizes on one scene, measured
+//! for cost and error (`tumble trade`).
+//!
+//! For each integrator and step size `dt`:
+//!
+//! | column               | meaning (SI units, errors absolute)                                              |
+//! |----------------------|----------------------------------------------------------------------------------|
+//! | `ns_per_body_step`   | wall time of one step of one body, ns: median over repeated timed runs of the whole scene (no recording, no error bookkeeping) |
+//! | `pos_err`            | largest distance of any centre of mass from the exact parabola at the end, m      |
+//! | `rot_err`            | largest rotation angle between any body's orientation and the reference at the end, rad |
+//! | `energy_err_max`     | largest `|E(t) - E(0)|` of the scene's total energy over the run, J                |
+//! | `momentum_err`       | largest `|L(t) - L(0)|` of any body's angular momentum about its centre of mass, world frame, kg m²/s |
+//! | `energy_drift_per_s` | least-squares slope of `E(t) - E(0)` over the long horizon, J/s (signed)         |
+//!
+//! Cost per simulated second per body is `ns_per_body_step / dt`. The orientation reference is
+//! [`reference`]: a high-accuracy solution whose own error is estimated and reported, so a
+//! measured error below it is flagged rather than trusted.
+
+pub mod measure;
+pub mod output;
+pub mod plot;
+pub mod recording;
+pub mod reference;
+
+pub use measure::{EnergySeries, TradeRow, measure};
+
+use crate::scene::Scene;
+use crate::sim::IntegratorKind;
+
+/// What `tumble trade` measures.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TradeSettings {
+    pub integrators: Vec<IntegratorKind>,
+    /// Step sizes, s.
+    pub dts: Vec<f64>,
+    /// Horizon of the error measurement (the scene's duration), s.
+    pub duration_secs: f64,
+    /// Horizon of the energy-drift fit, s.
+    pub drift_horizon_secs: f64,
+    /// Timed repeats per integrator and step size (the median is reported).
+    pub repeats: usize,
+}
+
+/// Everything `tumble trade` measured.
+#[derive(Debug, Clone)]
+pub struct TradeReport {
+    pub rows: Vec<TradeRow>,
+    /// Energy error against time over the drift horizon, per integrator, at [`Self::series_dt`].
+    pub energy_series: Vec<EnergySeries>,
+    pub series_dt: f64,
+    pub reference: reference::Reference,
+}
+
+/// Runs every measurement. `progress` is called once per finished row.
+pub fn run(
+    scene: &Scene,
+    settings: &TradeSettings,
+    mut progress: impl FnMut(&TradeRow),
+) -> anyhow::Result<TradeReport> {
+    let world = scene.build()?;
+    let gravity = scene.gravity();
+    let reference = reference::Reference::compute(&world.bodies, settings.duration_secs);
+    let series_dt = series_dt(&settings.dts);
+    let mut rows = Vec::new();
+    let mut energy_series = Vec::new();
+    for &kind in &settings.integrators {
+        for &dt in &settings.dts {
+            let (row, series) = measure(
+                &world.bodies,
+                kind,
+                dt,
+                &scene.variational_settings(),
+                &gravity,
+                settings,
+                &reference,
+            );
+            progress(&row);
+            rows.push(row);
+            if dt == series_dt {
+                energy_series.push(series);
+            }
+        }
+    }
+    Ok(TradeReport {
+        rows,
+        energy_series,
+        series_dt,
+        reference,
+    })
+}
+
+/// The step size whose runs are plotted against time and recorded: the middle one.
+pub fn series_dt(dts: &[f64]) -> f64 {
+    let mut sorted = dts.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    sorted[sorted.len() / 2]
+}

@@ -1,0 +1,136 @@
+//! `trade.rrd` and `trade.mcap`: every integrator's run of the scene side by side, stepped in
+//! lockstep at one step size.
+//!
+//! Integrator `k`'s copy of the scene has frame ids `<k>/<frame id>` (e.g. `rk4/box`) and model
+//! `<k>`, so in Rerun each integrator is one entity subtree (`/rk4/world_from_link/box`,
+//! `/rk4/visual_geometries/...`, `/plots/energy/rk4/box`), and in MCAP one topic prefix
+//! (`/rk4/tf`, `/rk4/bodies`). All copies start from the same state; where they part is what
+//! the integrators disagree on.
+
+use crate::record::mcap::McapSink;
+use crate::record::rerun::{RerunOptions, RerunSink};
+use crate::record::{Frame, RecordingLayout, Sink, TopicGroup};
+use crate::run::FrameBuilder;
+use crate::scene::{Scene, World};
+use crate::sim::{Bodies, IntegratorKind};
+use std::path::Path;
+
+/// Most frames recorded per run (`log_every` is chosen to stay below).
+pub const MAX_FRAMES: u64 = 1000;
+
+/// The combined layout: one prefixed copy of `world`'s layout per integrator.
+pub fn layout(world: &World, kinds: &[IntegratorKind], dt: f64) -> RecordingLayout {
+    let mut layout = RecordingLayout {
+        name: format!("{}_trade", world.layout.name),
+        metadata: world.layout.metadata.clone(),
+        ..Default::default()
+    };
+    layout
+        .metadata
+        .insert("integrator".into(), "(see integrators)".into());
+    layout.metadata.insert(
+        "integrators".into(),
+        kinds.iter().map(|k| k.name()).collect::<Vec<_>>().join(","),
+    );
+    layout.metadata.insert("dt".into(), format!("{dt:?}"));
+    for kind in kinds {
+        let prefix = kind.name();
+        let frames_start = layout.frames.len();
+        let bodies_start = layout.bodies.len();
+        for f in &world.layout.frames {
+            let mut f = f.clone();
+            f.frame_id = format!("{prefix}/{}", f.frame_id);
+            f.model = prefix.to_string();
+            layout.frames.push(f);
+        }
+        for b in &world.layout.bodies {
+            let mut b = b.clone();
+            b.name = format!("{prefix}/{}", b.name);
+            b.frame += frames_start;
+            layout.bodies.push(b);
+        }
+        layout.topic_groups.push(TopicGroup {
+            prefix: format!("/{prefix}"),
+            frames: frames_start..layout.frames.len(),
+            bodies: bodies_start..layout.bodies.len(),
+        });
+    }
+    layout
+}
+
+/// Runs every integrator on `scene` for `duration_secs` at `dt` and records them side by side.
+pub fn record(
+    scene: &Scene,
+    kinds: &[IntegratorKind],
+    dt: f64,
+    duration_secs: f64,
+    rrd: &Path,
+    mcap: &Path,
+) -> anyhow::Result<()> {
+    let world = scene.build()?;
+    let layout = layout(&world, kinds, dt);
+    let mut sinks: Vec<Box<dyn Sink>> = vec![
+        Box::new(McapSink::create(mcap, &layout)?),
+        Box::new(RerunSink::create(
+            rrd,
+            &layout,
+            &RerunOptions { ellipsoids: false },
+        )?),
+    ];
+    let gravity = scene.gravity();
+    let steps = super::measure::steps_in(duration_secs, dt);
+    let log_every = steps.div_ceil(MAX_FRAMES).max(1);
+    let mut runs: Vec<_> = kinds
+        .iter()
+        .map(|kind| {
+            let bodies = Bodies::new(&world.bodies);
+            let mut integrator = kind.build(dt, &scene.variational_settings());
+            integrator.init(&bodies);
+            (bodies, integrator, FrameBuilder::new(&world))
+        })
+        .collect();
+    let mut poses = Vec::with_capacity(layout.frames.len());
+    let mut states = Vec::with_capacity(layout.bodies.len());
+    let mut result = Ok(());
+    for step in 0..=steps {
+        if step > 0 {
+            for (bodies, integrator, _) in &mut runs {
+                integrator.step(bodies, &gravity);
+            }
+        }
+        if step % log_every != 0 && step != steps {
+            continue;
+        }
+        poses.clear();
+        states.clear();
+        let mut time_ns = 0;
+        for (bodies, _, frames) in &mut runs {
+            let frame = frames.frame(bodies, &gravity, step, dt);
+            time_ns = frame.time_ns;
+            poses.extend_from_slice(frame.world_from_link);
+            states.extend_from_slice(frame.bodies);
+        }
+        let frame = Frame {
+            step,
+            time_ns,
+            world_from_link: &poses,
+            bodies: &states,
+        };
+        if let Some(e) = sinks.iter_mut().find_map(|s| s.write(&frame).err()) {
+            result = Err(e);
+            break;
+        }
+    }
+    if result.is_ok() {
+        for sink in sinks {
+            sink.finish()?;
+        }
+    } else {
+        // Not finished: nothing may appear under the final names.
+        drop(sinks);
+        for path in [rrd, mcap] {
+            std::fs::remove_file(crate::fsutil::part_path(path)).ok();
+        }
+    }
+    result
+}
