@@ -137,6 +137,8 @@ where
         .map_err(draw_err)?;
     chart
         .configure_mesh()
+        .x_labels(5)
+        .y_labels(8)
         .x_desc("cost: wall time per simulated second per body [s]")
         .y_desc(y_label)
         .x_label_formatter(&|v| format!("{v:.0e}"))
