@@ -84,8 +84,8 @@ pub fn cayley_residual(
 }
 
 /// Solves `2 J f = h Π + h Π × f + h (Π·f) f` for the Cayley parameter `f` by Newton, starting
-/// from `f_guess`. Stops when `|G(f)|_∞ <= newton_tol · h |Π|_∞` (relative residual, as
-/// [`super::variational::solve_xi`]).
+/// from `f_guess`. Stops when `|G(f)|_∞ <= newton_tol · h |Π|_∞` (relative residual, the same
+/// criterion as the `variational` Newton solve).
 pub fn solve_cayley(
     inertia_body: &Vector3<f64>,
     angmom_body: &Vector3<f64>,
@@ -276,9 +276,9 @@ mod tests {
         let j_d = Matrix3::from_diagonal_element(j.sum() / 2.0) - Matrix3::from_diagonal(&j);
         let lhs = skew(&(pi * h));
         let rhs = f_mat * j_d - j_d * f_mat.transpose();
-        // Round-off: measured 2.2e-16.
+        // Round-off: measured 1.1e-16.
         assert!((lhs - rhs).amax() < 1e-14, "{}", lhs - rhs);
-        // Quadratic convergence from the first-order guess at h|Ω| ≈ 0.45: measured 4 updates.
+        // Quadratic convergence from the first-order guess at h|Ω| ≈ 0.4: measured 3 updates.
         assert!(solve.iterations <= 5, "{}", solve.iterations);
     }
 
@@ -297,10 +297,10 @@ mod tests {
         assert!(solve.converged);
         let pi1 = cayley_quaternion(&solve.f).inverse_transform_vector(&pi);
         let e = |p: &Vector3<f64>| 0.5 * p.dot(&p.component_div(&j));
-        // Round-off: measured 0 and 4.4e-16 relative.
+        // Round-off: measured 1.2e-16 and 1.6e-16 relative.
         assert!((e(&pi1) - e(&pi)).abs() < 1e-14 * e(&pi));
         assert!((pi1.norm() - pi.norm()).abs() < 1e-14 * pi.norm());
-        // The step really moved Π (not a trivial identity): measured |ΔΠ| = 2.6.
-        assert!((pi1 - pi).norm() > 0.5);
+        // The step really moved Π (not a trivial identity): measured |ΔΠ| = 0.65.
+        assert!((pi1 - pi).norm() > 0.3);
     }
 }
