@@ -4,7 +4,7 @@
 //! - [`Axisymmetric`]: orientation of a torque-free body with two equal moments (closed form).
 //! - [`Asymmetric`]: body angular velocity of a torque-free body with distinct moments (Jacobi
 //!   elliptic functions, [`elliptic`]).
-//! - [`high_accuracy`]: orientation and momentum of any free body by a fine integration, with a
+//! - [`high_accuracy()`]: orientation and momentum of any free body by a fine integration, with a
 //!   Richardson estimate of its own error.
 //! - [`parabola`]: the centre of mass in uniform gravity.
 
