@@ -9,9 +9,9 @@
 //!
 //! For `F = exp(hΩ^)`, `tr((I - F) J_d) = h^2 Ω^T J Ω / 2 + O(h^3)`, so `L_d ≈ h · (kinetic energy)`.
 //!
-//! **Discrete Euler–Lagrange equations** (Lee, Leok & McClamroch 2007, eqs. for the free body;
-//! Hairer, Lubich & Wanner, *Geometric Numerical Integration*, 2nd ed., §VII.5.3 "Discrete
-//! Moser–Veselov algorithm"): with the body angular momentum `Π_k` (= [`Bodies::angmom_body`]),
+//! **Discrete Euler–Lagrange equations** (Lee, Leok & McClamroch 2007, free rigid body;
+//! Hairer, Lubich & Wanner, *Geometric Numerical Integration*, 2nd ed., §VII.5, the discrete
+//! Moser–Veselov algorithm): with the body angular momentum `Π_k` (= [`Bodies::angmom_body`]),
 //!
 //! 1. solve `h Π_k^ = F_k J_d - J_d F_k^T` for `F_k ∈ SO(3)`;
 //! 2. `R_{k+1} = R_k F_k`;
@@ -23,9 +23,9 @@
 //! **The solve.** With the Cayley parameter `f` (`F = (I + f^)(I - f^)^-1`, the rotation by
 //! `2 atan|f|` about `f`, unit quaternion `(1, f)/sqrt(1 + |f|^2)`), multiplying step 1 by
 //! `(I - f^)` on the left and `(I + f^)` on the right turns it into the quadratic vector equation
-//! (Lee, Leok & McClamroch 2007, eq. (60) with Cayley; Lewis & Simo 1994, "Conserving algorithms
-//! for the dynamics of Hamiltonian systems on Lie groups", J. Nonlinear Sci. 4, 253–299, for the
-//! same quaternion-form solve)
+//! (the Cayley-parameter solve of Lee, Leok & McClamroch 2007; for quaternion and Cayley
+//! parametrisations of such implicit rigid-body steps see also Lewis & Simo 1994, "Conserving
+//! algorithms for the dynamics of Hamiltonian systems on Lie groups", J. Nonlinear Sci. 4, 253–299)
 //!
 //! `G(f) = 2 J f - h Π - h Π × f - h (Π·f) f = 0`,
 //!
@@ -53,7 +53,8 @@
 //! rotation angle of `F`), so `h |Ω| <= 1` is required, and the step rotates by `asin(h Ω)`
 //! instead of `h Ω` (the phase error above). Beyond it Newton fails, which is counted in
 //! [`StepStats::newton_failures`]. Bodies violating the triangle inequality of inertia
-//! (`J_3 > J_1 + J_2`, an indefinite `J_d`) are handled the same way.
+//! (`J_3 > J_1 + J_2`, an indefinite `J_d`) are not refused; they have their own limit (for
+//! `J = (1, 2, 3.5)`, `Π = (0.4, 2.5, -1.2)` Newton found no solution at `h|Ω| = 1.35`).
 //!
 //! Initial conditions: `Π_0 = J Ω_0` (as stored in [`Bodies`]). Translation: Störmer–Verlet
 //! ([`step_translation`] with the configured [`super::Potential`], symmetric by default: exact parabola).
