@@ -1,8 +1,30 @@
 //! Integrators. Every scheme steps the same [`Bodies`] batch with a fixed step `dt`.
+//!
+//! | name | scheme | order | conserves exactly (to round-off) |
+//! |---|---|---|---|
+//! | `variational` | exp-map Lie-group variational integrator ([`variational`]) | 2 | spatial angular momentum |
+//! | `moser-veselov` | Moser–Veselov discrete rigid body, Cayley solve ([`moser_veselov`]) | 2 | spatial angular momentum, kinetic energy `M^T J^-1 M / 2` |
+//! | `variational4` | triple-jump composition of `variational` ([`composition`]) | 4 | spatial angular momentum |
+//! | `variational6` | Yoshida's 7-stage composition of `variational` ([`composition`]) | 6 | spatial angular momentum |
+//! | `euler` | explicit Euler ([`explicit`]) | 1 | nothing (energy grows) |
+//! | `semi-implicit` | semi-implicit (symplectic) Euler ([`explicit`]) | 1 | nothing |
+//! | `rk4` | classic Runge–Kutta ([`rk4`]) | 4 | nothing (slow drift) |
+//!
+//! The variational family (the first four) has bounded energy error with no drift. All but the
+//! Euler schemes follow the exact parabola in uniform gravity (with the default symmetric
+//! [`Potential`]); the Euler schemes are off by `∓ t h g / 2`.
 
+pub mod composition;
+pub mod explicit;
+pub mod moser_veselov;
+pub mod rk4;
 pub mod translation;
 pub mod variational;
 
+pub use composition::Composition;
+pub use explicit::{ExplicitEuler, SemiImplicitEuler};
+pub use moser_veselov::MoserVeselov;
+pub use rk4::Rk4;
 pub use translation::Potential;
 pub use variational::{Jacobian, Variational, VariationalSettings};
 
@@ -46,27 +68,116 @@ pub trait Integrator: Send {
 #[serde(rename_all = "kebab-case")]
 pub enum IntegratorKind {
     /// The exponential-map Lie-group variational integrator (discrete Euler-Lagrange equations,
-    /// Newton on SO(3)).
+    /// Newton on SO(3)). Order 2.
     Variational,
+    /// The Moser–Veselov discrete rigid body (trace Lagrangian, Newton on the Cayley parameter).
+    /// Order 2; conserves the kinetic energy exactly.
+    MoserVeselov,
+    /// `variational` composed by Yoshida's triple jump. Order 4.
+    Variational4,
+    /// `variational` composed by Yoshida's 7-stage solution A. Order 6.
+    Variational6,
+    /// Explicit Euler. Order 1.
+    Euler,
+    /// Semi-implicit (symplectic) Euler. Order 1.
+    SemiImplicit,
+    /// Classic Runge–Kutta. Order 4.
+    Rk4,
 }
 
 impl IntegratorKind {
-    pub const ALL: &'static [IntegratorKind] = &[IntegratorKind::Variational];
+    pub const ALL: &'static [IntegratorKind] = &[
+        IntegratorKind::Variational,
+        IntegratorKind::MoserVeselov,
+        IntegratorKind::Variational4,
+        IntegratorKind::Variational6,
+        IntegratorKind::Euler,
+        IntegratorKind::SemiImplicit,
+        IntegratorKind::Rk4,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
             IntegratorKind::Variational => "variational",
+            IntegratorKind::MoserVeselov => "moser-veselov",
+            IntegratorKind::Variational4 => "variational4",
+            IntegratorKind::Variational6 => "variational6",
+            IntegratorKind::Euler => "euler",
+            IntegratorKind::SemiImplicit => "semi-implicit",
+            IntegratorKind::Rk4 => "rk4",
         }
+    }
+
+    /// The global order of accuracy in orientation (and every other state variable).
+    pub fn order(self) -> u32 {
+        match self {
+            IntegratorKind::Euler | IntegratorKind::SemiImplicit => 1,
+            IntegratorKind::Variational | IntegratorKind::MoserVeselov => 2,
+            IntegratorKind::Variational4 | IntegratorKind::Rk4 => 4,
+            IntegratorKind::Variational6 => 6,
+        }
+    }
+
+    /// Whether the scheme is variational (symplectic, momentum-exact, bounded energy error).
+    pub fn is_variational(self) -> bool {
+        matches!(
+            self,
+            IntegratorKind::Variational
+                | IntegratorKind::MoserVeselov
+                | IntegratorKind::Variational4
+                | IntegratorKind::Variational6
+        )
     }
 
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.iter().copied().find(|k| k.name() == name)
     }
 
-    /// Builds the integrator with step `dt_secs`.
+    /// Builds the integrator with step `dt_secs`. `settings` apply to the variational family
+    /// (Newton tolerance and cap, translation potential; the Jacobian choice to the `variational`
+    /// steps only); the explicit schemes ignore them.
     pub fn build(self, dt_secs: f64, settings: &VariationalSettings) -> Box<dyn Integrator> {
         match self {
             IntegratorKind::Variational => Box::new(Variational::new(dt_secs, *settings)),
+            IntegratorKind::MoserVeselov => Box::new(MoserVeselov::new(dt_secs, *settings)),
+            IntegratorKind::Variational4 => Box::new(Composition::order4(dt_secs, *settings)),
+            IntegratorKind::Variational6 => Box::new(Composition::order6(dt_secs, *settings)),
+            IntegratorKind::Euler => Box::new(ExplicitEuler::new(dt_secs)),
+            IntegratorKind::SemiImplicit => Box::new(SemiImplicitEuler::new(dt_secs)),
+            IntegratorKind::Rk4 => Box::new(Rk4::new(dt_secs)),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `name`, `from_name`, serde and the built integrator's `name` all agree.
+    #[test]
+    fn names_round_trip() {
+        let names: Vec<_> = IntegratorKind::ALL.iter().map(|k| k.name()).collect();
+        assert_eq!(
+            names,
+            [
+                "variational",
+                "moser-veselov",
+                "variational4",
+                "variational6",
+                "euler",
+                "semi-implicit",
+                "rk4"
+            ]
+        );
+        for &kind in IntegratorKind::ALL {
+            assert_eq!(IntegratorKind::from_name(kind.name()), Some(kind));
+            let json = serde_json::to_string(&kind).unwrap();
+            assert_eq!(json, format!("\"{}\"", kind.name()));
+            assert_eq!(serde_json::from_str::<IntegratorKind>(&json).unwrap(), kind);
+            let built = kind.build(0.01, &VariationalSettings::default());
+            assert_eq!(built.name(), kind.name());
+            assert_eq!(built.dt(), 0.01);
+        }
+        assert_eq!(IntegratorKind::from_name("rk5"), None);
     }
 }

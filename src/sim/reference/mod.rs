@@ -1,4 +1,19 @@
-//! Closed-form solutions used to measure integration error.
+//! Solutions used to measure integration error: closed forms where they exist, a numerical
+//! reference with its own error estimate where they do not.
+//!
+//! - [`Axisymmetric`]: orientation of a torque-free body with two equal moments (closed form).
+//! - [`Asymmetric`]: body angular velocity of a torque-free body with distinct moments (Jacobi
+//!   elliptic functions, [`elliptic`]).
+//! - [`high_accuracy()`]: orientation and momentum of any free body by a fine integration, with a
+//!   Richardson estimate of its own error.
+//! - [`parabola`]: the centre of mass in uniform gravity.
+
+pub mod asymmetric;
+pub mod elliptic;
+pub mod high_accuracy;
+
+pub use asymmetric::Asymmetric;
+pub use high_accuracy::{HighAccuracy, high_accuracy};
 
 use nalgebra::{UnitQuaternion, Vector3};
 
