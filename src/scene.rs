@@ -5,7 +5,7 @@
 //! dt = 0.001                    # s, > 0                                   (default 0.001)
 //! duration = 5.0                # s, >= 0                                  (default 5.0)
 //! gravity = [0.0, 0.0, -9.81]   # m/s^2, world frame; [0,0,0] = off       (default [0, 0, -9.81])
-//! integrator = "variational"    # see `tumble simulate --help`             (default "variational")
+//! integrator = "variational"    # variational | moser-veselov | variational4 | variational6 | euler | semi-implicit | rk4
 //! log_every = 10                # record every Nth step, >= 1              (default 10)
 //! newton_tol = 1e-12            # relative Newton residual                 (default 1e-12)
 //! newton_max_iters = 10         # Newton iteration cap                     (default 10)

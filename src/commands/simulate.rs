@@ -30,7 +30,8 @@ pub struct SimulateArgs {
     /// Gravity x,y,z in m/s^2, world frame (overrides sim.gravity); 0,0,0 switches it off.
     #[arg(long, value_parser = super::parse_vec3, allow_hyphen_values = true)]
     pub gravity: Option<[f64; 3]>,
-    /// Integrator name (overrides sim.integrator).
+    /// Integrator (overrides sim.integrator): variational, moser-veselov, variational4,
+    /// variational6, euler, semi-implicit, rk4.
     #[arg(long)]
     pub integrator: Option<String>,
     /// Record every Nth step (overrides sim.log_every).

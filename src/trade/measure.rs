@@ -76,9 +76,9 @@ pub fn measure(
     let mut momentum_err: f64 = 0.0;
     for _ in 0..steps {
         integrator.step(&mut bodies, gravity);
-        energy_err_max = energy_err_max.max((total_energy(&bodies, gravity) - e0).abs());
+        energy_err_max = worst(energy_err_max, (total_energy(&bodies, gravity) - e0).abs());
         for (i, l0) in l0.iter().enumerate() {
-            momentum_err = momentum_err.max((bodies.angmom_world(i) - l0).norm());
+            momentum_err = worst(momentum_err, (bodies.angmom_world(i) - l0).norm());
         }
     }
     let mut pos_err: f64 = 0.0;
@@ -90,11 +90,11 @@ pub fn measure(
             gravity,
             t_end,
         );
-        pos_err = pos_err.max((bodies.com_world[i] - c_exact).norm());
-        rot_err = rot_err.max(rotation_error(
-            &bodies.world_from_body[i],
-            &reference.world_from_body[i],
-        ));
+        pos_err = worst(pos_err, (bodies.com_world[i] - c_exact).norm());
+        rot_err = worst(
+            rot_err,
+            rotation_error(&bodies.world_from_body[i], &reference.world_from_body[i]),
+        );
     }
 
     // Energy drift over the long horizon: least-squares slope of E(t) - E(0) against t.
@@ -157,6 +157,16 @@ pub fn measure(
         points,
     };
     (row, series)
+}
+
+/// The larger error, where a non-finite error (a run that diverged) wins and stays: `f64::max`
+/// would silently drop a NaN.
+fn worst(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
+    }
 }
 
 /// Median (mean of the middle two for an even count).

@@ -12,6 +12,9 @@
 //! | `momentum_err`       | largest `|L(t) - L(0)|` of any body's angular momentum about its centre of mass, world frame, kg m²/s |
 //! | `energy_drift_per_s` | least-squares slope of `E(t) - E(0)` over the long horizon, J/s (signed)         |
 //!
+//! A run that diverges (the state overflows) reports `NaN` for the errors it spoils (`null` in
+//! JSON), never a finite number; its energy curve stops where it diverged.
+//!
 //! Cost per simulated second per body is `ns_per_body_step / dt`. The orientation reference is
 //! [`reference`]: a high-accuracy solution whose own error is estimated and reported, so a
 //! measured error below it is flagged rather than trusted.

@@ -74,11 +74,12 @@ fn colour(i: usize) -> RGBColor {
     COLOURS[i % COLOURS.len()]
 }
 
+/// `|v|` raised to [`FLOOR`]; NaN for a diverged value (not drawn).
 fn floor(v: f64) -> f64 {
     if v.is_finite() {
         v.abs().max(FLOOR)
     } else {
-        f64::MAX
+        f64::NAN
     }
 }
 
@@ -152,6 +153,7 @@ where
             .iter()
             .filter(|r| &r.integrator == name)
             .map(|r| (r.cost_secs_per_sim_sec(), floor(error(r))))
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
             .collect();
         points.sort_by(|a, b| a.0.total_cmp(&b.0));
         let c = colour(i);
@@ -244,7 +246,10 @@ where
         let c = colour(i);
         chart
             .draw_series(LineSeries::new(
-                s.points.iter().map(|&(t, de)| (t, floor(de))),
+                s.points
+                    .iter()
+                    .map(|&(t, de)| (t, floor(de)))
+                    .take_while(|p| p.1.is_finite()),
                 c.stroke_width(1),
             ))
             .map_err(draw_err)?

@@ -5,11 +5,11 @@
 //! torque-free free-body motion, independent of its translation (whose reference is the exact
 //! parabola). No closed form gives the orientation of an asymmetric body, so the reference
 //! integrates it at a step far below the measured ones and estimates its own error by Richardson
-//! extrapolation: for a method of order p, `err(h) ≈ |x(h) - x(h/2)| · 2^p / (2^p - 1)`.
+//! extrapolation ([`high_accuracy`]): for a method of order p, `err(h/2) ≈ |x(h) - x(h/2)| / (2^p - 1)`.
 
-use crate::sim::integrators::VariationalSettings;
-use crate::sim::{Bodies, BodyInit, IntegratorKind};
-use nalgebra::{UnitQuaternion, Vector3};
+use crate::sim::reference::high_accuracy;
+use crate::sim::{BodyInit, IntegratorKind};
+use nalgebra::UnitQuaternion;
 
 pub use crate::sim::reference::rotation_error;
 
@@ -25,45 +25,38 @@ pub struct Reference {
     pub method: String,
 }
 
-/// Step of the reference's finer run, s.
-pub const REFERENCE_DT: f64 = 1e-5;
+/// Coarse step of the reference in radians turned per step (`dt |Ω|`); the finer run halves it.
+pub const REFERENCE_TURN_PER_STEP: f64 = 1e-3;
 
 impl Reference {
-    /// Integrates every body's rotation to `t_end_secs` (gravity off: it does not turn bodies).
+    /// Every body's torque-free orientation at `t_end_secs` by [`high_accuracy`] with `rk4`
+    /// (which shares no code with the variational family) at `dt |Ω0| = 1e-3` and half that.
     pub fn compute(init: &[BodyInit], t_end_secs: f64) -> Self {
-        let kind = IntegratorKind::Variational;
-        let order = 2;
-        let settings = VariationalSettings {
-            newton_tol: 1e-15,
-            newton_max_iters: 50,
-            ..Default::default()
-        };
-        let run = |dt: f64| -> Vec<UnitQuaternion<f64>> {
-            let mut bodies = Bodies::new(init);
-            let mut integrator = kind.build(dt, &settings);
-            integrator.init(&bodies);
-            let steps = (t_end_secs / dt).round() as u64;
-            for _ in 0..steps {
-                integrator.step(&mut bodies, &Vector3::zeros());
-            }
-            bodies.world_from_body
-        };
-        let coarse = run(2.0 * REFERENCE_DT);
-        let fine = run(REFERENCE_DT);
-        let factor = f64::from(1u32 << order);
-        let own_error_rad = coarse
+        let kind = IntegratorKind::Rk4;
+        let mut own_error_rad: f64 = 0.0;
+        let mut dt_min = f64::INFINITY;
+        let world_from_body = init
             .iter()
-            .zip(&fine)
-            .map(|(c, f)| rotation_error(c, f) / (factor - 1.0))
-            .fold(0.0, f64::max);
+            .map(|b| {
+                let speed = b.angvel_world.norm();
+                let dt = if speed > 0.0 {
+                    REFERENCE_TURN_PER_STEP / speed
+                } else {
+                    t_end_secs.max(1e-3)
+                };
+                let r = high_accuracy(b, t_end_secs, dt.min(t_end_secs.max(1e-9)), kind);
+                own_error_rad = own_error_rad.max(r.rotation_error_estimate);
+                dt_min = dt_min.min(r.dt_secs);
+                r.world_from_body
+            })
+            .collect();
         Self {
-            world_from_body: fine,
+            world_from_body,
             t_end_secs,
             own_error_rad,
             method: format!(
-                "{} at dt = {REFERENCE_DT:e} s, error estimated against dt = {:e} s (Richardson, order {order})",
-                kind.name(),
-                2.0 * REFERENCE_DT
+                "{} at dt |Ω0| = {REFERENCE_TURN_PER_STEP:e} rad and half that (finest dt {dt_min:.2e} s), Richardson error estimate",
+                kind.name()
             ),
         }
     }
