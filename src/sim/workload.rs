@@ -4,7 +4,8 @@
 use super::BodyInit;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
-/// `n` asymmetric bodies with masses in 0.5..1.5 kg, principal moments near (1, 2, 3.5) kg m²,
+/// `n` asymmetric bodies with masses in 0.5..1.5 kg, principal moments within ±0.1 of
+/// (1, 1.5, 2) kg m² (always distinct and physical: J1 + J2 >= 2.3 > 2.1 >= J3),
 /// orientations, positions and velocities spread by a golden-ratio sequence (deterministic, no
 /// random generator), angular speeds up to about 6 rad/s.
 pub fn free_body_batch(n: usize) -> Vec<BodyInit> {
@@ -15,7 +16,11 @@ pub fn free_body_batch(n: usize) -> Vec<BodyInit> {
             let f = |k: f64| ((s * 0.618_033_988_7 + k) % 1.0) * 2.0 - 1.0;
             BodyInit {
                 mass: 1.0 + 0.5 * f(0.1),
-                principal_moments: Vector3::new(1.0, 2.0 + 0.3 * f(0.2), 3.5 + 0.3 * f(0.3)),
+                principal_moments: Vector3::new(
+                    1.0 + 0.1 * f(0.2),
+                    1.5 + 0.1 * f(0.3),
+                    2.0 + 0.1 * f(0.35),
+                ),
                 world_from_body: Isometry3::from_parts(
                     Translation3::new(f(0.4), f(0.5), 1.0 + f(0.6)),
                     UnitQuaternion::from_euler_angles(3.0 * f(0.7), 1.5 * f(0.8), 3.0 * f(0.9)),
