@@ -27,8 +27,9 @@
 use super::translation::{Potential, step_translation};
 use super::{Integrator, StepStats};
 use crate::sim::Bodies;
-use crate::sim::so3::{self, Coefficients};
-use nalgebra::{Matrix3, Vector3};
+use crate::sim::so3::{self, Coefficients, Real, SERIES_THETA_SQ};
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// The Newton Jacobian used by [`Variational`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -93,73 +94,498 @@ pub fn solve_xi(
     xi_guess: &Vector3<f64>,
     settings: &VariationalSettings,
 ) -> NewtonSolve {
-    let h_m = angmom_body * dt_secs;
-    let scale = h_m.amax();
-    let mut xi = *xi_guess;
-    let mut iterations = 0;
-    loop {
-        let k = Coefficients::new(xi.norm_squared());
-        let residual = inertia_body.component_mul(&xi) - so3::t_transpose_times(&xi, &k, &h_m);
-        let res_max = residual.amax();
-        if res_max <= settings.newton_tol * scale {
-            return NewtonSolve {
-                xi,
-                coefficients: k,
-                iterations,
-                converged: true,
-            };
-        }
-        if iterations >= settings.newton_max_iters || !res_max.is_finite() {
-            return NewtonSolve {
-                xi,
-                coefficients: k,
-                iterations,
-                converged: false,
-            };
-        }
-        let jac = match settings.jacobian {
-            Jacobian::Analytic => {
-                Matrix3::from_diagonal(inertia_body)
-                    - so3::t_transpose_times_jacobian(&xi, &k, &h_m)
-            }
-            Jacobian::Approximate => {
-                Matrix3::from_diagonal(inertia_body) * so3::t_inverse_matrix(&xi)
-            }
-        };
-        match solve3(&jac, &residual) {
-            Some(delta) => xi -= delta,
-            None => {
-                return NewtonSolve {
-                    xi,
-                    coefficients: k,
-                    iterations,
-                    converged: false,
-                };
-            }
-        }
-        iterations += 1;
+    let hm = V3::from(angmom_body).scale(dt_secs);
+    let out = newton(
+        V3::from(inertia_body),
+        hm,
+        V3::from(xi_guess),
+        settings.newton_tol * hm.amax(),
+        settings,
+    );
+    NewtonSolve {
+        xi: out.xi.into(),
+        coefficients: out.eval.k,
+        iterations: out.iterations,
+        converged: out.converged,
     }
 }
 
 /// Solves the 3x3 system `a x = b` by the adjugate (Cramer); `None` when `a` is singular.
 #[inline]
 pub fn solve3(a: &Matrix3<f64>, b: &Vector3<f64>) -> Option<Vector3<f64>> {
-    let c0 = a.column(1).cross(&a.column(2));
-    let c1 = a.column(2).cross(&a.column(0));
-    let c2 = a.column(0).cross(&a.column(1));
-    let det = a.column(0).dot(&c0);
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
-    // Rows of a^-1 are c_i / det.
-    Some(Vector3::new(c0.dot(b), c1.dot(b), c2.dot(b)) / det)
+    let cols = [
+        V3::from(&a.column(0).into_owned()),
+        V3::from(&a.column(1).into_owned()),
+        V3::from(&a.column(2).into_owned()),
+    ];
+    let (x, det) = cramer(&cols, V3::from(b));
+    (det != 0.0 && det.is_finite()).then(|| x.into())
 }
 
-/// `exp(ξ)^T m = m - A ξ×m + B ξ×(ξ×m)`.
+// ---------------------------------------------------------------------------------------------
+// The step's arithmetic, written once over `R: Real` (one body as `f64`, or a pair of bodies as
+// `Lanes<2>`), so the batched and the one-body paths round identically.
+
+/// A 3-vector of `R` (one body, or one lane per body).
+#[derive(Debug, Clone, Copy)]
+struct V3<R> {
+    x: R,
+    y: R,
+    z: R,
+}
+
+impl<R: Real> V3<R> {
+    #[inline(always)]
+    fn splat(v: R) -> Self {
+        Self { x: v, y: v, z: v }
+    }
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        Self {
+            x: self.x + o.x,
+            y: self.y + o.y,
+            z: self.z + o.z,
+        }
+    }
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        Self {
+            x: self.x - o.x,
+            y: self.y - o.y,
+            z: self.z - o.z,
+        }
+    }
+    /// Component-wise product.
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        Self {
+            x: self.x * o.x,
+            y: self.y * o.y,
+            z: self.z * o.z,
+        }
+    }
+    #[inline(always)]
+    fn scale(self, s: R) -> Self {
+        Self {
+            x: self.x * s,
+            y: self.y * s,
+            z: self.z * s,
+        }
+    }
+    #[inline(always)]
+    fn dot(self, o: Self) -> R {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+    #[inline(always)]
+    fn cross(self, o: Self) -> Self {
+        Self {
+            x: self.y * o.z - self.z * o.y,
+            y: self.z * o.x - self.x * o.z,
+            z: self.x * o.y - self.y * o.x,
+        }
+    }
+}
+
+impl V3<f64> {
+    /// `|v|_∞`.
+    #[inline(always)]
+    fn amax(self) -> f64 {
+        self.x.abs().max(self.y.abs()).max(self.z.abs())
+    }
+}
+
+impl From<&Vector3<f64>> for V3<f64> {
+    #[inline(always)]
+    fn from(v: &Vector3<f64>) -> Self {
+        Self {
+            x: v.x,
+            y: v.y,
+            z: v.z,
+        }
+    }
+}
+
+impl From<V3<f64>> for Vector3<f64> {
+    #[inline(always)]
+    fn from(v: V3<f64>) -> Self {
+        Vector3::new(v.x, v.y, v.z)
+    }
+}
+
+/// `f(ξ) = J ξ - T(ξ)^T (h M)` with the cross products that the Jacobian and the momentum
+/// update reuse (`T(ξ)^T m = m - B ξ×m + C ξ×(ξ×m)`).
+#[derive(Debug, Clone, Copy)]
+struct Eval<R> {
+    k: Coefficients<R>,
+    /// `ξ × hM`
+    xm: V3<R>,
+    /// `ξ × (ξ × hM)`
+    xxm: V3<R>,
+    f: V3<R>,
+}
+
+#[inline(always)]
+fn evaluate<R: Real>(j: V3<R>, hm: V3<R>, xi: V3<R>, k: Coefficients<R>) -> Eval<R> {
+    let xm = xi.cross(hm);
+    let xxm = xi.cross(xm);
+    let f = j.mul(xi).sub(hm).add(xm.scale(k.b)).sub(xxm.scale(k.c));
+    Eval { k, xm, xxm, f }
+}
+
+/// Columns of the analytic Newton Jacobian `J - ∂(T(ξ)^T m)/∂ξ` (`m = hM`), expanded from
+/// [`so3::t_transpose_times_jacobian`]:
+/// `diag(J - C ξ·m) - p ξ^T - C ξ m^T - B m^` with `p = C'/θ ξ×(ξ×m) - B'/θ ξ×m - 2 C m`.
+/// About 70 flops, reusing `ξ×m` and `ξ×(ξ×m)` from the residual.
+#[inline(always)]
+fn analytic_jacobian<R: Real>(j: V3<R>, hm: V3<R>, xi: V3<R>, e: &Eval<R>) -> [V3<R>; 3] {
+    let k = &e.k;
+    let d = j.sub(V3::splat(k.c * xi.dot(hm)));
+    let p = e
+        .xxm
+        .scale(k.dc_over_theta)
+        .sub(e.xm.scale(k.db_over_theta))
+        .sub(hm.scale(k.c + k.c));
+    let q = xi.scale(k.c);
+    let bm = hm.scale(k.b);
+    let col = |diag: V3<R>, xj: R, mj: R| diag.sub(p.scale(xj)).sub(q.scale(mj));
+    [
+        col(V3 { x: d.x, y: -bm.z, z: bm.y }, xi.x, hm.x),
+        col(V3 { x: bm.z, y: d.y, z: -bm.x }, xi.y, hm.y),
+        col(V3 { x: -bm.y, y: bm.x, z: d.z }, xi.z, hm.z),
+    ]
+}
+
+/// The seed's approximate Jacobian `J T(ξ)^-1`, as columns.
+fn approximate_jacobian(j: V3<f64>, xi: V3<f64>) -> [V3<f64>; 3] {
+    let a = Matrix3::from_diagonal(&j.into()) * so3::t_inverse_matrix(&xi.into());
+    [0, 1, 2].map(|c| V3::from(&a.column(c).into_owned()))
+}
+
+/// Solves `[c0 c1 c2] x = b` by the adjugate: rows of the inverse are `c1×c2`, `c2×c0`,
+/// `c0×c1` over `det = c0·(c1×c2)`. Returns `(x, det)`; `x` is meaningless when `det` is zero
+/// or not finite. 9 + 9 + 9 multiplications, one division.
+#[inline(always)]
+fn cramer<R: Real>(c: &[V3<R>; 3], b: V3<R>) -> (V3<R>, R) {
+    let r0 = c[1].cross(c[2]);
+    let r1 = c[2].cross(c[0]);
+    let r2 = c[0].cross(c[1]);
+    let det = c[0].dot(r0);
+    let inv_det = R::splat(1.0) / det;
+    let x = V3 {
+        x: r0.dot(b),
+        y: r1.dot(b),
+        z: r2.dot(b),
+    };
+    (x.scale(inv_det), det)
+}
+
+/// Predicted `ξ_k` from the previous step's `ξ_{k-1}` and the current momentum `M_k`:
+/// `ξ_k - ξ_{k-1} ≈ h^2 dΩ/dt = h^2 J^-1 (M × Ω) ≈ J^-1 (hM × ξ_{k-1})` (Euler's equations
+/// `dM/dt = M × Ω` in the body frame). The error is O(h^3 |Ω|^3) instead of the O(h^2 |Ω|^2) of
+/// `ξ_{k-1}` itself, enough for one Newton update to meet `newton_tol` (see the module doc).
+#[inline(always)]
+fn predict<R: Real>(inv_j: V3<R>, hm: V3<R>, xi_prev: V3<R>) -> V3<R> {
+    xi_prev.add(hm.cross(xi_prev).mul(inv_j))
+}
+
+/// A quaternion `w + v` of `R`.
+#[derive(Debug, Clone, Copy)]
+struct Quat<R> {
+    w: R,
+    v: V3<R>,
+}
+
+impl From<&UnitQuaternion<f64>> for Quat<f64> {
+    #[inline(always)]
+    fn from(q: &UnitQuaternion<f64>) -> Self {
+        Self {
+            w: q.w,
+            v: V3 {
+                x: q.i,
+                y: q.j,
+                z: q.k,
+            },
+        }
+    }
+}
+
+impl From<Quat<f64>> for UnitQuaternion<f64> {
+    #[inline(always)]
+    fn from(q: Quat<f64>) -> Self {
+        UnitQuaternion::new_unchecked(Quaternion::new(q.w, q.v.x, q.v.y, q.v.z))
+    }
+}
+
+/// After the solve: `R_{k+1} = R_k exp(ξ)` and `M_{k+1} = exp(ξ)^T M_k`, both from the same
+/// half-angle pair in `e.k`, reusing `ξ × hM` and `ξ × (ξ × hM)` from the last residual:
+/// `exp(ξ)^T M = M - A ξ×M + B ξ×(ξ×M)`.
+///
+/// The product of unit quaternions drifts off the unit sphere by round-off (~1e-16 a step, a
+/// random walk); it is pulled back by one Newton step for `1/|q|`, `q ← q (3 - |q|^2)/2`, which
+/// leaves `||q|^2 - 1| = O(ε^2)`: no sqrt and no division, and the norm never drifts.
+#[inline(always)]
+fn advance<R: Real>(q: Quat<R>, m: V3<R>, xi: V3<R>, e: &Eval<R>, inv_h: R) -> (Quat<R>, V3<R>) {
+    let k = &e.k;
+    let m_next = m.add(e.xxm.scale(k.b).sub(e.xm.scale(k.a)).scale(inv_h));
+    let u = xi.scale(k.half_sin_over_theta);
+    let w = q.w * k.half_cos - q.v.dot(u);
+    let v = u.scale(q.w).add(q.v.scale(k.half_cos)).add(q.v.cross(u));
+    let n2 = w * w + v.dot(v);
+    let s = R::splat(1.5) - R::splat(0.5) * n2;
+    (Quat { w: w * s, v: v.scale(s) }, m_next)
+}
+
+/// The outcome of [`newton`].
+struct NewtonOut {
+    xi: V3<f64>,
+    eval: Eval<f64>,
+    iterations: u32,
+    converged: bool,
+}
+
+/// Newton on `f(ξ) = 0` from `xi`, until every `|f_i| <= threshold` (`newton_tol · h|M|_∞`),
+/// at most `newton_max_iters` updates; stops early on a non-finite residual or a singular
+/// Jacobian.
 #[inline]
-fn exp_transpose_times(xi: &Vector3<f64>, k: &Coefficients, m: &Vector3<f64>) -> Vector3<f64> {
-    let xm = xi.cross(m);
-    m - xm * k.a + xi.cross(&xm) * k.b
+fn newton(
+    j: V3<f64>,
+    hm: V3<f64>,
+    mut xi: V3<f64>,
+    threshold: f64,
+    settings: &VariationalSettings,
+) -> NewtonOut {
+    let mut iterations = 0;
+    loop {
+        let eval = evaluate(j, hm, xi, Coefficients::new(xi.dot(xi)));
+        let f = eval.f;
+        let out = |converged| NewtonOut {
+            xi,
+            eval,
+            iterations,
+            converged,
+        };
+        // `&`, not `&&`: branch-free, and false on NaN.
+        if (f.x.abs() <= threshold) & (f.y.abs() <= threshold) & (f.z.abs() <= threshold) {
+            return out(true);
+        }
+        if iterations >= settings.newton_max_iters || !f.amax().is_finite() {
+            return out(false);
+        }
+        let cols = match settings.jacobian {
+            Jacobian::Analytic => analytic_jacobian(j, hm, xi, &eval),
+            Jacobian::Approximate => approximate_jacobian(j, xi),
+        };
+        let (delta, det) = cramer(&cols, f);
+        if det == 0.0 || !det.is_finite() {
+            return out(false);
+        }
+        xi = xi.sub(delta);
+        iterations += 1;
+    }
+}
+
+/// Steps one body: predict (unless `predict` is false), Newton, rotate `q` and `M`.
+#[inline]
+fn step_body(
+    inertia: &Vector3<f64>,
+    inv_inertia: &Vector3<f64>,
+    angmom: &mut Vector3<f64>,
+    q: &mut UnitQuaternion<f64>,
+    xi: &mut Vector3<f64>,
+    dt_secs: f64,
+    predict_xi: bool,
+    settings: &VariationalSettings,
+) -> (u32, bool) {
+    let m = V3::from(&*angmom);
+    let hm = m.scale(dt_secs);
+    let xi_prev = V3::from(&*xi);
+    let xi0 = if predict_xi {
+        predict(V3::from(inv_inertia), hm, xi_prev)
+    } else {
+        xi_prev
+    };
+    let out = newton(
+        V3::from(inertia),
+        hm,
+        xi0,
+        settings.newton_tol * hm.amax(),
+        settings,
+    );
+    let (q_next, m_next) = advance(Quat::from(&*q), m, out.xi, &out.eval, 1.0 / dt_secs);
+    *q = q_next.into();
+    *angmom = m_next.into();
+    *xi = out.xi.into();
+    (out.iterations, out.converged)
+}
+
+/// `N` bodies' values of one quantity, processed by the same instructions: the lane loops
+/// below become SSE2 packed instructions (`addpd`, `mulpd`, `divpd`), two bodies per instruction.
+#[derive(Debug, Clone, Copy)]
+struct Lanes<const N: usize>([f64; N]);
+
+macro_rules! lanes_binop {
+    ($trait:ident, $method:ident, $op:tt) => {
+        impl<const N: usize> $trait for Lanes<N> {
+            type Output = Self;
+            #[inline(always)]
+            fn $method(self, o: Self) -> Self {
+                Lanes(std::array::from_fn(|i| self.0[i] $op o.0[i]))
+            }
+        }
+    };
+}
+lanes_binop!(Add, add, +);
+lanes_binop!(Sub, sub, -);
+lanes_binop!(Mul, mul, *);
+lanes_binop!(Div, div, /);
+
+impl<const N: usize> Neg for Lanes<N> {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        Lanes(self.0.map(|x| -x))
+    }
+}
+
+impl<const N: usize> Real for Lanes<N> {
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        Lanes([v; N])
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Lanes(self.0.map(f64::abs))
+    }
+}
+
+impl<const N: usize> Lanes<N> {
+    /// Whether `pred` holds in every lane (evaluated in all lanes, no early exit).
+    #[inline(always)]
+    fn all(self, pred: impl Fn(f64) -> bool) -> bool {
+        self.0.iter().fold(true, |acc, &x| acc & pred(x))
+    }
+    /// Lane-wise maximum (equal to `f64::max` for non-NaN lanes).
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        Lanes(std::array::from_fn(|i| {
+            if self.0[i] > o.0[i] {
+                self.0[i]
+            } else {
+                o.0[i]
+            }
+        }))
+    }
+}
+
+impl<const N: usize> V3<Lanes<N>> {
+    #[inline(always)]
+    fn gather(v: &[Vector3<f64>; N]) -> Self {
+        Self {
+            x: Lanes(v.each_ref().map(|v| v.x)),
+            y: Lanes(v.each_ref().map(|v| v.y)),
+            z: Lanes(v.each_ref().map(|v| v.z)),
+        }
+    }
+    #[inline(always)]
+    fn scatter(self, v: &mut [Vector3<f64>; N]) {
+        for (i, v) in v.iter_mut().enumerate() {
+            *v = Vector3::new(self.x.0[i], self.y.0[i], self.z.0[i]);
+        }
+    }
+    #[inline(always)]
+    fn amax(self) -> Lanes<N> {
+        self.x.abs().max(self.y.abs()).max(self.z.abs())
+    }
+    /// Lanes where every `|v_i| <= threshold` (false for NaN).
+    #[inline(always)]
+    fn within(self, threshold: Lanes<N>) -> [bool; N] {
+        let a = self.map_abs();
+        std::array::from_fn(|i| {
+            (a.x.0[i] <= threshold.0[i])
+                & (a.y.0[i] <= threshold.0[i])
+                & (a.z.0[i] <= threshold.0[i])
+        })
+    }
+    #[inline(always)]
+    fn map_abs(self) -> Self {
+        Self {
+            x: self.x.abs(),
+            y: self.y.abs(),
+            z: self.z.abs(),
+        }
+    }
+}
+
+/// Bodies stepped together by [`step_lanes`].
+const LANES: usize = 2;
+
+/// Steps `N` bodies with the same instructions when all of them take the common path: series
+/// regime (`|ξ| < SERIES_THETA`) at the predicted and at the updated `ξ`, residual above the
+/// tolerance before and within it after exactly one Newton update with the analytic Jacobian.
+/// That is exactly what [`newton`] does on each of them, with the same arithmetic; otherwise
+/// nothing is written and `false` is returned, and the caller steps the bodies one at a time.
+#[inline(always)]
+fn step_lanes<const N: usize>(
+    inertia: &[Vector3<f64>; N],
+    inv_inertia: &[Vector3<f64>; N],
+    angmom: &mut [Vector3<f64>; N],
+    q: &mut [UnitQuaternion<f64>; N],
+    xi: &mut [Vector3<f64>; N],
+    dt_secs: f64,
+    predict_xi: bool,
+    newton_tol: f64,
+) -> bool {
+    let series = |t2: Lanes<N>| t2.all(|t| t < SERIES_THETA_SQ);
+    let j = V3::gather(inertia);
+    let m = V3::gather(angmom);
+    let hm = m.scale(Lanes::splat(dt_secs));
+    let threshold = Lanes::splat(newton_tol) * hm.amax();
+    let mut xi0 = V3::gather(xi);
+    if predict_xi {
+        xi0 = predict(V3::gather(inv_inertia), hm, xi0);
+    }
+    let t2 = xi0.dot(xi0);
+    if !series(t2) {
+        return false;
+    }
+    let e0 = evaluate(j, hm, xi0, Coefficients::series(t2));
+    if e0.f.within(threshold).iter().any(|&c| c) {
+        // Newton returns that lane's ξ without an update.
+        return false;
+    }
+    let (delta, det) = cramer(&analytic_jacobian(j, hm, xi0, &e0), e0.f);
+    if !det.all(|d| d != 0.0 && d.is_finite()) {
+        return false;
+    }
+    let xi1 = xi0.sub(delta);
+    let t2 = xi1.dot(xi1);
+    if !series(t2) {
+        return false;
+    }
+    let e1 = evaluate(j, hm, xi1, Coefficients::series(t2));
+    if !e1.f.within(threshold).iter().all(|&c| c) {
+        return false;
+    }
+    let qs = Quat {
+        w: Lanes(q.each_ref().map(|q| q.w)),
+        v: V3 {
+            x: Lanes(q.each_ref().map(|q| q.i)),
+            y: Lanes(q.each_ref().map(|q| q.j)),
+            z: Lanes(q.each_ref().map(|q| q.k)),
+        },
+    };
+    let (q_next, m_next) = advance(qs, m, xi1, &e1, Lanes::splat(1.0 / dt_secs));
+    for (i, q) in q.iter_mut().enumerate() {
+        *q = UnitQuaternion::new_unchecked(Quaternion::new(
+            q_next.w.0[i],
+            q_next.v.x.0[i],
+            q_next.v.y.0[i],
+            q_next.v.z.0[i],
+        ));
+    }
+    m_next.scatter(angmom);
+    xi1.scatter(xi);
+    true
 }
 
 /// The exponential-map variational integrator over a batch.
@@ -167,8 +593,11 @@ fn exp_transpose_times(xi: &Vector3<f64>, k: &Coefficients, m: &Vector3<f64>) ->
 pub struct Variational {
     pub settings: VariationalSettings,
     dt_secs: f64,
-    /// Per body: the last solved `ξ` (state, and the warm start of the next solve).
+    /// Per body: the last solved `ξ` (state, and the base of the next warm start).
     xi: Vec<Vector3<f64>>,
+    /// `xi` was just solved by [`Integrator::init`] for the current momenta: the next step's
+    /// solution is `xi` itself, so it must not be extrapolated.
+    fresh: bool,
 }
 
 impl Variational {
@@ -177,6 +606,7 @@ impl Variational {
             settings,
             dt_secs,
             xi: Vec::new(),
+            fresh: false,
         }
     }
 
@@ -209,37 +639,53 @@ impl Integrator for Variational {
                 .xi
             })
             .collect();
+        self.fresh = true;
     }
 
     fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
         if self.xi.len() != bodies.len() {
             self.init(bodies);
         }
+        let predict_xi = !std::mem::replace(&mut self.fresh, false);
+        let dt = self.dt_secs;
+        let settings = &self.settings;
+        let lanes_ok = settings.jacobian == Jacobian::Analytic && settings.newton_max_iters >= 1;
         let mut stats = StepStats::default();
-        for i in 0..bodies.len() {
-            let m = bodies.angmom_body[i];
-            let solve = solve_xi(
-                &bodies.inertia_body[i],
-                &m,
-                self.dt_secs,
-                &self.xi[i],
-                &self.settings,
-            );
-            stats.newton_iters_max = stats.newton_iters_max.max(solve.iterations);
-            stats.newton_failures += u32::from(!solve.converged);
-            let xi = solve.xi;
-            let q = &mut bodies.world_from_body[i];
-            *q *= so3::exp_quaternion(&xi);
-            q.renormalize();
-            bodies.angmom_body[i] = exp_transpose_times(&xi, &solve.coefficients, &m);
-            self.xi[i] = xi;
+        let one = |j: &Vector3<f64>,
+                       ij: &Vector3<f64>,
+                       m: &mut Vector3<f64>,
+                       q: &mut UnitQuaternion<f64>,
+                       xi: &mut Vector3<f64>,
+                       stats: &mut StepStats| {
+            let (iters, converged) = step_body(j, ij, m, q, xi, dt, predict_xi, settings);
+            stats.newton_iters_max = stats.newton_iters_max.max(iters);
+            stats.newton_failures += u32::from(!converged);
+        };
+
+        let (j_l, j_r) = bodies.inertia_body.as_chunks::<LANES>();
+        let (ij_l, ij_r) = bodies.inv_inertia_body.as_chunks::<LANES>();
+        let (m_l, m_r) = bodies.angmom_body.as_chunks_mut::<LANES>();
+        let (q_l, q_r) = bodies.world_from_body.as_chunks_mut::<LANES>();
+        let (xi_l, xi_r) = self.xi.as_chunks_mut::<LANES>();
+        for ((((j, ij), m), q), xi) in j_l.iter().zip(ij_l).zip(m_l).zip(q_l).zip(xi_l) {
+            if lanes_ok && step_lanes(j, ij, m, q, xi, dt, predict_xi, settings.newton_tol) {
+                stats.newton_iters_max = stats.newton_iters_max.max(1);
+            } else {
+                for i in 0..LANES {
+                    one(&j[i], &ij[i], &mut m[i], &mut q[i], &mut xi[i], &mut stats);
+                }
+            }
         }
+        for ((((j, ij), m), q), xi) in j_r.iter().zip(ij_r).zip(m_r).zip(q_r).zip(xi_r) {
+            one(j, ij, m, q, xi, &mut stats);
+        }
+
         step_translation(
             &mut bodies.com_world,
             &mut bodies.linvel_world,
-            self.dt_secs,
+            dt,
             gravity,
-            self.settings.potential,
+            settings.potential,
         );
         stats
     }
