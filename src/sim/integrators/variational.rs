@@ -148,12 +148,12 @@ pub fn solve_xi(
     xi_guess: &Vector3<f64>,
     settings: &VariationalSettings,
 ) -> NewtonSolve {
-    let hm = V3::<Lanes<1>>::gather(&[*angmom_body]).scale(Lanes::splat(dt_secs));
+    let m = V3::<Lanes<1>>::gather(&[*angmom_body]);
     let out = newton(
-        V3::gather(&[*inertia_body]),
-        hm,
+        V3::gather(&[*inertia_body]).scale(Lanes::splat(1.0 / dt_secs)),
+        m,
         V3::gather(&[*xi_guess]),
-        Lanes::splat(settings.newton_tol) * hm.amax(),
+        Lanes::splat(settings.newton_tol) * m.amax(),
         settings,
     );
     let k = out.eval.k;
@@ -394,41 +394,49 @@ fn coefficients_by_lane<const N: usize>(theta_sq: Lanes<N>) -> Coefficients<Lane
     }
 }
 
-/// `f(ξ) = J ξ - T(ξ)^T (h M)` with the cross products that the Jacobian and the momentum
-/// update reuse (`T(ξ)^T m = m - B ξ×m + C ξ×(ξ×m)`).
+/// The residual, scaled by `1/h`: `g(ξ) = f(ξ)/h = (J/h) ξ - T(ξ)^T M`, with the cross products
+/// that the Jacobian and the momentum update reuse (`T(ξ)^T M = M - B ξ×M + C ξ×(ξ×M)`).
+/// Newton's updates do not depend on a constant scaling of the residual, and
+/// `|f|_∞ <= tol · h|M|_∞` is `|g|_∞ <= tol · |M|_∞`. Working with `M` rather than `hM` lets the
+/// momentum update reuse `ξ×M` exactly as `exp(ξ)^T M = M - A ξ×M + B ξ×(ξ×M)` needs it (no
+/// rescaling by `1/h`, whose rounding would bias the update and double the momentum round-off).
 #[derive(Debug, Clone, Copy)]
 struct Eval<R> {
     k: Coefficients<R>,
-    /// `ξ × hM`
+    /// `ξ × M`
     xm: V3<R>,
-    /// `ξ × (ξ × hM)`
+    /// `ξ × (ξ × M)`
     xxm: V3<R>,
     f: V3<R>,
 }
 
 #[inline(always)]
-fn evaluate<R: Real>(j: V3<R>, hm: V3<R>, xi: V3<R>, k: Coefficients<R>) -> Eval<R> {
-    let xm = xi.cross(hm);
+fn evaluate<R: Real>(j_over_h: V3<R>, m: V3<R>, xi: V3<R>, k: Coefficients<R>) -> Eval<R> {
+    let xm = xi.cross(m);
     let xxm = xi.cross(xm);
-    let f = j.mul(xi).sub(hm).add(xm.scale(k.b)).sub(xxm.scale(k.c));
+    let f = j_over_h
+        .mul(xi)
+        .sub(m)
+        .add(xm.scale(k.b))
+        .sub(xxm.scale(k.c));
     Eval { k, xm, xxm, f }
 }
 
-/// Columns of the analytic Newton Jacobian `J - ∂(T(ξ)^T m)/∂ξ` (`m = hM`), expanded from
+/// Columns of the analytic Newton Jacobian `J/h - ∂(T(ξ)^T m)/∂ξ` of `g` (`m = M`), expanded from
 /// [`so3::t_transpose_times_jacobian`]:
-/// `diag(J - C ξ·m) - p ξ^T - C ξ m^T - B m^` with `p = C'/θ ξ×(ξ×m) - B'/θ ξ×m - 2 C m`.
+/// `diag(J/h - C ξ·m) - p ξ^T - C ξ m^T - B m^` with `p = C'/θ ξ×(ξ×m) - B'/θ ξ×m - 2 C m`.
 /// About 70 flops, reusing `ξ×m` and `ξ×(ξ×m)` from the residual.
 #[inline(always)]
-fn analytic_jacobian<R: Real>(j: V3<R>, hm: V3<R>, xi: V3<R>, e: &Eval<R>) -> [V3<R>; 3] {
+fn analytic_jacobian<R: Real>(j_over_h: V3<R>, m: V3<R>, xi: V3<R>, e: &Eval<R>) -> [V3<R>; 3] {
     let k = &e.k;
-    let d = j.sub(V3::splat(k.c * xi.dot(hm)));
+    let d = j_over_h.sub(V3::splat(k.c * xi.dot(m)));
     let p = e
         .xxm
         .scale(k.dc_over_theta)
         .sub(e.xm.scale(k.db_over_theta))
-        .sub(hm.scale(k.c + k.c));
+        .sub(m.scale(k.c + k.c));
     let q = xi.scale(k.c);
-    let bm = hm.scale(k.b);
+    let bm = m.scale(k.b);
     let col = |diag: V3<R>, xj: R, mj: R| diag.sub(p.scale(xj)).sub(q.scale(mj));
     [
         col(
@@ -438,7 +446,7 @@ fn analytic_jacobian<R: Real>(j: V3<R>, hm: V3<R>, xi: V3<R>, e: &Eval<R>) -> [V
                 z: bm.y,
             },
             xi.x,
-            hm.x,
+            m.x,
         ),
         col(
             V3 {
@@ -447,7 +455,7 @@ fn analytic_jacobian<R: Real>(j: V3<R>, hm: V3<R>, xi: V3<R>, e: &Eval<R>) -> [V
                 z: -bm.x,
             },
             xi.y,
-            hm.y,
+            m.y,
         ),
         col(
             V3 {
@@ -456,12 +464,13 @@ fn analytic_jacobian<R: Real>(j: V3<R>, hm: V3<R>, xi: V3<R>, e: &Eval<R>) -> [V
                 z: d.z,
             },
             xi.z,
-            hm.z,
+            m.z,
         ),
     ]
 }
 
-/// The seed's approximate Jacobian `J T(ξ)^-1`, as columns (lane by lane: not a hot path).
+/// The seed's approximate Jacobian `J T(ξ)^-1` (of `g`: `J/h T(ξ)^-1`), as columns (lane by
+/// lane: not a hot path).
 fn approximate_jacobian<const N: usize>(j: V3<Lanes<N>>, xi: V3<Lanes<N>>) -> [V3<Lanes<N>>; 3] {
     let per_lane: [Matrix3<f64>; N] = std::array::from_fn(|i| {
         Matrix3::from_diagonal(&j.lane(i)) * so3::t_inverse_matrix(&xi.lane(i))
@@ -488,12 +497,12 @@ fn cramer<R: Real>(c: &[V3<R>; 3], b: V3<R>) -> (V3<R>, R) {
 }
 
 /// Predicted `ξ_k` from the previous step's `ξ_{k-1}` and the current momentum `M_k`:
-/// `ξ_k - ξ_{k-1} ≈ h^2 dΩ/dt = h^2 J^-1 (M × Ω) ≈ J^-1 (hM × ξ_{k-1})` (Euler's equations
+/// `ξ_k - ξ_{k-1} ≈ h^2 dΩ/dt = h^2 J^-1 (M × Ω) ≈ h J^-1 (M × ξ_{k-1})` (Euler's equations
 /// `dM/dt = M × Ω` in the body frame). Its error is O(h^3 |Ω|^3) where `ξ_{k-1}` itself is off
 /// by O(h^2 |Ω|^2): one Newton update then meets `newton_tol` (see the module doc).
 #[inline(always)]
-fn predict<R: Real>(inv_j: V3<R>, hm: V3<R>, xi_prev: V3<R>) -> V3<R> {
-    xi_prev.add(hm.cross(xi_prev).mul(inv_j))
+fn predict<R: Real>(inv_j: V3<R>, m: V3<R>, xi_prev: V3<R>, h: R) -> V3<R> {
+    xi_prev.add(m.cross(xi_prev).mul(inv_j).scale(h))
 }
 
 /// A quaternion `w + v` of lanes.
@@ -529,16 +538,16 @@ impl<const N: usize> Quat<Lanes<N>> {
 }
 
 /// After the solve: `R_{k+1} = R_k exp(ξ)` and `M_{k+1} = exp(ξ)^T M_k`, both from the same
-/// half-angle pair in `e.k`, reusing `ξ × hM` and `ξ × (ξ × hM)` from the last residual:
+/// half-angle pair in `e.k`, reusing `ξ × M` and `ξ × (ξ × M)` from the last residual:
 /// `exp(ξ)^T M = M - A ξ×M + B ξ×(ξ×M)`.
 ///
 /// The product of unit quaternions drifts off the unit sphere by round-off (~1e-16 a step, a
 /// random walk); it is pulled back by one Newton step for `1/|q|`, `q ← q (3 - |q|^2)/2`, which
 /// leaves `||q|^2 - 1| = O(ε^2)`: no sqrt and no division, and the norm never drifts.
 #[inline(always)]
-fn advance<R: Real>(q: Quat<R>, m: V3<R>, xi: V3<R>, e: &Eval<R>, inv_h: R) -> (Quat<R>, V3<R>) {
+fn advance<R: Real>(q: Quat<R>, m: V3<R>, xi: V3<R>, e: &Eval<R>) -> (Quat<R>, V3<R>) {
     let k = &e.k;
-    let m_next = m.add(e.xxm.scale(k.b).sub(e.xm.scale(k.a)).scale(inv_h));
+    let m_next = m.add(e.xxm.scale(k.b).sub(e.xm.scale(k.a)));
     let u = xi.scale(k.half_sin_over_theta);
     let w = q.w * k.half_cos - q.v.dot(u);
     let v = u.scale(q.w).add(q.v.scale(k.half_cos)).add(q.v.cross(u));
@@ -562,14 +571,14 @@ struct NewtonOut<const N: usize> {
     converged: [bool; N],
 }
 
-/// Newton on `f(ξ) = 0` from `xi`, lane by lane: a lane stops (its `ξ` is frozen) once every
-/// `|f_i| <= threshold` (`newton_tol · h|M|_∞`), or after `newton_max_iters` updates, or on a
+/// Newton on `g(ξ) = f(ξ)/h = 0` from `xi`, lane by lane: a lane stops (its `ξ` is frozen) once
+/// every `|g_i| <= threshold` (`newton_tol · |M|_∞`), or after `newton_max_iters` updates, or on a
 /// non-finite residual or a singular Jacobian. Lanes that stopped are re-evaluated with the
 /// others at the same `ξ`, which reproduces their residual exactly.
 #[inline(never)]
 fn newton<const N: usize>(
-    j: V3<Lanes<N>>,
-    hm: V3<Lanes<N>>,
+    j_over_h: V3<Lanes<N>>,
+    m: V3<Lanes<N>>,
     mut xi: V3<Lanes<N>>,
     threshold: Lanes<N>,
     settings: &VariationalSettings,
@@ -578,7 +587,7 @@ fn newton<const N: usize>(
     let mut done = [false; N];
     let mut converged = [false; N];
     loop {
-        let eval = evaluate(j, hm, xi, coefficients(xi.dot(xi)));
+        let eval = evaluate(j_over_h, m, xi, coefficients(xi.dot(xi)));
         let within = eval.f.within(threshold);
         let finite = eval.f.finite();
         for i in 0..N {
@@ -596,8 +605,8 @@ fn newton<const N: usize>(
             };
         }
         let cols = match settings.jacobian {
-            Jacobian::Analytic => analytic_jacobian(j, hm, xi, &eval),
-            Jacobian::Approximate => approximate_jacobian(j, xi),
+            Jacobian::Analytic => analytic_jacobian(j_over_h, m, xi, &eval),
+            Jacobian::Approximate => approximate_jacobian(j_over_h, xi),
         };
         let (delta, det) = cramer(&cols, eval.f);
         for i in 0..N {
@@ -609,13 +618,13 @@ fn newton<const N: usize>(
 }
 
 /// The common case of [`newton`] as straight-line code: every `|ξ|` in the series regime, no
-/// lane meets the tolerance at the warm start, every lane does after exactly one update. Returns what [`newton`] would (the same
-/// arithmetic in the same order), or `None` when any lane leaves that path; the caller then runs
-/// [`newton`] from the same start.
+/// lane meets the tolerance at the warm start, every lane does after exactly one update. Returns
+/// what [`newton`] would (the same arithmetic in the same order), or `None` when any lane leaves
+/// that path; the caller then runs [`newton`] from the same start.
 #[inline(always)]
 fn newton_one_update<const N: usize>(
-    j: V3<Lanes<N>>,
-    hm: V3<Lanes<N>>,
+    j_over_h: V3<Lanes<N>>,
+    m: V3<Lanes<N>>,
     xi0: V3<Lanes<N>>,
     threshold: Lanes<N>,
     settings: &VariationalSettings,
@@ -629,18 +638,18 @@ fn newton_one_update<const N: usize>(
         t2.all(|t| t < SERIES_THETA_SQ)
             .then(|| Coefficients::series(t2))
     };
-    let e0 = evaluate(j, hm, xi0, series(xi0.dot(xi0))?);
+    let e0 = evaluate(j_over_h, m, xi0, series(xi0.dot(xi0))?);
     // A non-finite residual needs no test here: it makes `ξ` non-finite and fails the series
     // test below.
     if e0.f.within(threshold).iter().any(|&c| c) {
         return None;
     }
-    let (delta, det) = cramer(&analytic_jacobian(j, hm, xi0, &e0), e0.f);
+    let (delta, det) = cramer(&analytic_jacobian(j_over_h, m, xi0, &e0), e0.f);
     if !det.all(|d| d != 0.0 && d.is_finite()) {
         return None;
     }
     let xi = xi0.sub(delta);
-    let eval = evaluate(j, hm, xi, series(xi.dot(xi))?);
+    let eval = evaluate(j_over_h, m, xi, series(xi.dot(xi))?);
     let converged = eval.f.within(threshold);
     converged.iter().all(|&c| c).then_some(NewtonOut {
         xi,
@@ -664,19 +673,18 @@ fn step_bodies<const N: usize>(
     stats: &mut StepStats,
 ) {
     let m = V3::gather(angmom);
-    let hm = m.scale(Lanes::splat(dt_secs));
     let mut xi0 = V3::gather(xi);
     if predict_xi {
-        xi0 = predict(V3::gather(inv_inertia), hm, xi0);
+        xi0 = predict(V3::gather(inv_inertia), m, xi0, Lanes::splat(dt_secs));
     }
-    let j = V3::gather(inertia);
-    let threshold = Lanes::splat(settings.newton_tol) * hm.amax();
+    let j_over_h = V3::gather(inertia).scale(Lanes::splat(1.0 / dt_secs));
+    let threshold = Lanes::splat(settings.newton_tol) * m.amax();
     // Two inlined copies of `finish`: the common path keeps everything in registers.
-    match newton_one_update(j, hm, xi0, threshold, settings) {
-        Some(out) => finish(&out, m, angmom, q, xi, dt_secs, stats),
+    match newton_one_update(j_over_h, m, xi0, threshold, settings) {
+        Some(out) => finish(&out, m, angmom, q, xi, stats),
         None => {
-            let out = newton(j, hm, xi0, threshold, settings);
-            finish(&out, m, angmom, q, xi, dt_secs, stats);
+            let out = newton(j_over_h, m, xi0, threshold, settings);
+            finish(&out, m, angmom, q, xi, stats);
         }
     }
 }
@@ -689,16 +697,9 @@ fn finish<const N: usize>(
     angmom: &mut [Vector3<f64>; N],
     q: &mut [UnitQuaternion<f64>; N],
     xi: &mut [Vector3<f64>; N],
-    dt_secs: f64,
     stats: &mut StepStats,
 ) {
-    let (q_next, m_next) = advance(
-        Quat::gather(q),
-        m,
-        out.xi,
-        &out.eval,
-        Lanes::splat(1.0 / dt_secs),
-    );
+    let (q_next, m_next) = advance(Quat::gather(q), m, out.xi, &out.eval);
     q_next.scatter(q);
     m_next.scatter(angmom);
     out.xi.scatter(xi);
