@@ -11,16 +11,51 @@
 //!
 //! The direct formulas lose digits for small θ (relative error ~1e-4 at θ = 1e-6, from cancellation in
 //! `θ - sin θ` and `1 - cos θ`), so below [`SERIES_THETA`] the truncated Taylor series are used:
-//! `B = 1/2 - θ^2/24 + θ^4/720`, `C = 1/6 - θ^2/120 + θ^4/5040`, `D = 1/12 + θ^2/720 + θ^4/30240`,
-//! `B'/θ = -1/12 + θ^2/180 - θ^4/6720`, `C'/θ = -1/60 + θ^2/1260 - θ^4/60480`.
-//! At θ = 0.02 the first omitted terms are ~θ^6/40320 ≈ 1.6e-15 relative to B, i.e. below f64
+//! `C = 1/6 - θ^2/120 + θ^4/5040`, `D = 1/12 + θ^2/720 + θ^4/30240`,
+//! `B'/θ = -1/12 + θ^2/180 - θ^4/6720`, `C'/θ = -1/60 + θ^2/1260 - θ^4/60480`, and `A`, `B` from the
+//! half-angle pair `cos(θ/2) = 1 - θ²/8 + θ⁴/384 - θ⁶/46080`, `sin(θ/2)/θ = 1/2 - θ²/48 + θ⁴/3840 - θ⁶/645120`
+//! (`A = 2 sin(θ/2)/θ cos(θ/2)`, `B = 2 (sin(θ/2)/θ)^2`, exact identities), which the quaternion
+//! `exp(x)` uses too. At θ = 0.02 the first omitted terms are below 2e-15 relative, i.e. at f64
 //! round-off, while the direct formula for C has lost about `eps/θ^2 ≈ 5.6e-13` relative there.
+//! Above the switch one `sin_cos(θ/2)` gives every coefficient.
 //! `T` is singular at `θ = 2πn`; per-step rotations that large are aliased anyway.
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Below this angle (rad) the coefficient functions use their Taylor series.
 pub const SERIES_THETA: f64 = 0.02;
+
+/// `θ^2` below which the series are used: `SERIES_THETA^2`.
+pub const SERIES_THETA_SQ: f64 = SERIES_THETA * SERIES_THETA;
+
+/// The arithmetic the series branch needs: `f64`, or several `f64` lanes processed together (the
+/// batched variational step evaluates two bodies at once with the same instructions, so both
+/// paths round identically).
+pub trait Real:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// Every lane set to `v`.
+    fn splat(v: f64) -> Self;
+    /// Lane-wise `|self|`.
+    fn abs(self) -> Self;
+}
+
+impl Real for f64 {
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f64::abs(self)
+    }
+}
 
 /// The skew-symmetric matrix `x^` with `x^ y = x × y`.
 #[inline]
@@ -29,48 +64,89 @@ pub fn hat(x: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 /// The coefficient functions of `exp`, `T` and the derivatives of `T` at one angle.
+///
+/// `A` and `B` are built from the half-angle pair, `A = 2 sin(θ/2) cos(θ/2) / θ` and
+/// `B = 2 (sin(θ/2)/θ)^2`, so the rotation applied to the momentum (`A`, `B`) and to the
+/// quaternion (`cos(θ/2)`, `sin(θ/2)/θ`) come from the same two numbers, and one `sin_cos` call
+/// serves all of them.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Coefficients {
+pub struct Coefficients<R = f64> {
     /// `sin θ / θ`
-    pub a: f64,
+    pub a: R,
     /// `(1 - cos θ) / θ^2`
-    pub b: f64,
+    pub b: R,
     /// `(θ - sin θ) / θ^3`
-    pub c: f64,
+    pub c: R,
     /// `B'(θ) / θ = (A - 2B) / θ^2`
-    pub db_over_theta: f64,
+    pub db_over_theta: R,
     /// `C'(θ) / θ = (B - 3C) / θ^2`
-    pub dc_over_theta: f64,
+    pub dc_over_theta: R,
+    /// `cos(θ/2)`, the scalar part of the quaternion `exp(x)`.
+    pub half_cos: R,
+    /// `sin(θ/2) / θ`, the factor of `x` in the vector part of the quaternion `exp(x)`.
+    pub half_sin_over_theta: R,
 }
 
-impl Coefficients {
-    /// Evaluates all coefficients at `θ^2 = |x|^2` (series below [`SERIES_THETA`]).
+/// `(cos(θ/2), sin(θ/2)/θ)` by series in `θ^2`, for `θ < SERIES_THETA`:
+/// `cos(θ/2) = 1 - θ²/8 + θ⁴/384 - θ⁶/46080`, `sin(θ/2)/θ = 1/2 - θ²/48 + θ⁴/3840 - θ⁶/645120`.
+/// The first omitted terms (`θ⁸/10321920`, `θ⁸/185794560`) are below 3e-21 at θ = 0.02.
+#[inline(always)]
+fn half_angle_series<R: Real>(t2: R) -> (R, R) {
+    let k = R::splat;
+    let cos = k(1.0) + t2 * (k(-1.0 / 8.0) + t2 * (k(1.0 / 384.0) + t2 * k(-1.0 / 46080.0)));
+    let sinc = k(0.5) + t2 * (k(-1.0 / 48.0) + t2 * (k(1.0 / 3840.0) + t2 * k(-1.0 / 645120.0)));
+    (cos, sinc)
+}
+
+impl<R: Real> Coefficients<R> {
+    /// All coefficients by their Taylor series in `θ^2` (Horner); valid for
+    /// `theta_sq < SERIES_THETA_SQ` only. The first omitted terms of `C`, `B'/θ`, `C'/θ` are
+    /// `θ⁶/362880`, `θ⁶/453600` (relative ~2e-15 of the leading term at θ = 0.02, where these
+    /// coefficients are only ever multiplied by `|x|^2 ≤ 4e-4`).
+    #[inline(always)]
+    pub fn series(theta_sq: R) -> Self {
+        let k = R::splat;
+        let t2 = theta_sq;
+        let (half_cos, half_sin_over_theta) = half_angle_series(t2);
+        let two_hs = k(2.0) * half_sin_over_theta;
+        Self {
+            a: two_hs * half_cos,
+            b: two_hs * half_sin_over_theta,
+            c: k(1.0 / 6.0) + t2 * (k(-1.0 / 120.0) + t2 * k(1.0 / 5040.0)),
+            db_over_theta: k(-1.0 / 12.0) + t2 * (k(1.0 / 180.0) + t2 * k(-1.0 / 6720.0)),
+            dc_over_theta: k(-1.0 / 60.0) + t2 * (k(1.0 / 1260.0) + t2 * k(-1.0 / 60480.0)),
+            half_cos,
+            half_sin_over_theta,
+        }
+    }
+}
+
+impl Coefficients<f64> {
+    /// Evaluates all coefficients at `θ^2 = |x|^2` (series below [`SERIES_THETA`], otherwise one
+    /// `sqrt`, one `sin_cos(θ/2)` and one division).
     #[inline]
     pub fn new(theta_sq: f64) -> Self {
-        if theta_sq < SERIES_THETA * SERIES_THETA {
-            let t2 = theta_sq;
-            let t4 = t2 * t2;
-            Self {
-                a: 1.0 - t2 / 6.0 + t4 / 120.0,
-                b: 0.5 - t2 / 24.0 + t4 / 720.0,
-                c: 1.0 / 6.0 - t2 / 120.0 + t4 / 5040.0,
-                db_over_theta: -1.0 / 12.0 + t2 / 180.0 - t4 / 6720.0,
-                dc_over_theta: -1.0 / 60.0 + t2 / 1260.0 - t4 / 60480.0,
-            }
+        if theta_sq < SERIES_THETA_SQ {
+            Self::series(theta_sq)
         } else {
             let theta = theta_sq.sqrt();
-            let (s, _) = theta.sin_cos();
-            let half_s = (0.5 * theta).sin();
-            let a = s / theta;
-            // 1 - cos θ = 2 sin^2(θ/2): no cancellation.
-            let b = 2.0 * half_s * half_s / theta_sq;
-            let c = (1.0 - a) / theta_sq;
+            let (half_sin, half_cos) = (0.5 * theta).sin_cos();
+            let inv_theta = 1.0 / theta;
+            let inv_theta_sq = inv_theta * inv_theta;
+            let half_sin_over_theta = half_sin * inv_theta;
+            let two_hs = 2.0 * half_sin_over_theta;
+            // sin θ = 2 sin(θ/2) cos(θ/2); 1 - cos θ = 2 sin^2(θ/2): no cancellation.
+            let a = two_hs * half_cos;
+            let b = two_hs * half_sin_over_theta;
+            let c = (1.0 - a) * inv_theta_sq;
             Self {
                 a,
                 b,
                 c,
-                db_over_theta: (a - 2.0 * b) / theta_sq,
-                dc_over_theta: (b - 3.0 * c) / theta_sq,
+                db_over_theta: (a - 2.0 * b) * inv_theta_sq,
+                dc_over_theta: (b - 3.0 * c) * inv_theta_sq,
+                half_cos,
+                half_sin_over_theta,
             }
         }
     }
@@ -93,16 +169,12 @@ pub fn exp_matrix(x: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::identity() + xh * k.a + xh * xh * k.b
 }
 
-/// `exp(x)` as a unit quaternion `(cos(θ/2), sin(θ/2) x/θ)`; `sin(θ/2)/θ` by series near zero.
+/// `exp(x)` as a unit quaternion `(cos(θ/2), sin(θ/2) x/θ)`; by series near zero.
 #[inline]
 pub fn exp_quaternion(x: &Vector3<f64>) -> UnitQuaternion<f64> {
     let t2 = x.norm_squared();
-    let (w, s) = if t2 < SERIES_THETA * SERIES_THETA {
-        // cos(θ/2) = 1 - θ²/8 + θ⁴/384, sin(θ/2)/θ = 1/2 - θ²/48 + θ⁴/3840
-        (
-            1.0 - t2 / 8.0 + t2 * t2 / 384.0,
-            0.5 - t2 / 48.0 + t2 * t2 / 3840.0,
-        )
+    let (w, s) = if t2 < SERIES_THETA_SQ {
+        half_angle_series(t2)
     } else {
         let theta = t2.sqrt();
         let (sh, ch) = (0.5 * theta).sin_cos();

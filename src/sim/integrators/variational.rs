@@ -9,7 +9,8 @@
 //! `D2 L_d(q_{k-1}, q_k) + D1 L_d(q_k, q_{k+1}) = 0` become, with the body angular momentum
 //! `M_k = T(ξ_k)^{-T} J ξ_k / h` (the discrete Legendre transform `-D1 L_d`):
 //!
-//! 1. solve `f(ξ) = J ξ - h T(ξ)^T M_k = 0` for `ξ` (Newton, warm-started from the previous `ξ`);
+//! 1. solve `f(ξ) = J ξ - h T(ξ)^T M_k = 0` for `ξ` (Newton, warm-started from the previous `ξ`
+//!    extrapolated with Euler's equations, see `predict`);
 //! 2. `R_{k+1} = R_k exp(ξ)` (quaternion product, renormalised);
 //! 3. `M_{k+1} = exp(ξ)^T M_k`.
 //!
@@ -23,12 +24,66 @@
 //! ([`so3::t_transpose_times_jacobian`]); the seed's approximation `J T(ξ)^-1` (the seed's
 //! spatial `R^T M_I R T(hw)^-1` written in the body frame) is kept as [`Jacobian::Approximate`]:
 //! cheaper per iteration, but only linearly convergent.
+//!
+//! # Cost of a step, and what bounds it
+//!
+//! Measured with `cargo bench --bench step` (criterion medians, ns per body-step) and
+//! `valgrind --tool=callgrind` on the bench binary (instructions, exact and reproducible), on a
+//! shared 2-core x86-64 VM (Golden Cove class, 2 MB L2 per core, ≈ 3.9 GHz estimated from a
+//! dependent `mulsd` chain), SSE2 baseline target (no `target-cpu`). Workload of the bench: 10 000
+//! asymmetric bodies, h = 1 ms, `h|Ω|` ≤ 0.006 rad, so every coefficient comes from its series and
+//! no `sin`/`cos`/`sqrt` is called at all.
+//!
+//! Before (one body at a time, warm start = previous `ξ`): 99 / 84 / 85 ns for 1 / 100 / 10 000
+//! bodies; 1009 instructions per body-step (803 in the Newton solve), IPC ≈ 3.
+//! - Newton updates: 1.62 per body-step on average (62 % of the bodies need two: the previous `ξ`
+//!   is off by O(h^2 |Ω|^2)), so 2.62 residual evaluations, 1.62 Jacobians and 3x3 solves.
+//! - Recomputation: the final `exp(ξ)` for the quaternion and `exp(ξ)^T M` redid the cross
+//!   products and coefficients of the last residual; above the series switch each evaluation
+//!   called `sin_cos(θ)`, `sin(θ/2)` and the quaternion another `sin_cos(θ/2)`.
+//! - Renormalisation: a `sqrt` and a division per body-step.
+//!
+//! Now: ≈ 27 ns per body-step at 100 and 10 000 bodies (3.1x faster), ≈ 60 ns for one body (whose
+//! Newton chain is latency-bound, with the fixed cost of a step call); 532 instructions per
+//! body-step, IPC ≈ 5.
+//! - One Newton update per body-step: the predicted warm start (`predict`) is off by O(h^3 |Ω|^3), and
+//!   one quadratically convergent update takes that below the 1e-12 relative tolerance, which is
+//!   still checked on the computed residual at every step (the Newton loop and its stopping rule are
+//!   unchanged). Measured: 100 % of 1e6 body-steps of the bench workload need one update (62 %
+//!   needed two before). For larger `h|Ω|` it saves less: at `h|Ω|` ≈ 0.03 half the steps need
+//!   one update instead of all needing two; at 0.3 it still saves about one update in five.
+//! - Per body-step: 2 residual evaluations (≈ 55 flops each with the series coefficients), one
+//!   analytic Jacobian (≈ 70 flops, reusing `ξ×m` and `ξ×(ξ×m)` of the residual), one Cramer
+//!   solve (≈ 50 flops and a division), the predictor (15), the momentum update (15, reusing the
+//!   last residual's cross products), the quaternion product and renormalisation (≈ 45: one
+//!   Newton step for `1/|q|`, no `sqrt`, no division), the tolerance tests (≈ 15), translation (12):
+//!   ≈ 350 flops, counted as 173 two-lane SSE2 arithmetic instructions per body-step. Above the
+//!   series switch: one `sin_cos(θ/2)` and one division per residual evaluation, nothing more
+//!   (the quaternion reuses it).
+//! - Four bodies per instruction stream (`Lanes`): the same code, written over `N` lanes, runs
+//!   2 bodies per SSE2 instruction and two independent chains; N = 2 / 4 / 8 measured 31 / 27 /
+//!   29 ns. A group of four takes one straight-line path (`newton_one_update`) when all four are
+//!   in the series regime and converge after one update; otherwise the lane-wise Newton loop
+//!   (`newton`) runs from the same start. Both round identically (same operations, no FMA
+//!   contraction in Rust), so a body's trajectory does not depend on its neighbours.
+//!
+//! What bounds it now: instruction issue, not flops or memory. Of the 532 instructions per
+//! body-step, 173 are FP arithmetic, 203 register moves and spills (SSE2's destructive
+//! two-operand forms and 16 `xmm` registers, each 4-lane value taking two), 61 shuffles that
+//! transpose the `Vec<Vector3>` storage into lanes, the rest loads, stores and loop control. At
+//! ≈ 5 instructions per cycle that is ≈ 107 cycles ≈ 27 ns. The FP-port floor (173 packed
+//! instructions on 2-3 ports) is ≈ 60-85 cycles, i.e. ≈ 15-22 ns: the step is within 1.3-1.8x of
+//! it; closing the gap needs AVX (three-operand, four lanes per instruction), which needs
+//! `target-cpu` flags or `unsafe` runtime dispatch, both excluded here. Memory: 304 bytes per
+//! body-step (176 read: `J`, `J^-1`, `M`, `q`, `ξ`, `c`, `v`; 128 written), 11 GB/s at 27 ns, and
+//! the 10 000-body working set (1.8 MB) stays in L2: far below the bandwidth available.
 
 use super::translation::{Potential, step_translation};
 use super::{Integrator, StepStats};
 use crate::sim::Bodies;
-use crate::sim::so3::{self, Coefficients};
-use nalgebra::{Matrix3, Vector3};
+use crate::sim::so3::{self, Coefficients, Real, SERIES_THETA_SQ};
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// The Newton Jacobian used by [`Variational`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
@@ -93,73 +148,565 @@ pub fn solve_xi(
     xi_guess: &Vector3<f64>,
     settings: &VariationalSettings,
 ) -> NewtonSolve {
-    let h_m = angmom_body * dt_secs;
-    let scale = h_m.amax();
-    let mut xi = *xi_guess;
-    let mut iterations = 0;
-    loop {
-        let k = Coefficients::new(xi.norm_squared());
-        let residual = inertia_body.component_mul(&xi) - so3::t_transpose_times(&xi, &k, &h_m);
-        let res_max = residual.amax();
-        if res_max <= settings.newton_tol * scale {
-            return NewtonSolve {
-                xi,
-                coefficients: k,
-                iterations,
-                converged: true,
-            };
-        }
-        if iterations >= settings.newton_max_iters || !res_max.is_finite() {
-            return NewtonSolve {
-                xi,
-                coefficients: k,
-                iterations,
-                converged: false,
-            };
-        }
-        let jac = match settings.jacobian {
-            Jacobian::Analytic => {
-                Matrix3::from_diagonal(inertia_body)
-                    - so3::t_transpose_times_jacobian(&xi, &k, &h_m)
-            }
-            Jacobian::Approximate => {
-                Matrix3::from_diagonal(inertia_body) * so3::t_inverse_matrix(&xi)
-            }
-        };
-        match solve3(&jac, &residual) {
-            Some(delta) => xi -= delta,
-            None => {
-                return NewtonSolve {
-                    xi,
-                    coefficients: k,
-                    iterations,
-                    converged: false,
-                };
-            }
-        }
-        iterations += 1;
+    let m = V3::<Lanes<1>>::gather(&[*angmom_body]);
+    let out = newton(
+        V3::gather(&[*inertia_body]).scale(Lanes::splat(1.0 / dt_secs)),
+        m,
+        V3::gather(&[*xi_guess]),
+        Lanes::splat(settings.newton_tol) * m.amax(),
+        settings,
+    );
+    let k = out.eval.k;
+    NewtonSolve {
+        xi: out.xi.lane(0),
+        coefficients: Coefficients {
+            a: k.a.0[0],
+            b: k.b.0[0],
+            c: k.c.0[0],
+            db_over_theta: k.db_over_theta.0[0],
+            dc_over_theta: k.dc_over_theta.0[0],
+            half_cos: k.half_cos.0[0],
+            half_sin_over_theta: k.half_sin_over_theta.0[0],
+        },
+        iterations: out.iterations[0],
+        converged: out.converged[0],
     }
 }
 
 /// Solves the 3x3 system `a x = b` by the adjugate (Cramer); `None` when `a` is singular.
 #[inline]
 pub fn solve3(a: &Matrix3<f64>, b: &Vector3<f64>) -> Option<Vector3<f64>> {
-    let c0 = a.column(1).cross(&a.column(2));
-    let c1 = a.column(2).cross(&a.column(0));
-    let c2 = a.column(0).cross(&a.column(1));
-    let det = a.column(0).dot(&c0);
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
-    // Rows of a^-1 are c_i / det.
-    Some(Vector3::new(c0.dot(b), c1.dot(b), c2.dot(b)) / det)
+    let cols = [0, 1, 2].map(|c| V3::<Lanes<1>>::gather(&[a.column(c).into_owned()]));
+    let (x, det) = cramer(&cols, V3::gather(&[*b]));
+    let det = det.0[0];
+    (det != 0.0 && det.is_finite()).then(|| x.lane(0))
 }
 
-/// `exp(ξ)^T m = m - A ξ×m + B ξ×(ξ×m)`.
-#[inline]
-fn exp_transpose_times(xi: &Vector3<f64>, k: &Coefficients, m: &Vector3<f64>) -> Vector3<f64> {
+// ---------------------------------------------------------------------------------------------
+// The step's arithmetic, written once over `N` lanes (`N` bodies processed by the same
+// instructions; one body is `N = 1`), so every path rounds identically.
+
+/// `N` bodies' values of one quantity. The lane loops become SSE2 packed instructions (`addpd`,
+/// `mulpd`, `divpd`: two lanes per instruction); `N = 4` gives two independent dependency chains
+/// per value, which measured faster than `N = 2` and `N = 8` (see the module doc).
+#[derive(Debug, Clone, Copy)]
+struct Lanes<const N: usize>([f64; N]);
+
+/// Bodies stepped together.
+const LANES: usize = 4;
+
+macro_rules! lanes_binop {
+    ($trait:ident, $method:ident, $op:tt) => {
+        impl<const N: usize> $trait for Lanes<N> {
+            type Output = Self;
+            #[inline(always)]
+            fn $method(self, o: Self) -> Self {
+                Lanes(std::array::from_fn(|i| self.0[i] $op o.0[i]))
+            }
+        }
+    };
+}
+lanes_binop!(Add, add, +);
+lanes_binop!(Sub, sub, -);
+lanes_binop!(Mul, mul, *);
+lanes_binop!(Div, div, /);
+
+impl<const N: usize> Neg for Lanes<N> {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        Lanes(self.0.map(|x| -x))
+    }
+}
+
+impl<const N: usize> Real for Lanes<N> {
+    #[inline(always)]
+    fn splat(v: f64) -> Self {
+        Lanes([v; N])
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Lanes(self.0.map(f64::abs))
+    }
+}
+
+impl<const N: usize> Lanes<N> {
+    /// Whether `pred` holds in every lane (evaluated in all lanes, no early exit).
+    #[inline(always)]
+    fn all(self, pred: impl Fn(f64) -> bool) -> bool {
+        self.0.iter().fold(true, |acc, &x| acc & pred(x))
+    }
+    /// Lane-wise maximum (equal to `f64::max` for non-NaN lanes).
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        Lanes(std::array::from_fn(|i| {
+            if self.0[i] > o.0[i] {
+                self.0[i]
+            } else {
+                o.0[i]
+            }
+        }))
+    }
+}
+
+/// A 3-vector of lanes.
+#[derive(Debug, Clone, Copy)]
+struct V3<R> {
+    x: R,
+    y: R,
+    z: R,
+}
+
+impl<R: Real> V3<R> {
+    #[inline(always)]
+    fn splat(v: R) -> Self {
+        Self { x: v, y: v, z: v }
+    }
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        Self {
+            x: self.x + o.x,
+            y: self.y + o.y,
+            z: self.z + o.z,
+        }
+    }
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        Self {
+            x: self.x - o.x,
+            y: self.y - o.y,
+            z: self.z - o.z,
+        }
+    }
+    /// Component-wise product.
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        Self {
+            x: self.x * o.x,
+            y: self.y * o.y,
+            z: self.z * o.z,
+        }
+    }
+    #[inline(always)]
+    fn scale(self, s: R) -> Self {
+        Self {
+            x: self.x * s,
+            y: self.y * s,
+            z: self.z * s,
+        }
+    }
+    #[inline(always)]
+    fn dot(self, o: Self) -> R {
+        self.x * o.x + self.y * o.y + self.z * o.z
+    }
+    #[inline(always)]
+    fn cross(self, o: Self) -> Self {
+        Self {
+            x: self.y * o.z - self.z * o.y,
+            y: self.z * o.x - self.x * o.z,
+            z: self.x * o.y - self.y * o.x,
+        }
+    }
+}
+
+impl<const N: usize> V3<Lanes<N>> {
+    #[inline(always)]
+    fn gather(v: &[Vector3<f64>; N]) -> Self {
+        Self {
+            x: Lanes(v.each_ref().map(|v| v.x)),
+            y: Lanes(v.each_ref().map(|v| v.y)),
+            z: Lanes(v.each_ref().map(|v| v.z)),
+        }
+    }
+    #[inline(always)]
+    fn lane(self, i: usize) -> Vector3<f64> {
+        Vector3::new(self.x.0[i], self.y.0[i], self.z.0[i])
+    }
+    #[inline(always)]
+    fn scatter(self, v: &mut [Vector3<f64>; N]) {
+        for (i, v) in v.iter_mut().enumerate() {
+            *v = self.lane(i);
+        }
+    }
+    /// `|v|_∞` per lane.
+    #[inline(always)]
+    fn amax(self) -> Lanes<N> {
+        self.x.abs().max(self.y.abs()).max(self.z.abs())
+    }
+    /// Lanes where every `|v_i| <= threshold` (false for NaN).
+    #[inline(always)]
+    fn within(self, threshold: Lanes<N>) -> [bool; N] {
+        let (x, y, z) = (self.x.abs(), self.y.abs(), self.z.abs());
+        std::array::from_fn(|i| {
+            (x.0[i] <= threshold.0[i]) & (y.0[i] <= threshold.0[i]) & (z.0[i] <= threshold.0[i])
+        })
+    }
+    /// Lanes where every component is finite.
+    #[inline(always)]
+    fn finite(self) -> [bool; N] {
+        let s = self.x.abs() + self.y.abs() + self.z.abs();
+        s.0.map(f64::is_finite)
+    }
+    /// Lane-wise `if keep { self } else { other }`.
+    #[inline(always)]
+    fn select(self, keep: &[bool; N], other: Self) -> Self {
+        let pick = |a: Lanes<N>, b: Lanes<N>| {
+            Lanes(std::array::from_fn(
+                |i| if keep[i] { a.0[i] } else { b.0[i] },
+            ))
+        };
+        Self {
+            x: pick(self.x, other.x),
+            y: pick(self.y, other.y),
+            z: pick(self.z, other.z),
+        }
+    }
+}
+
+/// The coefficient functions per lane: all lanes by series at once when every `θ` is below
+/// [`so3::SERIES_THETA`] (at `h|Ω|` below 0.02 rad: the common case), otherwise lane by lane
+/// with [`Coefficients::new`] (one `sin_cos` per lane above it). Both round identically.
+#[inline(always)]
+fn coefficients<const N: usize>(theta_sq: Lanes<N>) -> Coefficients<Lanes<N>> {
+    if theta_sq.all(|t| t < SERIES_THETA_SQ) {
+        Coefficients::series(theta_sq)
+    } else {
+        coefficients_by_lane(theta_sq)
+    }
+}
+
+/// [`coefficients`] lane by lane, out of line: only bodies turning more than
+/// [`so3::SERIES_THETA`] per step take it.
+#[inline(never)]
+fn coefficients_by_lane<const N: usize>(theta_sq: Lanes<N>) -> Coefficients<Lanes<N>> {
+    {
+        let k = theta_sq.0.map(Coefficients::new);
+        let field = |f: fn(&Coefficients) -> f64| Lanes(k.each_ref().map(f));
+        Coefficients {
+            a: field(|k| k.a),
+            b: field(|k| k.b),
+            c: field(|k| k.c),
+            db_over_theta: field(|k| k.db_over_theta),
+            dc_over_theta: field(|k| k.dc_over_theta),
+            half_cos: field(|k| k.half_cos),
+            half_sin_over_theta: field(|k| k.half_sin_over_theta),
+        }
+    }
+}
+
+/// The residual, scaled by `1/h`: `g(ξ) = f(ξ)/h = (J/h) ξ - T(ξ)^T M`, with the cross products
+/// that the Jacobian and the momentum update reuse (`T(ξ)^T M = M - B ξ×M + C ξ×(ξ×M)`).
+/// Newton's updates do not depend on a constant scaling of the residual, and
+/// `|f|_∞ <= tol · h|M|_∞` is `|g|_∞ <= tol · |M|_∞`. Working with `M` rather than `hM` lets the
+/// momentum update reuse `ξ×M` exactly as `exp(ξ)^T M = M - A ξ×M + B ξ×(ξ×M)` needs it (no
+/// rescaling by `1/h`, whose rounding would bias the update and double the momentum round-off).
+#[derive(Debug, Clone, Copy)]
+struct Eval<R> {
+    k: Coefficients<R>,
+    /// `ξ × M`
+    xm: V3<R>,
+    /// `ξ × (ξ × M)`
+    xxm: V3<R>,
+    f: V3<R>,
+}
+
+#[inline(always)]
+fn evaluate<R: Real>(j_over_h: V3<R>, m: V3<R>, xi: V3<R>, k: Coefficients<R>) -> Eval<R> {
     let xm = xi.cross(m);
-    m - xm * k.a + xi.cross(&xm) * k.b
+    let xxm = xi.cross(xm);
+    let f = j_over_h
+        .mul(xi)
+        .sub(m)
+        .add(xm.scale(k.b))
+        .sub(xxm.scale(k.c));
+    Eval { k, xm, xxm, f }
+}
+
+/// Columns of the analytic Newton Jacobian `J/h - ∂(T(ξ)^T m)/∂ξ` of `g` (`m = M`), expanded from
+/// [`so3::t_transpose_times_jacobian`]:
+/// `diag(J/h - C ξ·m) - p ξ^T - C ξ m^T - B m^` with `p = C'/θ ξ×(ξ×m) - B'/θ ξ×m - 2 C m`.
+/// About 70 flops, reusing `ξ×m` and `ξ×(ξ×m)` from the residual.
+#[inline(always)]
+fn analytic_jacobian<R: Real>(j_over_h: V3<R>, m: V3<R>, xi: V3<R>, e: &Eval<R>) -> [V3<R>; 3] {
+    let k = &e.k;
+    let d = j_over_h.sub(V3::splat(k.c * xi.dot(m)));
+    let p = e
+        .xxm
+        .scale(k.dc_over_theta)
+        .sub(e.xm.scale(k.db_over_theta))
+        .sub(m.scale(k.c + k.c));
+    let q = xi.scale(k.c);
+    let bm = m.scale(k.b);
+    let col = |diag: V3<R>, xj: R, mj: R| diag.sub(p.scale(xj)).sub(q.scale(mj));
+    [
+        col(
+            V3 {
+                x: d.x,
+                y: -bm.z,
+                z: bm.y,
+            },
+            xi.x,
+            m.x,
+        ),
+        col(
+            V3 {
+                x: bm.z,
+                y: d.y,
+                z: -bm.x,
+            },
+            xi.y,
+            m.y,
+        ),
+        col(
+            V3 {
+                x: -bm.y,
+                y: bm.x,
+                z: d.z,
+            },
+            xi.z,
+            m.z,
+        ),
+    ]
+}
+
+/// The seed's approximate Jacobian `J T(ξ)^-1` (of `g`: `J/h T(ξ)^-1`), as columns (lane by
+/// lane: not a hot path).
+fn approximate_jacobian<const N: usize>(j: V3<Lanes<N>>, xi: V3<Lanes<N>>) -> [V3<Lanes<N>>; 3] {
+    let per_lane: [Matrix3<f64>; N] = std::array::from_fn(|i| {
+        Matrix3::from_diagonal(&j.lane(i)) * so3::t_inverse_matrix(&xi.lane(i))
+    });
+    [0, 1, 2].map(|c| V3::gather(&per_lane.each_ref().map(|a| a.column(c).into_owned())))
+}
+
+/// Solves `[c0 c1 c2] x = b` by the adjugate: rows of the inverse are `c1×c2`, `c2×c0`,
+/// `c0×c1` over `det = c0·(c1×c2)`. Returns `(x, det)`; `x` is meaningless when `det` is zero
+/// or not finite. 30 multiplications, 17 additions, one division.
+#[inline(always)]
+fn cramer<R: Real>(c: &[V3<R>; 3], b: V3<R>) -> (V3<R>, R) {
+    let r0 = c[1].cross(c[2]);
+    let r1 = c[2].cross(c[0]);
+    let r2 = c[0].cross(c[1]);
+    let det = c[0].dot(r0);
+    let inv_det = R::splat(1.0) / det;
+    let x = V3 {
+        x: r0.dot(b),
+        y: r1.dot(b),
+        z: r2.dot(b),
+    };
+    (x.scale(inv_det), det)
+}
+
+/// Predicted `ξ_k` from the previous step's `ξ_{k-1}` and the current momentum `M_k`:
+/// `ξ_k - ξ_{k-1} ≈ h^2 dΩ/dt = h^2 J^-1 (M × Ω) ≈ h J^-1 (M × ξ_{k-1})` (Euler's equations
+/// `dM/dt = M × Ω` in the body frame). Its error is O(h^3 |Ω|^3) where `ξ_{k-1}` itself is off
+/// by O(h^2 |Ω|^2): one Newton update then meets `newton_tol` (see the module doc).
+#[inline(always)]
+fn predict<R: Real>(inv_j: V3<R>, m: V3<R>, xi_prev: V3<R>, h: R) -> V3<R> {
+    xi_prev.add(m.cross(xi_prev).mul(inv_j).scale(h))
+}
+
+/// A quaternion `w + v` of lanes.
+#[derive(Debug, Clone, Copy)]
+struct Quat<R> {
+    w: R,
+    v: V3<R>,
+}
+
+impl<const N: usize> Quat<Lanes<N>> {
+    #[inline(always)]
+    fn gather(q: &[UnitQuaternion<f64>; N]) -> Self {
+        Self {
+            w: Lanes(q.each_ref().map(|q| q.w)),
+            v: V3 {
+                x: Lanes(q.each_ref().map(|q| q.i)),
+                y: Lanes(q.each_ref().map(|q| q.j)),
+                z: Lanes(q.each_ref().map(|q| q.k)),
+            },
+        }
+    }
+    #[inline(always)]
+    fn scatter(self, q: &mut [UnitQuaternion<f64>; N]) {
+        for (i, q) in q.iter_mut().enumerate() {
+            *q = UnitQuaternion::new_unchecked(Quaternion::new(
+                self.w.0[i],
+                self.v.x.0[i],
+                self.v.y.0[i],
+                self.v.z.0[i],
+            ));
+        }
+    }
+}
+
+/// After the solve: `R_{k+1} = R_k exp(ξ)` and `M_{k+1} = exp(ξ)^T M_k`, both from the same
+/// half-angle pair in `e.k`, reusing `ξ × M` and `ξ × (ξ × M)` from the last residual:
+/// `exp(ξ)^T M = M - A ξ×M + B ξ×(ξ×M)`.
+///
+/// The product of unit quaternions drifts off the unit sphere by round-off (~1e-16 a step, a
+/// random walk); it is pulled back by one Newton step for `1/|q|`, `q ← q (3 - |q|^2)/2`, which
+/// leaves `||q|^2 - 1| = O(ε^2)`: no sqrt and no division, and the norm never drifts.
+#[inline(always)]
+fn advance<R: Real>(q: Quat<R>, m: V3<R>, xi: V3<R>, e: &Eval<R>) -> (Quat<R>, V3<R>) {
+    let k = &e.k;
+    let m_next = m.add(e.xxm.scale(k.b).sub(e.xm.scale(k.a)));
+    let u = xi.scale(k.half_sin_over_theta);
+    let w = q.w * k.half_cos - q.v.dot(u);
+    let v = u.scale(q.w).add(q.v.scale(k.half_cos)).add(q.v.cross(u));
+    let n2 = w * w + v.dot(v);
+    let s = R::splat(1.5) - R::splat(0.5) * n2;
+    (
+        Quat {
+            w: w * s,
+            v: v.scale(s),
+        },
+        m_next,
+    )
+}
+
+/// The outcome of [`newton`], per lane.
+struct NewtonOut<const N: usize> {
+    xi: V3<Lanes<N>>,
+    /// The residual evaluation at `xi`.
+    eval: Eval<Lanes<N>>,
+    iterations: [u32; N],
+    converged: [bool; N],
+}
+
+/// Newton on `g(ξ) = f(ξ)/h = 0` from `xi`, lane by lane: a lane stops (its `ξ` is frozen) once
+/// every `|g_i| <= threshold` (`newton_tol · |M|_∞`), or after `newton_max_iters` updates, or on a
+/// non-finite residual or a singular Jacobian. Lanes that stopped are re-evaluated with the
+/// others at the same `ξ`, which reproduces their residual exactly.
+#[inline(never)]
+fn newton<const N: usize>(
+    j_over_h: V3<Lanes<N>>,
+    m: V3<Lanes<N>>,
+    mut xi: V3<Lanes<N>>,
+    threshold: Lanes<N>,
+    settings: &VariationalSettings,
+) -> NewtonOut<N> {
+    let mut iterations = [0u32; N];
+    let mut done = [false; N];
+    let mut converged = [false; N];
+    loop {
+        let eval = evaluate(j_over_h, m, xi, coefficients(xi.dot(xi)));
+        let within = eval.f.within(threshold);
+        let finite = eval.f.finite();
+        for i in 0..N {
+            if !done[i] {
+                converged[i] = within[i];
+                done[i] = within[i] | (iterations[i] >= settings.newton_max_iters) | !finite[i];
+            }
+        }
+        if done.iter().all(|&d| d) {
+            return NewtonOut {
+                xi,
+                eval,
+                iterations,
+                converged,
+            };
+        }
+        let cols = match settings.jacobian {
+            Jacobian::Analytic => analytic_jacobian(j_over_h, m, xi, &eval),
+            Jacobian::Approximate => approximate_jacobian(j_over_h, xi),
+        };
+        let (delta, det) = cramer(&cols, eval.f);
+        for i in 0..N {
+            done[i] |= !(det.0[i] != 0.0 && det.0[i].is_finite());
+            iterations[i] += u32::from(!done[i]);
+        }
+        xi = xi.select(&done, xi.sub(delta));
+    }
+}
+
+/// The common case of [`newton`] as straight-line code: every `|ξ|` in the series regime, no
+/// lane meets the tolerance at the warm start, every lane does after exactly one update. Returns
+/// what [`newton`] would (the same arithmetic in the same order), or `None` when any lane leaves
+/// that path; the caller then runs [`newton`] from the same start.
+#[inline(always)]
+fn newton_one_update<const N: usize>(
+    j_over_h: V3<Lanes<N>>,
+    m: V3<Lanes<N>>,
+    xi0: V3<Lanes<N>>,
+    threshold: Lanes<N>,
+    settings: &VariationalSettings,
+) -> Option<NewtonOut<N>> {
+    if settings.jacobian != Jacobian::Analytic || settings.newton_max_iters == 0 {
+        return None;
+    }
+    // Series regime only: merging the lane-by-lane `sin_cos` branch into this path would keep
+    // the coefficients in memory (measured +12 % instructions per body-step).
+    let series = |t2: Lanes<N>| {
+        t2.all(|t| t < SERIES_THETA_SQ)
+            .then(|| Coefficients::series(t2))
+    };
+    let e0 = evaluate(j_over_h, m, xi0, series(xi0.dot(xi0))?);
+    // A non-finite residual needs no test here: it makes `ξ` non-finite and fails the series
+    // test below.
+    if e0.f.within(threshold).iter().any(|&c| c) {
+        return None;
+    }
+    let (delta, det) = cramer(&analytic_jacobian(j_over_h, m, xi0, &e0), e0.f);
+    if !det.all(|d| d != 0.0 && d.is_finite()) {
+        return None;
+    }
+    let xi = xi0.sub(delta);
+    let eval = evaluate(j_over_h, m, xi, series(xi.dot(xi))?);
+    let converged = eval.f.within(threshold);
+    converged.iter().all(|&c| c).then_some(NewtonOut {
+        xi,
+        eval,
+        iterations: [1; N],
+        converged,
+    })
+}
+
+/// Steps `N` bodies: predict `ξ` (unless `predict_xi` is false), Newton, rotate `q` and `M`.
+#[inline(always)]
+fn step_bodies<const N: usize>(
+    inertia: &[Vector3<f64>; N],
+    inv_inertia: &[Vector3<f64>; N],
+    angmom: &mut [Vector3<f64>; N],
+    q: &mut [UnitQuaternion<f64>; N],
+    xi: &mut [Vector3<f64>; N],
+    dt_secs: f64,
+    predict_xi: bool,
+    settings: &VariationalSettings,
+    stats: &mut StepStats,
+) {
+    let m = V3::gather(angmom);
+    let mut xi0 = V3::gather(xi);
+    if predict_xi {
+        xi0 = predict(V3::gather(inv_inertia), m, xi0, Lanes::splat(dt_secs));
+    }
+    let j_over_h = V3::gather(inertia).scale(Lanes::splat(1.0 / dt_secs));
+    let threshold = Lanes::splat(settings.newton_tol) * m.amax();
+    // Two inlined copies of `finish`: the common path keeps everything in registers.
+    match newton_one_update(j_over_h, m, xi0, threshold, settings) {
+        Some(out) => finish(&out, m, angmom, q, xi, stats),
+        None => {
+            let out = newton(j_over_h, m, xi0, threshold, settings);
+            finish(&out, m, angmom, q, xi, stats);
+        }
+    }
+}
+
+/// Rotates `q` and `M` by the solved `ξ`, stores `ξ`, and adds the Newton statistics.
+#[inline(always)]
+fn finish<const N: usize>(
+    out: &NewtonOut<N>,
+    m: V3<Lanes<N>>,
+    angmom: &mut [Vector3<f64>; N],
+    q: &mut [UnitQuaternion<f64>; N],
+    xi: &mut [Vector3<f64>; N],
+    stats: &mut StepStats,
+) {
+    let (q_next, m_next) = advance(Quat::gather(q), m, out.xi, &out.eval);
+    q_next.scatter(q);
+    m_next.scatter(angmom);
+    out.xi.scatter(xi);
+    for i in 0..N {
+        stats.newton_iters_max = stats.newton_iters_max.max(out.iterations[i]);
+        stats.newton_failures += u32::from(!out.converged[i]);
+    }
 }
 
 /// The exponential-map variational integrator over a batch.
@@ -167,8 +714,11 @@ fn exp_transpose_times(xi: &Vector3<f64>, k: &Coefficients, m: &Vector3<f64>) ->
 pub struct Variational {
     pub settings: VariationalSettings,
     dt_secs: f64,
-    /// Per body: the last solved `ξ` (state, and the warm start of the next solve).
+    /// Per body: the last solved `ξ` (state, and the base of the next warm start).
     xi: Vec<Vector3<f64>>,
+    /// `xi` was just solved by [`Integrator::init`] for the current momenta: the next step's
+    /// solution is `xi` itself, so it is used as the warm start without extrapolation.
+    fresh: bool,
 }
 
 impl Variational {
@@ -177,6 +727,7 @@ impl Variational {
             settings,
             dt_secs,
             xi: Vec::new(),
+            fresh: false,
         }
     }
 
@@ -209,37 +760,44 @@ impl Integrator for Variational {
                 .xi
             })
             .collect();
+        self.fresh = true;
     }
 
     fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
         if self.xi.len() != bodies.len() {
             self.init(bodies);
         }
+        let predict_xi = !std::mem::replace(&mut self.fresh, false);
+        let dt = self.dt_secs;
+        let settings = &self.settings;
         let mut stats = StepStats::default();
-        for i in 0..bodies.len() {
-            let m = bodies.angmom_body[i];
-            let solve = solve_xi(
-                &bodies.inertia_body[i],
-                &m,
-                self.dt_secs,
-                &self.xi[i],
-                &self.settings,
+        let (j_l, j_r) = bodies.inertia_body.as_chunks::<LANES>();
+        let (ij_l, ij_r) = bodies.inv_inertia_body.as_chunks::<LANES>();
+        let (m_l, m_r) = bodies.angmom_body.as_chunks_mut::<LANES>();
+        let (q_l, q_r) = bodies.world_from_body.as_chunks_mut::<LANES>();
+        let (xi_l, xi_r) = self.xi.as_chunks_mut::<LANES>();
+        for ((((j, ij), m), q), xi) in j_l.iter().zip(ij_l).zip(m_l).zip(q_l).zip(xi_l) {
+            step_bodies(j, ij, m, q, xi, dt, predict_xi, settings, &mut stats);
+        }
+        for ((((j, ij), m), q), xi) in j_r.iter().zip(ij_r).zip(m_r).zip(q_r).zip(xi_r) {
+            step_bodies::<1>(
+                std::array::from_ref(j),
+                std::array::from_ref(ij),
+                std::array::from_mut(m),
+                std::array::from_mut(q),
+                std::array::from_mut(xi),
+                dt,
+                predict_xi,
+                settings,
+                &mut stats,
             );
-            stats.newton_iters_max = stats.newton_iters_max.max(solve.iterations);
-            stats.newton_failures += u32::from(!solve.converged);
-            let xi = solve.xi;
-            let q = &mut bodies.world_from_body[i];
-            *q *= so3::exp_quaternion(&xi);
-            q.renormalize();
-            bodies.angmom_body[i] = exp_transpose_times(&xi, &solve.coefficients, &m);
-            self.xi[i] = xi;
         }
         step_translation(
             &mut bodies.com_world,
             &mut bodies.linvel_world,
-            self.dt_secs,
+            dt,
             gravity,
-            self.settings.potential,
+            settings.potential,
         );
         stats
     }
@@ -289,5 +847,157 @@ mod tests {
         // The approximate Jacobian converges only linearly: measured 12 iterations.
         assert!(slow.iterations > solve.iterations);
         assert!((slow.xi - solve.xi).amax() < 1e-12);
+    }
+
+    use crate::sim::BodyInit;
+    use nalgebra::{Isometry3, Translation3};
+
+    fn body(moments: Vector3<f64>, euler: (f64, f64, f64), angvel: Vector3<f64>) -> BodyInit {
+        BodyInit {
+            mass: 1.5,
+            principal_moments: moments,
+            world_from_body: Isometry3::from_parts(
+                Translation3::new(0.1, -0.2, 0.3),
+                UnitQuaternion::from_euler_angles(euler.0, euler.1, euler.2),
+            ),
+            linvel_world: Vector3::new(0.5, 0.0, 1.0),
+            angvel_world: angvel,
+        }
+    }
+
+    /// Bodies covering every path: series regime with one update (the common path), a slow
+    /// spinner (`h|Ω|` ≈ 3e-4), a fast one above `SERIES_THETA` at h = 1 ms (`sin_cos`, two
+    /// updates, lane-by-lane coefficients), one at rest (zero residual at the start).
+    fn mixed_bodies() -> Vec<BodyInit> {
+        vec![
+            body(
+                Vector3::new(1.0, 2.0, 3.0),
+                (0.2, 0.4, -0.3),
+                Vector3::new(0.05, 3.0, 0.05),
+            ),
+            body(
+                Vector3::new(0.5, 0.7, 0.9),
+                (1.0, -0.4, 2.0),
+                Vector3::new(0.1, -0.2, 0.2),
+            ),
+            body(
+                Vector3::new(2.0, 1.0, 1.5),
+                (-2.0, 0.1, 0.4),
+                Vector3::new(30.0, -12.0, 8.0),
+            ),
+            body(
+                Vector3::new(1.0, 1.2, 1.4),
+                (0.0, 0.0, 0.0),
+                Vector3::zeros(),
+            ),
+            body(
+                Vector3::new(1.0, 3.0, 3.5),
+                (0.3, 0.3, 0.3),
+                Vector3::new(-2.0, 1.0, 4.0),
+            ),
+        ]
+    }
+
+    /// The batched path (four lanes, with a fallback to the lane-wise Newton loop when one body
+    /// leaves the common path) and the one-body path give bit-identical trajectories: the
+    /// arithmetic is the same code in the same order, and Rust never contracts to FMA.
+    #[test]
+    fn batched_lanes_match_one_body_steps_bit_for_bit() {
+        let inits = mixed_bodies();
+        let g = Vector3::new(0.0, 0.0, -9.81);
+        let mut batch = Bodies::new(&inits);
+        let mut batch_integ = Variational::new(0.001, VariationalSettings::default());
+        batch_integ.init(&batch);
+        let mut singles: Vec<(Bodies, Variational)> = inits
+            .iter()
+            .map(|init| {
+                let bodies = Bodies::new(std::slice::from_ref(init));
+                let mut integ = Variational::new(0.001, VariationalSettings::default());
+                integ.init(&bodies);
+                (bodies, integ)
+            })
+            .collect();
+        let mut iters_max = 0;
+        for _ in 0..500 {
+            let stats = batch_integ.step(&mut batch, &g);
+            assert_eq!(stats.newton_failures, 0);
+            iters_max = iters_max.max(stats.newton_iters_max);
+            for (bodies, integ) in &mut singles {
+                integ.step(bodies, &g);
+            }
+        }
+        // The fast spinner needs two updates (h|Ω| ≈ 0.034): the fallback path ran.
+        assert_eq!(iters_max, 2);
+        for (i, (single, integ)) in singles.iter().enumerate() {
+            assert_eq!(
+                batch.world_from_body[i], single.world_from_body[0],
+                "body {i}"
+            );
+            assert_eq!(batch.angmom_body[i], single.angmom_body[0], "body {i}");
+            assert_eq!(batch.com_world[i], single.com_world[0], "body {i}");
+            assert_eq!(batch_integ.xi()[i], integ.xi()[0], "body {i}");
+        }
+    }
+
+    /// With the Euler-equation predictor one Newton update meets the 1e-12 tolerance at every
+    /// step for `h|Ω|` ≈ 3e-3 (without it, 35 % of the steps need two: measured 7072 of 20000).
+    /// The step right after `init` needs none: `init` solved it already.
+    #[test]
+    fn predicted_warm_start_needs_one_newton_update() {
+        let init = body(
+            Vector3::new(1.0, 2.0, 3.0),
+            (0.2, 0.4, -0.3),
+            Vector3::new(0.5, 3.0, 0.5),
+        );
+        let mut bodies = Bodies::new(&vec![init; 5]);
+        let mut integ = Variational::new(0.001, VariationalSettings::default());
+        integ.init(&bodies);
+        let g = Vector3::zeros();
+        assert_eq!(integ.step(&mut bodies, &g).newton_iters_max, 0);
+        for _ in 0..20_000 {
+            let stats = integ.step(&mut bodies, &g);
+            assert_eq!((stats.newton_iters_max, stats.newton_failures), (1, 0));
+        }
+    }
+
+    /// The cheap renormalisation `q (3 - |q|^2)/2` keeps the quaternion unit to round-off,
+    /// with no drift, over 1e5 steps of a fast, tumbling body.
+    #[test]
+    fn quaternion_norm_stays_at_round_off() {
+        let init = body(
+            Vector3::new(1.0, 2.0, 3.0),
+            (0.2, 0.4, -0.3),
+            Vector3::new(3.0, 20.0, 3.0),
+        );
+        let mut bodies = Bodies::new(&vec![init; 4]);
+        let mut integ = Variational::new(0.001, VariationalSettings::default());
+        integ.init(&bodies);
+        let mut worst: f64 = 0.0;
+        for _ in 0..100_000 {
+            integ.step(&mut bodies, &Vector3::zeros());
+            worst = worst.max((bodies.world_from_body[0].coords.norm_squared() - 1.0).abs());
+        }
+        // Measured 4.4e-16 (2 ulp of 1).
+        assert!(worst < 2e-15, "||q|^2 - 1| = {worst:e}");
+    }
+
+    /// A non-finite momentum is a Newton failure for that body only, not a panic, and does not
+    /// disturb the other bodies of its lane group.
+    #[test]
+    fn non_finite_body_fails_alone() {
+        let inits = mixed_bodies();
+        let mut bodies = Bodies::new(&inits);
+        let mut integ = Variational::new(0.001, VariationalSettings::default());
+        integ.init(&bodies);
+        let mut reference = bodies.clone();
+        let mut reference_integ = integ.clone();
+        bodies.angmom_body[1] = Vector3::new(f64::NAN, 0.0, 0.0);
+        let stats = integ.step(&mut bodies, &Vector3::zeros());
+        assert_eq!(stats.newton_failures, 1);
+        reference_integ.step(&mut reference, &Vector3::zeros());
+        for i in [0, 2, 3, 4] {
+            assert_eq!(bodies.world_from_body[i], reference.world_from_body[i]);
+            assert_eq!(bodies.angmom_body[i], reference.angmom_body[i]);
+        }
     }
 }
