@@ -28,7 +28,7 @@
 //! - Both single-threaded: `rapier3d-f64` is built without its `parallel` feature.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use rapier3d_f64::math::{Pose, Rotation, Vector as RVector};
 use rapier3d_f64::prelude::{MassProperties, PhysicsWorld, RigidBodyBuilder, RigidBodyHandle};
 use std::hint::black_box;
@@ -42,24 +42,9 @@ fn gravity() -> Vector3<f64> {
     Vector3::new(0.0, 0.0, -9.81)
 }
 
-/// `n` differently initialised asymmetric bodies (deterministic pseudo-random spread).
+/// `n` differently initialised asymmetric bodies: the workload `tumble bench` steps too.
 pub fn batch(n: usize) -> Vec<BodyInit> {
-    (0..n)
-        .map(|i| {
-            let s = i as f64;
-            let f = |k: f64| ((s * 0.618_033_988_7 + k) % 1.0) * 2.0 - 1.0;
-            BodyInit {
-                mass: 1.0 + 0.5 * f(0.1),
-                principal_moments: Vector3::new(1.0, 2.0 + 0.3 * f(0.2), 3.5 + 0.3 * f(0.3)),
-                world_from_body: Isometry3::from_parts(
-                    Translation3::new(f(0.4), f(0.5), 1.0 + f(0.6)),
-                    UnitQuaternion::from_euler_angles(3.0 * f(0.7), 1.5 * f(0.8), 3.0 * f(0.9)),
-                ),
-                linvel_world: Vector3::new(f(0.11), f(0.12), f(0.13)),
-                angvel_world: Vector3::new(2.0 * f(0.14), 5.0 * f(0.15), 2.0 * f(0.16)),
-            }
-        })
-        .collect()
+    tumble::sim::workload::free_body_batch(n)
 }
 
 fn rvec(v: &Vector3<f64>) -> RVector {
