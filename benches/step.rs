@@ -6,8 +6,9 @@
 //! Benchmark ids: `step/<integrator>/<n>` for every [`IntegratorKind::ALL`], and
 //! `peer/rapier3d-f64/<n>` (Rapier's default 4 substeps) and `peer/rapier3d-f64-1-substep/<n>`.
 //!
-//! The workload: `n` differently initialised asymmetric bodies (principal moments about
-//! (1, 2, 3.5), |Ω| up to 5.7 rad/s, h|Ω| ≤ 0.006 rad), dt = 1 ms, uniform gravity, no contacts,
+//! The workload: [`tumble::sim::workload::free_body_batch`] (`n` differently initialised asymmetric
+//! bodies, principal moments within ±0.1 of (1, 1.5, 2) kg m², |Ω| up to 5.7 rad/s, h|Ω| ≤ 0.006
+//! rad; the same bodies `tumble bench` steps), dt = 1 ms, uniform gravity, no contacts,
 //! no colliders, no joints.
 //!
 //! What the peer computes differently (same bodies: mass, principal inertia along the same body
