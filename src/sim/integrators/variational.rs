@@ -114,7 +114,8 @@ impl Jacobian {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct VariationalSettings {
-    /// Newton stops when `|f(ξ)|_∞ <= newton_tol · h |M|_∞` (relative residual).
+    /// Newton stops when `|f(ξ)|_∞ <= newton_tol · h |M|_∞` (relative residual; tested as
+    /// `|f(ξ)/h|_∞ <= newton_tol · |M|_∞`, component by component, so a NaN never passes).
     pub newton_tol: f64,
     /// Iteration cap; reaching it counts as a failure in [`StepStats::newton_failures`].
     pub newton_max_iters: u32,
