@@ -27,6 +27,10 @@
 //!   structs, array of structures) and writes them back, and runs the (empty) constraint solver
 //!   stages per substep. tumble's step only integrates the structure-of-arrays batch.
 //! - Both single-threaded: `rapier3d-f64` is built without its `parallel` feature.
+//!
+//! Measured (medians, ns per body-step, 1 / 100 / 10 000 bodies, shared 2-core x86-64 VM):
+//! `variational` 52 / 26 / 26; `rapier3d-f64` 1352 / 346 / 394; `rapier3d-f64-1-substep`
+//! 1026 / 231 / 256. Rapier / variational at 10 000 bodies: 15x (default), 9.9x (one substep).
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};

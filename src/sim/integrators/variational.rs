@@ -34,49 +34,54 @@
 //! asymmetric bodies, h = 1 ms, `h|Ω|` ≤ 0.006 rad, so every coefficient comes from its series and
 //! no `sin`/`cos`/`sqrt` is called at all.
 //!
-//! Before (one body at a time, warm start = previous `ξ`): 99 / 84 / 85 ns for 1 / 100 / 10 000
-//! bodies; 1009 instructions per body-step (803 in the Newton solve), IPC ≈ 3.
+//! Before (one body at a time, warm start = previous `ξ`): 101 / 85 / 91 ns for 1 / 100 / 10 000
+//! bodies (same session as the figures below); 1009 instructions per body-step (803 in the
+//! Newton solve), IPC ≈ 3.
 //! - Newton updates: 1.62 per body-step on average (62 % of the bodies need two: the previous `ξ`
 //!   is off by O(h^2 |Ω|^2)), so 2.62 residual evaluations, 1.62 Jacobians and 3x3 solves.
 //! - Recomputation: the final `exp(ξ)` for the quaternion and `exp(ξ)^T M` redid the cross
 //!   products and coefficients of the last residual; above the series switch each evaluation
-//!   called `sin_cos(θ)`, `sin(θ/2)` and the quaternion another `sin_cos(θ/2)`.
+//!   called `sin_cos(θ)` and `sin(θ/2)`, and the quaternion another `sin_cos(θ/2)`.
 //! - Renormalisation: a `sqrt` and a division per body-step.
 //!
-//! Now: ≈ 27 ns per body-step at 100 and 10 000 bodies (3.1x faster), ≈ 60 ns for one body (whose
-//! Newton chain is latency-bound, with the fixed cost of a step call); 532 instructions per
-//! body-step, IPC ≈ 5.
-//! - One Newton update per body-step: the predicted warm start (`predict`) is off by O(h^3 |Ω|^3), and
-//!   one quadratically convergent update takes that below the 1e-12 relative tolerance, which is
-//!   still checked on the computed residual at every step (the Newton loop and its stopping rule are
-//!   unchanged). Measured: 100 % of 1e6 body-steps of the bench workload need one update (62 %
-//!   needed two before). For larger `h|Ω|` it saves less: at `h|Ω|` ≈ 0.03 half the steps need
-//!   one update instead of all needing two; at 0.3 it still saves about one update in five.
+//! Now: 52 / 26 / 26 ns for 1 / 100 / 10 000 bodies (1.9x / 3.3x / 3.5x faster); 515
+//! instructions per body-step at 10 000 bodies, IPC ≈ 5. One body stays at ≈ 52 ns: its Newton
+//! chain (residual → Jacobian → division → residual) is latency-bound, plus the fixed cost of a
+//! step call. With `h|Ω|` ≈ 0.03 (h = 10 ms, same bodies; `sin_cos` and often two updates):
+//! 70 ns instead of 132.
+//! - One Newton update per body-step: the predicted warm start (`predict`) is off by
+//!   O(h^3 |Ω|^3), and one quadratically convergent update takes that below the 1e-12 relative
+//!   tolerance, which is still checked on the computed residual at every step (the Newton loop and
+//!   its stopping rule are unchanged). Measured: 100 % of 1e6 body-steps of the bench workload need
+//!   one update (62 % needed two before). For larger `h|Ω|` it saves less: at `h|Ω|` ≈ 0.03 half
+//!   the steps need one update instead of all needing two; at 0.3 it still saves about one update
+//!   in five.
 //! - Per body-step: 2 residual evaluations (≈ 55 flops each with the series coefficients), one
-//!   analytic Jacobian (≈ 70 flops, reusing `ξ×m` and `ξ×(ξ×m)` of the residual), one Cramer
-//!   solve (≈ 50 flops and a division), the predictor (15), the momentum update (15, reusing the
+//!   analytic Jacobian (≈ 70 flops, reusing `ξ×M` and `ξ×(ξ×M)` of the residual), one Cramer
+//!   solve (≈ 50 flops and a division), the predictor (15), the momentum update (12, reusing the
 //!   last residual's cross products), the quaternion product and renormalisation (≈ 45: one
 //!   Newton step for `1/|q|`, no `sqrt`, no division), the tolerance tests (≈ 15), translation (12):
-//!   ≈ 350 flops, counted as 173 two-lane SSE2 arithmetic instructions per body-step. Above the
-//!   series switch: one `sin_cos(θ/2)` and one division per residual evaluation, nothing more
-//!   (the quaternion reuses it).
+//!   ≈ 350 flops, counted as 176 two-lane SSE2 arithmetic instructions plus 14 scalar ones per
+//!   body-step. Above the series switch: one `sin_cos(θ/2)` and one division per residual
+//!   evaluation, nothing more (the quaternion reuses it).
 //! - Four bodies per instruction stream (`Lanes`): the same code, written over `N` lanes, runs
 //!   2 bodies per SSE2 instruction and two independent chains; N = 2 / 4 / 8 measured 31 / 27 /
-//!   29 ns. A group of four takes one straight-line path (`newton_one_update`) when all four are
+//!   29 ns (before the last 4 % of gains). A group of four takes one straight-line path (`newton_one_update`) when all four are
 //!   in the series regime and converge after one update; otherwise the lane-wise Newton loop
 //!   (`newton`) runs from the same start. Both round identically (same operations, no FMA
 //!   contraction in Rust), so a body's trajectory does not depend on its neighbours.
 //!
-//! What bounds it now: instruction issue, not flops or memory. Of the 532 instructions per
-//! body-step, 173 are FP arithmetic, 203 register moves and spills (SSE2's destructive
-//! two-operand forms and 16 `xmm` registers, each 4-lane value taking two), 61 shuffles that
-//! transpose the `Vec<Vector3>` storage into lanes, the rest loads, stores and loop control. At
-//! ≈ 5 instructions per cycle that is ≈ 107 cycles ≈ 27 ns. The FP-port floor (173 packed
-//! instructions on 2-3 ports) is ≈ 60-85 cycles, i.e. ≈ 15-22 ns: the step is within 1.3-1.8x of
-//! it; closing the gap needs AVX (three-operand, four lanes per instruction), which needs
-//! `target-cpu` flags or `unsafe` runtime dispatch, both excluded here. Memory: 304 bytes per
-//! body-step (176 read: `J`, `J^-1`, `M`, `q`, `ξ`, `c`, `v`; 128 written), 11 GB/s at 27 ns, and
-//! the 10 000-body working set (1.8 MB) stays in L2: far below the bandwidth available.
+//! What bounds it now: instruction issue, not flops or memory. Of the 515 instructions per
+//! body-step, 190 are FP arithmetic, 92 register moves and 118 spills to and reloads from the
+//! stack (SSE2's destructive two-operand forms and 16 `xmm` registers, each 4-lane value taking
+//! two), 59 shuffles that transpose the `Vec<Vector3>` storage into lanes, 24 loads and stores
+//! of the state, the rest constants and loop control. At ≈ 5 instructions per cycle that is
+//! ≈ 100 cycles ≈ 26 ns. The FP-port floor (176 packed instructions on 2-3 ports) is ≈ 60-90
+//! cycles, i.e. ≈ 15-23 ns: the step is within 1.2-1.7x of it; closing the gap needs AVX
+//! (three-operand, four lanes per instruction), which needs `target-cpu` flags or `unsafe`
+//! runtime dispatch, both excluded here. Memory: 304 bytes per body-step (176 read: `J`, `J^-1`,
+//! `M`, `q`, `ξ`, `c`, `v`; 128 written), 12 GB/s at 26 ns, and the 10 000-body working set
+//! (1.8 MB) stays in L2: far below the bandwidth available.
 
 use super::translation::{Potential, step_translation};
 use super::{Integrator, StepStats};
@@ -109,7 +114,8 @@ impl Jacobian {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct VariationalSettings {
-    /// Newton stops when `|f(ξ)|_∞ <= newton_tol · h |M|_∞` (relative residual).
+    /// Newton stops when `|f(ξ)|_∞ <= newton_tol · h |M|_∞` (relative residual; tested as
+    /// `|f(ξ)/h|_∞ <= newton_tol · |M|_∞`, component by component, so a NaN never passes).
     pub newton_tol: f64,
     /// Iteration cap; reaching it counts as a failure in [`StepStats::newton_failures`].
     pub newton_max_iters: u32,
