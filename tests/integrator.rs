@@ -67,7 +67,7 @@ fn momentum_conserved_and_energy_bounded_over_1e5_steps() {
             e_err_last = e_err_last.max(e_err);
         }
     }
-    // Round-off: ~sqrt(1e5) * 1e-16 ≈ 3e-14 for a random walk. Measured 5.9e-14.
+    // Round-off: ~sqrt(1e5) * 1e-16 ≈ 3e-14 for a random walk. Measured 8.0e-14.
     assert!(l_err_max < 1e-12, "angular momentum drift {l_err_max:e}");
     // O(h^2) energy error: (h|Ω|)^2 ≈ 1e-3 scale. Measured 2.1e-5 in both tenths.
     assert!(e_err_first < 5e-4, "energy error {e_err_first:e}");
