@@ -90,8 +90,8 @@ fn total_energy(bodies: &Bodies, gravity: &Vector3<f64>) -> f64 {
     (0..bodies.len()).map(|i| bodies.energy(i, gravity)).sum()
 }
 
-/// Runs the simulation, recording into every sink. Sinks are not finished here: the caller
-/// finishes them (also when this returns an error, so recordings stay readable).
+/// Runs the simulation, recording into every sink. Sinks are not finished here: the caller ends
+/// the run with [`crate::record::finish_all`].
 pub fn run(
     world: &World,
     integrator: &mut dyn Integrator,

@@ -164,17 +164,7 @@ pub fn simulate(
         gravity: scene.gravity(),
     };
     let result = crate::run::run(&world, integrator.as_mut(), &settings, &mut sinks);
-    // Finish every sink, also after an error, so that what was recorded stays readable.
-    let mut finish_error = None;
-    for sink in sinks {
-        if let Err(e) = sink.finish() {
-            finish_error.get_or_insert(e);
-        }
-    }
-    let summary = result?;
-    if let Some(e) = finish_error {
-        return Err(e);
-    }
+    let summary = crate::record::finish_all(sinks, result, &[&mcap, &rrd])?;
     Ok(Outputs {
         mcap,
         rrd,

@@ -123,9 +123,8 @@ pub fn run(args: &TradeArgs) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", args.out.display()))?;
     println!(
-        "trade on {} ({} simulated bodies): {} integrators x {} step sizes, error horizon {} s, drift horizon {} s",
+        "trade on {}: {} integrators x {} step sizes, error horizon {} s, drift horizon {} s",
         scene.source.display(),
-        scene.build()?.bodies.len(),
         settings.integrators.len(),
         settings.dts.len(),
         settings.duration_secs,
@@ -134,6 +133,7 @@ pub fn run(args: &TradeArgs) -> anyhow::Result<()> {
     let report = trade::run(&scene, &settings, |row| {
         eprintln!("  measured {} at dt = {} s", row.integrator, row.dt);
     })?;
+    println!("simulated bodies per run: {}", report.bodies);
     print!("{}", trade::output::table(&report.rows));
     println!(
         "orientation reference: {}; its own error ~ {:.1e} rad (rot_err below that is not resolved)",

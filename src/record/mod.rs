@@ -127,10 +127,65 @@ pub struct Frame<'a> {
     pub bodies: &'a [BodyState],
 }
 
+/// Ends a recording run: after `result` is `Ok`, finishes every sink (each renames its
+/// `<path>.part` onto `path`); after an error, finishes none and removes the `.part` files of
+/// `outputs`, so nothing half-written appears under a final name.
+pub fn finish_all<T>(
+    sinks: Vec<Box<dyn Sink>>,
+    result: anyhow::Result<T>,
+    outputs: &[&std::path::Path],
+) -> anyhow::Result<T> {
+    match result {
+        Ok(value) => {
+            for sink in sinks {
+                sink.finish()?;
+            }
+            Ok(value)
+        }
+        Err(e) => {
+            drop(sinks);
+            for path in outputs {
+                std::fs::remove_file(crate::fsutil::part_path(path)).ok();
+            }
+            Err(e)
+        }
+    }
+}
+
 /// A recording being written.
 pub trait Sink {
     /// Record one step. Frames arrive in increasing time.
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()>;
     /// Flush everything and close the file so that readers see a complete recording.
     fn finish(self: Box<Self>) -> anyhow::Result<()>;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// After a failed run nothing appears under the final name, and no `.part` is left behind;
+    /// after a good one the final file exists and the `.part` is gone.
+    #[test]
+    fn finish_all_discards_after_an_error_and_renames_after_success() {
+        let dir = tempfile::tempdir().unwrap();
+        let layout = RecordingLayout {
+            name: "t".into(),
+            ..Default::default()
+        };
+        for ok in [false, true] {
+            let path = dir.path().join(format!("run_{ok}.mcap"));
+            let sink = mcap::McapSink::create(&path, &layout).unwrap();
+            assert!(crate::fsutil::part_path(&path).exists());
+            let result = if ok {
+                Ok(())
+            } else {
+                Err(anyhow::anyhow!("boom"))
+            };
+            let out = finish_all(vec![Box::new(sink)], result, &[&path]);
+            assert_eq!(out.is_ok(), ok);
+            assert_eq!(path.exists(), ok, "{}", path.display());
+            assert!(!crate::fsutil::part_path(&path).exists());
+        }
+    }
 }

@@ -47,6 +47,8 @@ pub struct TradeSettings {
 /// Everything `tumble trade` measured.
 #[derive(Debug, Clone)]
 pub struct TradeReport {
+    /// Simulated bodies in the scene.
+    pub bodies: usize,
     pub rows: Vec<TradeRow>,
     /// Energy error against time over the drift horizon, per integrator, at [`Self::series_dt`].
     pub energy_series: Vec<EnergySeries>,
@@ -85,6 +87,7 @@ pub fn run(
         }
     }
     Ok(TradeReport {
+        bodies: world.bodies.len(),
         rows,
         energy_series,
         series_dt,

@@ -121,16 +121,5 @@ pub fn record(
             break;
         }
     }
-    if result.is_ok() {
-        for sink in sinks {
-            sink.finish()?;
-        }
-    } else {
-        // Not finished: nothing may appear under the final names.
-        drop(sinks);
-        for path in [rrd, mcap] {
-            std::fs::remove_file(crate::fsutil::part_path(path)).ok();
-        }
-    }
-    result
+    crate::record::finish_all(sinks, result, &[rrd, mcap])
 }
