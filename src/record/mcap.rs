@@ -19,6 +19,7 @@
 //! `<path>.part` and renamed onto `path` only once it is complete.
 
 use super::{Frame, RecordingLayout, Sink};
+use crate::fsutil::part_path;
 use anyhow::Context;
 use foxglove::Encode;
 use foxglove::messages::{FrameTransform, FrameTransforms, Quaternion, Timestamp, Vector3};
@@ -190,9 +191,6 @@ pub fn body_states_descriptor() -> Vec<u8> {
     }
     .encode_to_vec()
 }
-
-/// The path a sink writes to before the file is complete.
-pub use crate::fsutil::part_path;
 
 /// The two channels of one topic group.
 struct ChannelGroup {

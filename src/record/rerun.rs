@@ -70,6 +70,7 @@
 //! the same id, different scenes or settings do not get merged by the viewer.
 
 use super::{BodyLayout, Frame, FrameLayout, RecordingLayout, Sink};
+use crate::fsutil::part_path;
 use crate::model::{Geometry, Visual};
 use anyhow::{Context, Result, anyhow, bail};
 use nalgebra::Isometry3;
@@ -444,8 +445,6 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
     sink.write_layout(layout, options)?;
     Ok(sink)
 }
-
-use crate::fsutil::part_path;
 
 /// A static chunk with one row holding all the given archetypes.
 fn static_chunk(entity: EntityPath, archetypes: &[&dyn AsComponents]) -> Result<Chunk> {
