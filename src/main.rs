@@ -1,6 +1,7 @@
 //! The `tumble` binary: parses arguments, dispatches, and maps results to exit codes.
 //! Exit codes: 0 success, 1 the input has problems (e.g. `inspect` found invalid links),
-//! 2 an error (bad input, unreadable or unwritable files); clap's usage errors also exit 2.
+//! 2 an error (bad input, unreadable or unwritable files); clap's usage errors also exit 2;
+//! 3 a simulation stopped by the divergence guard (its recordings are finished and readable).
 
 use clap::Parser;
 use std::process::ExitCode;
@@ -19,7 +20,11 @@ fn main() -> ExitCode {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("error: {e:#}");
-            ExitCode::from(2)
+            if e.downcast_ref::<tumble::run::Diverged>().is_some() {
+                ExitCode::from(3)
+            } else {
+                ExitCode::from(2)
+            }
         }
     }
 }

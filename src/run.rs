@@ -2,6 +2,7 @@
 
 use crate::record::{BodyState, Frame, Sink};
 use crate::scene::World;
+use crate::sim::guard::{Divergence, Guard};
 use crate::sim::{Bodies, Integrator, StepStats};
 use nalgebra::{Isometry3, Vector3};
 
@@ -12,12 +13,19 @@ pub struct RunSettings {
     /// Record every Nth step (the initial and the final state are always recorded).
     pub log_every: u64,
     pub gravity: Vector3<f64>,
+    /// A body whose rotational kinetic energy exceeds this multiple of its initial value stops
+    /// the run ([`crate::sim::guard`]).
+    pub divergence_energy_ratio: f64,
+    /// `Some(max_substeps)`: substepping is on, so a Newton failure is final and stops the run.
+    pub stop_on_newton_failure: Option<u32>,
 }
 
 /// What a run did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RunSummary {
     pub steps: u64,
+    /// The last step recorded.
+    pub last_recorded_step: u64,
     pub frames_recorded: u64,
     pub stats: StepStats,
     /// Total mechanical energy of all bodies at the start and at the end, J.
@@ -26,6 +34,9 @@ pub struct RunSummary {
     /// Largest change of any body's spatial angular momentum about its centre of mass, relative
     /// to that body's initial |L| (conserved exactly by the variational schemes).
     pub angmom_rel_change_max: f64,
+    /// Set when the guard stopped the run: `steps` is then the last good step, and the
+    /// recordings end at the last recorded step before it.
+    pub stopped: Option<Divergence>,
 }
 
 /// Simulation time of step `k` in integer nanoseconds. Exact integer arithmetic when `dt_secs`
@@ -91,7 +102,9 @@ fn total_energy(bodies: &Bodies, gravity: &Vector3<f64>) -> f64 {
 }
 
 /// Runs the simulation, recording into every sink. Sinks are not finished here: the caller ends
-/// the run with [`crate::record::finish_all`].
+/// the run with [`crate::record::finish_all`]. After every step the [`Guard`] checks each body;
+/// a non-finite or diverging body ends the run early with [`RunSummary::stopped`] set (an `Ok`:
+/// what was recorded is good and is to be finished), so no bad state reaches a sink.
 pub fn run(
     world: &World,
     integrator: &mut dyn Integrator,
@@ -107,6 +120,11 @@ pub fn run(
         energy_initial: total_energy(&bodies, &g),
         ..Default::default()
     };
+    let guard = Guard::new(
+        &bodies,
+        settings.divergence_energy_ratio,
+        settings.stop_on_newton_failure,
+    );
     let mut frames = FrameBuilder::new(world);
     let log_every = settings.log_every.max(1);
 
@@ -116,17 +134,23 @@ pub fn run(
             sink.write(&frame)?;
         }
         summary.frames_recorded += 1;
+        summary.last_recorded_step = step;
         Ok(())
     };
     record(&bodies, 0, &mut summary)?;
+    summary.steps = settings.steps;
     for step in 1..=settings.steps {
         let stats = integrator.step(&mut bodies, &g);
         summary.stats = summary.stats.merge(stats);
+        if let Some(stop) = guard.check(&bodies, &stats, step) {
+            summary.stopped = Some(stop);
+            summary.steps = step - 1;
+            return Ok(summary);
+        }
         if step % log_every == 0 || step == settings.steps {
             record(&bodies, step, &mut summary)?;
         }
     }
-    summary.steps = settings.steps;
     summary.energy_final = total_energy(&bodies, &g);
     summary.angmom_rel_change_max = (0..bodies.len())
         .map(|i| {
@@ -136,3 +160,42 @@ pub fn run(
         .fold(0.0, f64::max);
     Ok(summary)
 }
+
+/// The error of a run the guard stopped ([`RunSummary::stopped`]), after its recordings were
+/// finished. `tumble` exits with status 3 on it.
+#[derive(Debug, Clone)]
+pub struct Diverged {
+    pub divergence: Divergence,
+    /// The body's name (its frame id).
+    pub body_name: String,
+    pub dt_secs: f64,
+    /// Steps recorded, the last one.
+    pub last_recorded_step: u64,
+    /// The finished recordings.
+    pub outputs: Vec<std::path::PathBuf>,
+}
+
+impl std::fmt::Display for Diverged {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let d = &self.divergence;
+        write!(
+            f,
+            "body {:?} (index {}) failed at step {} (t = {} s): {}. The run stopped after step {}; \
+             the recordings end at step {} (t = {} s) and are complete and readable:",
+            self.body_name,
+            d.body,
+            d.step,
+            time_ns(d.step, self.dt_secs) as f64 / 1e9,
+            d.cause,
+            d.step.saturating_sub(1),
+            self.last_recorded_step,
+            time_ns(self.last_recorded_step, self.dt_secs) as f64 / 1e9,
+        )?;
+        for path in &self.outputs {
+            write!(f, " {}", path.display())?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for Diverged {}

@@ -11,6 +11,9 @@
 //! newton_max_iters = 10         # Newton iteration cap                     (default 10)
 //! jacobian = "analytic"         # "analytic" | "approximate" (the seed's)  (default "analytic")
 //! potential = "symmetric"       # "symmetric" | "end-point" (the seed's)   (default "symmetric")
+//! substep = true                # split a body's step when Newton fails    (default true)
+//! max_substeps = 1024           # largest split factor, a power of two     (default 1024)
+//! divergence_energy_ratio = 100 # stop when a body's rotational energy exceeds this × its initial (default 100)
 //!
 //! [[model]]                     # one or more
 //! urdf = "box.urdf"             # relative to the scene file
@@ -20,6 +23,7 @@
 //! linvel = [0.0, 0.0, 0.0]      # initial velocity of every body's centre of mass, world, m/s (default 0)
 //! angvel = [0.0, 5.0, 0.1]      # initial angular velocity of every body, world, rad/s (default 0)
 //! package_paths = ["../share"]  # optional extra package:// search folders, relative to the scene
+//! allow_non_physical_inertia = false  # accept inertia breaking the triangle inequality (default false)
 //! ```
 //!
 //! Every link with positive mass becomes one free rigid body at its forward-kinematics pose
@@ -50,6 +54,9 @@ pub struct SimSettings {
     pub newton_max_iters: u32,
     pub jacobian: Jacobian,
     pub potential: Potential,
+    pub substep: bool,
+    pub max_substeps: u32,
+    pub divergence_energy_ratio: f64,
 }
 
 impl Default for SimSettings {
@@ -65,6 +72,9 @@ impl Default for SimSettings {
             newton_max_iters: v.newton_max_iters,
             jacobian: v.jacobian,
             potential: v.potential,
+            substep: v.substep,
+            max_substeps: v.max_substeps,
+            divergence_energy_ratio: crate::sim::guard::DEFAULT_DIVERGENCE_ENERGY_RATIO,
         }
     }
 }
@@ -86,6 +96,11 @@ pub struct ModelEntry {
     pub angvel: [f64; 3],
     #[serde(default)]
     pub package_paths: Vec<PathBuf>,
+    /// Accept links whose principal moments break the triangle inequality `I1 + I2 >= I3`
+    /// (no mass distribution has them, e.g. Hairer, Lubich & Wanner's test body (2, 1, 2/3));
+    /// refused by default. Every other inertia rule still applies.
+    #[serde(default)]
+    pub allow_non_physical_inertia: bool,
 }
 
 impl ModelEntry {
@@ -99,6 +114,7 @@ impl ModelEntry {
             linvel: [0.0; 3],
             angvel: [0.0; 3],
             package_paths: Vec::new(),
+            allow_non_physical_inertia: false,
         }
     }
 }
@@ -136,6 +152,10 @@ pub struct SimOverrides {
     pub newton_max_iters: Option<u32>,
     pub jacobian: Option<Jacobian>,
     pub potential: Option<Potential>,
+    /// `Some(false)` switches substepping off.
+    pub substep: Option<bool>,
+    pub max_substeps: Option<u32>,
+    pub divergence_energy_ratio: Option<f64>,
 }
 
 impl Scene {
@@ -202,6 +222,15 @@ impl Scene {
         if let Some(v) = o.potential {
             s.potential = v;
         }
+        if let Some(v) = o.substep {
+            s.substep = v;
+        }
+        if let Some(v) = o.max_substeps {
+            s.max_substeps = v;
+        }
+        if let Some(v) = o.divergence_energy_ratio {
+            s.divergence_energy_ratio = v;
+        }
         self.validate()
     }
 
@@ -228,6 +257,18 @@ impl Scene {
         }
         if s.newton_max_iters == 0 {
             bail!("{file}: sim.newton_max_iters must be at least 1");
+        }
+        if !(2..=1 << 20).contains(&s.max_substeps) {
+            bail!(
+                "{file}: sim.max_substeps must be between 2 and 1048576 (got {})",
+                s.max_substeps
+            );
+        }
+        if !(s.divergence_energy_ratio.is_finite() && s.divergence_energy_ratio > 1.0) {
+            bail!(
+                "{file}: sim.divergence_energy_ratio must be a finite number > 1 (got {})",
+                s.divergence_energy_ratio
+            );
         }
         finite3(&format!("{file}: sim.gravity"), &s.gravity)?;
         if IntegratorKind::from_name(&s.integrator).is_none() {
@@ -277,6 +318,19 @@ impl Scene {
             newton_max_iters: self.sim.newton_max_iters,
             jacobian: self.sim.jacobian,
             potential: self.sim.potential,
+            substep: self.sim.substep,
+            max_substeps: self.sim.max_substeps,
+        }
+    }
+
+    /// What [`crate::run::run`] needs from `[sim]`.
+    pub fn run_settings(&self) -> crate::run::RunSettings {
+        crate::run::RunSettings {
+            steps: self.steps(),
+            log_every: self.sim.log_every,
+            gravity: self.gravity(),
+            divergence_energy_ratio: self.sim.divergence_energy_ratio,
+            stop_on_newton_failure: self.sim.substep.then_some(self.sim.max_substeps),
         }
     }
 
@@ -302,6 +356,12 @@ impl Scene {
         m.insert("newton_max_iters".into(), s.newton_max_iters.to_string());
         m.insert("jacobian".into(), s.jacobian.name().into());
         m.insert("potential".into(), s.potential.name().into());
+        m.insert("substep".into(), s.substep.to_string());
+        m.insert("max_substeps".into(), s.max_substeps.to_string());
+        m.insert(
+            "divergence_energy_ratio".into(),
+            format!("{:?}", s.divergence_energy_ratio),
+        );
         m.insert(
             "settings_json".into(),
             serde_json::to_string(&SceneFile {
@@ -325,7 +385,10 @@ impl Scene {
                 .map(|p| self.base_dir.join(p))
                 .collect();
             let model = urdf::load(&urdf_path, &package_paths)
-                .and_then(|m| m.check_simulable().map(|()| m))
+                .and_then(|m| {
+                    m.check_simulable(entry.allow_non_physical_inertia)
+                        .map(|()| m)
+                })
                 .with_context(|| format!("{}: model[{i}]", self.source.display()))?;
             let before = world.layout.frames.len();
             add_model(&mut world, &model, entry);

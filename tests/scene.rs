@@ -243,8 +243,7 @@ fn bundled_scenes_build_and_conserve() {
             .build(scene.sim.dt, &scene.variational_settings());
         let settings = tumble::run::RunSettings {
             steps: scene.steps().min(2000),
-            log_every: scene.sim.log_every,
-            gravity: scene.gravity(),
+            ..scene.run_settings()
         };
         let summary = tumble::run::run(&world, integ.as_mut(), &settings, &mut []).unwrap();
         // Torque-free about each centre of mass: angular momentum is conserved to round-off by

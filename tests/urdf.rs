@@ -187,7 +187,7 @@ fn missing_inertial_is_not_an_explicit_zero() {
     let body = link(&model, "body");
     assert!(body.has_mass() && body.problems.is_empty());
     // Zero-mass and missing links are frames, not bodies: the model is simulable.
-    model.check_simulable().expect("simulable");
+    model.check_simulable(false).expect("simulable");
     assert!(model.has_problems());
 }
 
@@ -212,7 +212,7 @@ fn every_validation_rule_names_file_link_and_rule() {
             payload.problems
         );
         assert!(link(&model, "base").problems.is_empty());
-        let err = model.check_simulable().expect_err(file);
+        let err = model.check_simulable(false).expect_err(file);
         assert!(matches!(err, ModelError::NotSimulable { .. }), "{err:?}");
         let msg = err.to_string();
         assert!(msg.contains(file), "{msg}");
@@ -225,7 +225,7 @@ fn every_validation_rule_names_file_link_and_rule() {
 fn a_model_without_mass_is_not_simulable() {
     let xml = r#"<robot name="r"><link name="only"/></robot>"#;
     let model = urdf::load_str(xml, Path::new("frames_only.urdf"), &[]).unwrap();
-    let msg = model.check_simulable().unwrap_err().to_string();
+    let msg = model.check_simulable(false).unwrap_err().to_string();
     assert!(
         msg.contains("frames_only.urdf") && msg.contains("nothing to simulate"),
         "{msg}"
@@ -354,7 +354,7 @@ fn package_uris_with_hyphens_resolve_without_ros() {
         Geometry::Mesh { path: None, .. }
     ));
     // A missing mesh does not stop the simulation.
-    model.check_simulable().unwrap();
+    model.check_simulable(false).unwrap();
 }
 
 #[test]
@@ -406,7 +406,7 @@ fn arm_forward_kinematics_matches_hand_computation() {
     for l in &model.links {
         assert!(l.problems.is_empty(), "{}: {:?}", l.name, l.problems);
     }
-    model.check_simulable().unwrap();
+    model.check_simulable(false).unwrap();
 
     // Visual kinds: box, cylinder and sphere all present.
     let kinds: Vec<&str> = model

@@ -4,9 +4,10 @@
 use crate::record::Sink;
 use crate::record::mcap::McapSink;
 use crate::record::rerun::{RerunOptions, RerunSink};
-use crate::run::{RunSettings, RunSummary};
-use crate::scene::{Scene, SimOverrides};
+use crate::run::{Diverged, RunSummary};
+use crate::scene::{Scene, SimOverrides, World};
 use crate::sim::integrators::{Jacobian, Potential};
+use crate::sim::{Bodies, limits};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
 
@@ -49,6 +50,22 @@ pub struct SimulateArgs {
     /// Potential quadrature of the variational integrator (overrides sim.potential).
     #[arg(long, value_parser = parse_potential)]
     pub potential: Option<Potential>,
+    /// Switch automatic substepping off (sim.substep = false): a Newton solve that does not
+    /// converge is used as is and counted.
+    #[arg(long)]
+    pub no_substep: bool,
+    /// Largest substep split factor (overrides sim.max_substeps).
+    #[arg(long)]
+    pub max_substeps: Option<u32>,
+    /// Stop when a body's rotational energy exceeds this multiple of its initial value
+    /// (overrides sim.divergence_energy_ratio).
+    #[arg(long)]
+    pub divergence_energy_ratio: Option<f64>,
+    /// With a URDF input: accept inertia that breaks the triangle inequality (a non-physical
+    /// body, e.g. Hairer-Lubich-Wanner's test body); in a scene, set
+    /// allow_non_physical_inertia = true on the [[model]].
+    #[arg(long)]
+    pub allow_non_physical_inertia: bool,
     /// With a URDF input: initial angular velocity x,y,z of every body, world frame, rad/s.
     #[arg(long, value_parser = super::parse_vec3, allow_hyphen_values = true)]
     pub angvel: Option<[f64; 3]>,
@@ -106,11 +123,16 @@ pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
         model.linvel = args.linvel.unwrap_or_default();
         model.position = args.position.unwrap_or_default();
         model.package_paths = args.package_paths.clone();
+        model.allow_non_physical_inertia = args.allow_non_physical_inertia;
         scene
     } else {
-        if args.angvel.is_some() || args.linvel.is_some() || args.position.is_some() {
+        if args.angvel.is_some()
+            || args.linvel.is_some()
+            || args.position.is_some()
+            || args.allow_non_physical_inertia
+        {
             anyhow::bail!(
-                "--angvel, --linvel and --position apply to a URDF input; set them per [[model]] in {}",
+                "--angvel, --linvel, --position and --allow-non-physical-inertia apply to a URDF input; set them per [[model]] in {}",
                 input.display()
             );
         }
@@ -126,6 +148,9 @@ pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
         newton_max_iters: args.newton_max_iters,
         jacobian: args.jacobian,
         potential: args.potential,
+        substep: args.no_substep.then_some(false),
+        max_substeps: args.max_substeps,
+        divergence_energy_ratio: args.divergence_energy_ratio,
     })?;
     Ok(scene)
 }
@@ -145,7 +170,45 @@ pub fn simulate(
     stem: &Path,
     rerun_options: &RerunOptions,
 ) -> anyhow::Result<Outputs> {
-    let world = scene.build()?;
+    simulate_world(scene, &scene.build()?, stem, rerun_options)
+}
+
+/// The warning for a step too large for some body's spin ([`crate::sim::limits`]), if any.
+pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
+    let bodies = Bodies::new(&world.bodies);
+    let w = limits::check_step(&bodies, scene.integrator(), scene.sim.dt)?;
+    let others = match w.bodies_over {
+        1 => String::new(),
+        n => format!(" (and {} other bodies)", n - 1),
+    };
+    Some(format!(
+        "warning: dt = {} s is too large for body {:?}{others}: it turns at up to |Ω| = {:.4e} rad/s, \
+         h|Ω| = {:.3} rad per step, over the {} limit of {} rad (README \"Limits\"; {}). \
+         Largest safe step: dt <= {:.3e} s",
+        scene.sim.dt,
+        world.layout.bodies[w.body].name,
+        w.spin_rate_max,
+        w.h_omega,
+        scene.sim.integrator,
+        w.limit,
+        if scene.integrator().is_variational() {
+            "past it Newton substeps where needed and the energy error grows"
+        } else {
+            "past it the energy error grows fast and the run may diverge"
+        },
+        w.dt_safe
+    ))
+}
+
+/// Runs the built `world` of `scene` and writes `<stem>.mcap` and `<stem>.rrd`. A run the guard
+/// stops ([`crate::sim::guard`]) still finishes both files (they end at the last good recorded
+/// step) and then returns a [`Diverged`] error.
+pub fn simulate_world(
+    scene: &Scene,
+    world: &World,
+    stem: &Path,
+    rerun_options: &RerunOptions,
+) -> anyhow::Result<Outputs> {
     if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
@@ -158,13 +221,23 @@ pub fn simulate(
     let mut integrator = scene
         .integrator()
         .build(scene.sim.dt, &scene.variational_settings());
-    let settings = RunSettings {
-        steps: scene.steps(),
-        log_every: scene.sim.log_every,
-        gravity: scene.gravity(),
-    };
-    let result = crate::run::run(&world, integrator.as_mut(), &settings, &mut sinks);
+    let result = crate::run::run(
+        world,
+        integrator.as_mut(),
+        &scene.run_settings(),
+        &mut sinks,
+    );
     let summary = crate::record::finish_all(sinks, result, &[&mcap, &rrd])?;
+    if let Some(divergence) = summary.stopped {
+        return Err(Diverged {
+            divergence,
+            body_name: world.layout.bodies[divergence.body].name.clone(),
+            dt_secs: scene.sim.dt,
+            last_recorded_step: summary.last_recorded_step,
+            outputs: vec![mcap, rrd],
+        }
+        .into());
+    }
     Ok(Outputs {
         mcap,
         rrd,
@@ -187,9 +260,14 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         let name = scene.source.file_stem().unwrap_or_default();
         Path::new("logs").join(name)
     });
+    let world = scene.build()?;
+    if let Some(warning) = step_warning(&scene, &world) {
+        eprintln!("{warning}");
+    }
     let started = std::time::Instant::now();
-    let out = simulate(
+    let out = simulate_world(
         &scene,
+        &world,
         &stem,
         &RerunOptions {
             ellipsoids: !args.no_ellipsoids,
@@ -208,12 +286,23 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         s.energy_initial, s.energy_final, s.angmom_rel_change_max
     );
     println!(
-        "Newton: at most {} iterations per step, {} non-converged solves",
-        s.stats.newton_iters_max, s.stats.newton_failures
+        "Newton: at most {} iterations per solve, {} non-converged solves; {} body-steps substepped (largest split {}x)",
+        s.stats.newton_iters_max,
+        s.stats.newton_failures,
+        s.stats.substepped,
+        s.stats.substep_factor_max.max(1)
     );
+    if s.stats.substepped > 0 {
+        eprintln!(
+            "warning: {} body-steps did not converge at dt = {} s and were split into up to {} substeps \
+             (sim.substep; the recording keeps dt); a smaller dt avoids it",
+            s.stats.substepped, scene.sim.dt, s.stats.substep_factor_max
+        );
+    }
     if s.stats.newton_failures > 0 {
         eprintln!(
-            "warning: {} Newton solves did not reach sim.newton_tol within sim.newton_max_iters; reduce dt or raise the cap",
+            "warning: {} Newton solves did not reach sim.newton_tol within sim.newton_max_iters and were used as is \
+             (substepping is off); reduce dt, raise the cap, or leave sim.substep on",
             s.stats.newton_failures
         );
     }

@@ -184,6 +184,14 @@ impl MassProperties {
     /// A zero mass with an all-zero inertia (a placeholder "massless" body) reports only the
     /// zero-mass rule.
     pub fn validate(&self) -> Vec<String> {
+        self.validate_with(false)
+    }
+
+    /// [`MassProperties::validate`], with rule 5 (triangle inequality) skipped when
+    /// `allow_triangle_violation` is set: the user's explicit opt-in to simulate a body no mass
+    /// distribution has (the equations of motion are still well defined for any positive
+    /// definite inertia).
+    pub fn validate_with(&self, allow_triangle_violation: bool) -> Vec<String> {
         let mut problems = Vec::new();
         if !self.mass.is_finite() {
             problems.push(format!("mass is not finite: {}", self.mass));
@@ -227,8 +235,7 @@ impl MassProperties {
                 sig(m[2])
             ));
         }
-        let trace = self.inertia.trace().abs();
-        if m[0] + m[1] < m[2] - TRIANGLE_RELATIVE_TOLERANCE * trace {
+        if !allow_triangle_violation && self.breaks_triangle_inequality() {
             problems.push(format!(
                 "inertia breaks the triangle inequality: principal moments {} + {} < {} \
                  kg m^2 (no mass distribution has these moments)",
@@ -238,6 +245,12 @@ impl MassProperties {
             ));
         }
         problems
+    }
+
+    /// Whether the ascending principal moments break `I1 + I2 >= I3 - 1e-9 tr(I)` (rule 5).
+    pub fn breaks_triangle_inequality(&self) -> bool {
+        let m = self.principal_moments();
+        m[0] + m[1] < m[2] - TRIANGLE_RELATIVE_TOLERANCE * self.inertia.trace().abs()
     }
 }
 

@@ -694,13 +694,22 @@ impl Model {
     /// definite, triangle inequality) or whose pose is not finite; or when no link has a
     /// positive mass at all. Links without `<inertial>` or with mass exactly 0 are frames, not
     /// bodies, and are skipped. Visual problems (unresolved meshes) do not block simulation.
-    pub fn check_simulable(&self) -> Result<(), ModelError> {
+    /// `allow_non_physical_inertia` waives the triangle-inequality rule only (the user's opt-in,
+    /// `allow_non_physical_inertia = true` on a scene's `[[model]]`); when that rule is what
+    /// fails, the error says how to opt in.
+    pub fn check_simulable(&self, allow_non_physical_inertia: bool) -> Result<(), ModelError> {
         for link in &self.links {
             let Some(mp) = &link.inertial else { continue };
             if mp.mass == 0.0 {
                 continue;
             }
-            let mut rules = mp.validate();
+            let mut rules = mp.validate_with(allow_non_physical_inertia);
+            if !allow_non_physical_inertia && rules.len() == 1 && mp.breaks_triangle_inequality() {
+                rules[0].push_str(
+                    "; to simulate it anyway set allow_non_physical_inertia = true on its [[model]] \
+                     (or pass --allow-non-physical-inertia)",
+                );
+            }
             if !pose_is_finite(&link.model_from_link) {
                 rules.push(NON_FINITE_POSE.to_string());
             }

@@ -1,7 +1,9 @@
 //! How bodies move: the batch of free rigid bodies and the integrators that step it.
 
 pub mod bodies;
+pub mod guard;
 pub mod integrators;
+pub mod limits;
 pub mod reference;
 pub mod so3;
 pub mod workload;

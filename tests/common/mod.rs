@@ -81,11 +81,7 @@ pub fn reference_frames(scene: &tumble::scene::Scene) -> (Vec<String>, Recorded)
     let mut integ = scene
         .integrator()
         .build(scene.sim.dt, &scene.variational_settings());
-    let settings = tumble::run::RunSettings {
-        steps: scene.steps(),
-        log_every: scene.sim.log_every,
-        gravity: scene.gravity(),
-    };
+    let settings = scene.run_settings();
     tumble::run::run(&world, integ.as_mut(), &settings, &mut sinks).unwrap();
     let ids = world
         .layout

@@ -34,18 +34,43 @@ use nalgebra::Vector3;
 /// What one step did, summed or maximised over the batch.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct StepStats {
-    /// Largest number of Newton iterations any body needed this step (0 for explicit schemes).
+    /// Largest number of Newton iterations any solve needed this step, substeps included
+    /// (0 for explicit schemes).
     pub newton_iters_max: u32,
-    /// Bodies whose Newton solve reached the iteration cap without meeting the tolerance.
+    /// Body-steps whose Newton solve ended without meeting the tolerance: with substepping on
+    /// (the default), only those that failed even at `max_substeps`; with it off, every solve
+    /// that reached the iteration cap (the unconverged `ξ` is used as is).
     pub newton_failures: u32,
+    /// Body-steps that were split into substeps because Newton did not converge at full step.
+    pub substepped: u32,
+    /// Largest split factor used (a power of two; 0 when no step was split).
+    pub substep_factor_max: u32,
+    /// The lowest body index among `newton_failures`, if any.
+    pub failed_body: Option<usize>,
 }
 
 impl StepStats {
-    /// Combines the statistics of two steps (max of iterations, sum of failures).
+    /// Combines the statistics of two steps (max of iterations and split factors, sums of
+    /// counts, the lower failed body).
     pub fn merge(self, other: Self) -> Self {
         Self {
             newton_iters_max: self.newton_iters_max.max(other.newton_iters_max),
             newton_failures: self.newton_failures + other.newton_failures,
+            substepped: self.substepped + other.substepped,
+            substep_factor_max: self.substep_factor_max.max(other.substep_factor_max),
+            failed_body: match (self.failed_body, other.failed_body) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
+            },
+        }
+    }
+
+    /// Records one body's solve.
+    pub fn add_solve(&mut self, body: usize, iterations: u32, converged: bool) {
+        self.newton_iters_max = self.newton_iters_max.max(iterations);
+        if !converged {
+            self.newton_failures += 1;
+            self.failed_body = Some(self.failed_body.map_or(body, |b| b.min(body)));
         }
     }
 }

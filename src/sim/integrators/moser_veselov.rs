@@ -161,6 +161,58 @@ fn solve3(a: &Matrix3<f64>, b: &Vector3<f64>) -> Option<Vector3<f64>> {
     Some(Vector3::new(c0.dot(b), c1.dot(b), c2.dot(b)) / det)
 }
 
+/// The substepping guard (see [`VariationalSettings::substep`]): the step of `h` redone as
+/// `n = 2, 4, ... <= max_substeps` Moser–Veselov steps of `h/n` (each from the cold start
+/// `f = h Ω / 2n`), until every solve converges. Returns the composed rotation, the last
+/// substep's `f`, `n` and the most Newton iterations of a substep; `None` when no split works.
+fn substep_cayley(
+    inertia_body: &Vector3<f64>,
+    angmom_body: &Vector3<f64>,
+    dt_secs: f64,
+    settings: &VariationalSettings,
+) -> Option<(UnitQuaternion<f64>, Vector3<f64>, u32, u32)> {
+    let mut n = 2;
+    while n <= settings.max_substeps {
+        if let Some((rotation, f, iterations)) =
+            cayley_substeps(inertia_body, angmom_body, dt_secs, n, settings)
+        {
+            return Some((rotation, f, n, iterations));
+        }
+        n *= 2;
+    }
+    None
+}
+
+/// `n` Moser–Veselov steps of `dt_secs / n` from `angmom_body`: the composed rotation, the last
+/// `f`, the most Newton iterations; `None` when a solve fails.
+fn cayley_substeps(
+    inertia_body: &Vector3<f64>,
+    angmom_body: &Vector3<f64>,
+    dt_secs: f64,
+    n: u32,
+    settings: &VariationalSettings,
+) -> Option<(UnitQuaternion<f64>, Vector3<f64>, u32)> {
+    let h = dt_secs / f64::from(n);
+    let mut pi = *angmom_body;
+    let mut rotation = UnitQuaternion::identity();
+    let mut f = Vector3::zeros();
+    let mut iterations = 0;
+    for _ in 0..n {
+        let guess = pi.component_div(inertia_body) * (0.5 * h);
+        let solve = solve_cayley(inertia_body, &pi, h, &guess, settings);
+        iterations = iterations.max(solve.iterations);
+        if !solve.converged {
+            return None;
+        }
+        let step = cayley_quaternion(&solve.f);
+        rotation *= step;
+        pi = step.inverse_transform_vector(&pi);
+        f = solve.f;
+    }
+    rotation.renormalize();
+    Some((rotation, f, iterations))
+}
+
 /// The Moser–Veselov integrator over a batch.
 #[derive(Debug, Clone)]
 pub struct MoserVeselov {
@@ -205,21 +257,33 @@ impl Integrator for MoserVeselov {
         let mut stats = StepStats::default();
         for i in 0..bodies.len() {
             let pi = bodies.angmom_body[i];
-            let solve = solve_cayley(
-                &bodies.inertia_body[i],
-                &pi,
-                self.dt_secs,
-                &self.f[i],
-                &self.settings,
-            );
-            stats.newton_iters_max = stats.newton_iters_max.max(solve.iterations);
-            stats.newton_failures += u32::from(!solve.converged);
-            let rotation = cayley_quaternion(&solve.f);
+            let j = bodies.inertia_body[i];
+            let solve = solve_cayley(&j, &pi, self.dt_secs, &self.f[i], &self.settings);
+            let (rotation, f_next) = if solve.converged || !self.settings.substep {
+                stats.add_solve(i, solve.iterations, solve.converged);
+                (cayley_quaternion(&solve.f), solve.f)
+            } else {
+                stats.newton_iters_max = stats.newton_iters_max.max(solve.iterations);
+                stats.substepped += 1;
+                match substep_cayley(&j, &pi, self.dt_secs, &self.settings) {
+                    Some((rotation, f, n, iterations)) => {
+                        stats.newton_iters_max = stats.newton_iters_max.max(iterations);
+                        stats.substep_factor_max = stats.substep_factor_max.max(n);
+                        (rotation, f * f64::from(n))
+                    }
+                    None => {
+                        stats.substep_factor_max =
+                            stats.substep_factor_max.max(self.settings.max_substeps);
+                        stats.add_solve(i, solve.iterations, false);
+                        (cayley_quaternion(&solve.f), solve.f)
+                    }
+                }
+            };
             let q = &mut bodies.world_from_body[i];
             *q *= rotation;
             q.renormalize();
             bodies.angmom_body[i] = rotation.inverse_transform_vector(&pi);
-            self.f[i] = solve.f;
+            self.f[i] = f_next;
         }
         step_translation(
             &mut bodies.com_world,

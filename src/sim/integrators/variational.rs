@@ -117,10 +117,18 @@ pub struct VariationalSettings {
     /// Newton stops when `|f(ξ)|_∞ <= newton_tol · h |M|_∞` (relative residual; tested as
     /// `|f(ξ)/h|_∞ <= newton_tol · |M|_∞`, component by component, so a NaN never passes).
     pub newton_tol: f64,
-    /// Iteration cap; reaching it counts as a failure in [`StepStats::newton_failures`].
+    /// Iteration cap. A solve that reaches it has not converged: the body's step is split
+    /// into substeps (when `substep` is on), else counted in [`StepStats::newton_failures`].
     pub newton_max_iters: u32,
     pub jacobian: Jacobian,
     pub potential: Potential,
+    /// Automatic substepping: a body whose Newton solve does not converge within
+    /// `newton_max_iters` redoes its step as 2, 4, 8, ... substeps of `h/n` (each a full
+    /// variational step, so momentum stays exact) until every substep converges or `n` would
+    /// exceed `max_substeps`. Counted in [`StepStats::substepped`]. Default on.
+    pub substep: bool,
+    /// Largest substep split factor tried (default 1024).
+    pub max_substeps: u32,
 }
 
 impl Default for VariationalSettings {
@@ -130,6 +138,8 @@ impl Default for VariationalSettings {
             newton_max_iters: 10,
             jacobian: Jacobian::Analytic,
             potential: Potential::Symmetric,
+            substep: true,
+            max_substeps: 1024,
         }
     }
 }
@@ -666,7 +676,9 @@ fn newton_one_update<const N: usize>(
 }
 
 /// Steps `N` bodies: predict `ξ` (unless `predict_xi` is false), Newton, rotate `q` and `M`.
+/// `first_body` is the batch index of lane 0 (for [`StepStats::failed_body`]).
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn step_bodies<const N: usize>(
     inertia: &[Vector3<f64>; N],
     inv_inertia: &[Vector3<f64>; N],
@@ -676,6 +688,7 @@ fn step_bodies<const N: usize>(
     dt_secs: f64,
     predict_xi: bool,
     settings: &VariationalSettings,
+    first_body: usize,
     stats: &mut StepStats,
 ) {
     let m = V3::gather(angmom);
@@ -687,10 +700,36 @@ fn step_bodies<const N: usize>(
     let threshold = Lanes::splat(settings.newton_tol) * m.amax();
     // Two inlined copies of `finish`: the common path keeps everything in registers.
     match newton_one_update(j_over_h, m, xi0, threshold, settings) {
-        Some(out) => finish(&out, m, angmom, q, xi, stats),
+        Some(out) => finish(&out, m, angmom, q, xi, first_body, stats),
         None => {
             let out = newton(j_over_h, m, xi0, threshold, settings);
-            finish(&out, m, angmom, q, xi, stats);
+            if settings.substep && !out.converged.iter().all(|&c| c) {
+                let start = (*angmom, *q);
+                finish(
+                    &out,
+                    m,
+                    angmom,
+                    q,
+                    xi,
+                    first_body,
+                    &mut StepStats::default(),
+                );
+                substep_unconverged(
+                    &out,
+                    start,
+                    inertia,
+                    inv_inertia,
+                    angmom,
+                    q,
+                    xi,
+                    dt_secs,
+                    settings,
+                    first_body,
+                    stats,
+                );
+            } else {
+                finish(&out, m, angmom, q, xi, first_body, stats);
+            }
         }
     }
 }
@@ -703,6 +742,7 @@ fn finish<const N: usize>(
     angmom: &mut [Vector3<f64>; N],
     q: &mut [UnitQuaternion<f64>; N],
     xi: &mut [Vector3<f64>; N],
+    first_body: usize,
     stats: &mut StepStats,
 ) {
     let (q_next, m_next) = advance(Quat::gather(q), m, out.xi, &out.eval);
@@ -710,9 +750,110 @@ fn finish<const N: usize>(
     m_next.scatter(angmom);
     out.xi.scatter(xi);
     for i in 0..N {
-        stats.newton_iters_max = stats.newton_iters_max.max(out.iterations[i]);
-        stats.newton_failures += u32::from(!out.converged[i]);
+        stats.add_solve(first_body + i, out.iterations[i], out.converged[i]);
     }
+}
+
+/// The substepping guard, after [`finish`] has applied the full-step solve to every lane: lanes
+/// whose solve converged keep it; each other lane redoes its step from `start` (momentum and
+/// orientation before the step) as `n = 2, 4, 8, ... <= max_substeps` variational steps of
+/// `h/n` ([`substep_body`]), and keeps the first split at which every substep converges. When
+/// none does, the full-step result stays and the body is counted in
+/// [`StepStats::newton_failures`]. Out of line: only bodies at the edge take it.
+#[cold]
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn substep_unconverged<const N: usize>(
+    out: &NewtonOut<N>,
+    start: ([Vector3<f64>; N], [UnitQuaternion<f64>; N]),
+    inertia: &[Vector3<f64>; N],
+    inv_inertia: &[Vector3<f64>; N],
+    angmom: &mut [Vector3<f64>; N],
+    q: &mut [UnitQuaternion<f64>; N],
+    xi: &mut [Vector3<f64>; N],
+    dt_secs: f64,
+    settings: &VariationalSettings,
+    first_body: usize,
+    stats: &mut StepStats,
+) {
+    for i in 0..N {
+        if out.converged[i] {
+            stats.add_solve(first_body + i, out.iterations[i], true);
+            continue;
+        }
+        stats.newton_iters_max = stats.newton_iters_max.max(out.iterations[i]);
+        let (m0, q0) = (start.0[i], start.1[i]);
+        let mut n = 2;
+        let mut converged = false;
+        while n <= settings.max_substeps {
+            if let Some(split) =
+                substep_body(&inertia[i], &inv_inertia[i], m0, q0, dt_secs, n, settings)
+            {
+                angmom[i] = split.angmom;
+                q[i] = split.q;
+                // The next full step's warm start: the last substep's ξ scaled to the full step.
+                xi[i] = split.xi * f64::from(n);
+                stats.newton_iters_max = stats.newton_iters_max.max(split.iterations_max);
+                converged = true;
+                break;
+            }
+            n *= 2;
+        }
+        stats.substepped += 1;
+        stats.substep_factor_max = stats.substep_factor_max.max(n.min(settings.max_substeps));
+        if !converged {
+            stats.add_solve(first_body + i, settings.newton_max_iters, false);
+        }
+    }
+}
+
+/// One body's step of `h` done as `n` variational steps of `h/n` (the first from the cold start
+/// `ξ = (h/n) J^-1 M`, the others from the predictor). `None` when a substep's Newton solve does
+/// not converge.
+struct Split {
+    angmom: Vector3<f64>,
+    q: UnitQuaternion<f64>,
+    xi: Vector3<f64>,
+    iterations_max: u32,
+}
+
+fn substep_body(
+    inertia: &Vector3<f64>,
+    inv_inertia: &Vector3<f64>,
+    angmom: Vector3<f64>,
+    q: UnitQuaternion<f64>,
+    dt_secs: f64,
+    n: u32,
+    settings: &VariationalSettings,
+) -> Option<Split> {
+    let h = dt_secs / f64::from(n);
+    let j_over_h = V3::<Lanes<1>>::gather(&[*inertia]).scale(Lanes::splat(1.0 / h));
+    let inv_j = V3::gather(&[*inv_inertia]);
+    let mut m = V3::gather(&[angmom]);
+    let mut quat = Quat::gather(&[q]);
+    let mut xi = m.mul(inv_j).scale(Lanes::splat(h));
+    let mut iterations_max = 0;
+    for s in 0..n {
+        if s > 0 {
+            xi = predict(inv_j, m, xi, Lanes::splat(h));
+        }
+        let threshold = Lanes::splat(settings.newton_tol) * m.amax();
+        let out = newton(j_over_h, m, xi, threshold, settings);
+        iterations_max = iterations_max.max(out.iterations[0]);
+        if !out.converged[0] {
+            return None;
+        }
+        (quat, m) = advance(quat, m, out.xi, &out.eval);
+        xi = out.xi;
+    }
+    let mut q_out = [q];
+    quat.scatter(&mut q_out);
+    Some(Split {
+        angmom: m.lane(0),
+        q: q_out[0],
+        xi: xi.lane(0),
+        iterations_max,
+    })
 }
 
 /// The exponential-map variational integrator over a batch.
@@ -782,10 +923,23 @@ impl Integrator for Variational {
         let (m_l, m_r) = bodies.angmom_body.as_chunks_mut::<LANES>();
         let (q_l, q_r) = bodies.world_from_body.as_chunks_mut::<LANES>();
         let (xi_l, xi_r) = self.xi.as_chunks_mut::<LANES>();
-        for ((((j, ij), m), q), xi) in j_l.iter().zip(ij_l).zip(m_l).zip(q_l).zip(xi_l) {
-            step_bodies(j, ij, m, q, xi, dt, predict_xi, settings, &mut stats);
+        let chunks = j_l.iter().zip(ij_l).zip(m_l).zip(q_l).zip(xi_l);
+        for (c, ((((j, ij), m), q), xi)) in chunks.enumerate() {
+            step_bodies(
+                j,
+                ij,
+                m,
+                q,
+                xi,
+                dt,
+                predict_xi,
+                settings,
+                c * LANES,
+                &mut stats,
+            );
         }
-        for ((((j, ij), m), q), xi) in j_r.iter().zip(ij_r).zip(m_r).zip(q_r).zip(xi_r) {
+        let rest = j_r.iter().zip(ij_r).zip(m_r).zip(q_r).zip(xi_r);
+        for (r, ((((j, ij), m), q), xi)) in rest.enumerate() {
             step_bodies::<1>(
                 std::array::from_ref(j),
                 std::array::from_ref(ij),
@@ -795,6 +949,7 @@ impl Integrator for Variational {
                 dt,
                 predict_xi,
                 settings,
+                j_l.len() * LANES + r,
                 &mut stats,
             );
         }
