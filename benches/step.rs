@@ -4,7 +4,8 @@
 //! `cargo bench --bench step`; criterion reports the time of one batch step and, from
 //! `Throughput::Elements(n)`, body-steps per second: ns per body-step = time / n.
 //! Benchmark ids: `step/<integrator>/<n>` for every [`IntegratorKind::ALL`], and
-//! `peer/rapier3d-f64/<n>` (Rapier's default 4 substeps) and `peer/rapier3d-f64-1-substep/<n>`.
+//! `peer/rapier3d-f64/<n>` (Rapier's default 4 substeps) and `peer/rapier3d-f64-1-substep/<n>`,
+//! and `guard/check/<n>`, the per-step divergence check of `tumble simulate`.
 //!
 //! The workload: [`tumble::sim::workload::free_body_batch`] (`n` differently initialised asymmetric
 //! bodies, principal moments within ±0.1 of (1, 1.5, 2) kg m², |Ω| up to 5.7 rad/s, h|Ω| ≤ 0.006
@@ -38,7 +39,8 @@ use rapier3d_f64::math::{Pose, Rotation, Vector as RVector};
 use rapier3d_f64::prelude::{MassProperties, PhysicsWorld, RigidBodyBuilder, RigidBodyHandle};
 use std::hint::black_box;
 use tumble::sim::integrators::{IntegratorKind, Variational, VariationalSettings};
-use tumble::sim::{Bodies, BodyInit, Integrator};
+use tumble::sim::guard::Guard;
+use tumble::sim::{Bodies, BodyInit, Integrator, StepStats};
 
 const DT_SECS: f64 = 0.001;
 const SIZES: [usize; 3] = [1, 100, 10_000];
@@ -156,5 +158,20 @@ fn peer(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, step, peer);
+/// The divergence guard's check ([`tumble::sim::guard::Guard::check`]), run by `tumble simulate`
+/// after every step: `guard/check/<n>`. Its cost per body-step adds to the step's.
+fn guard(c: &mut Criterion) {
+    let mut group = c.benchmark_group("guard");
+    for n in SIZES {
+        let bodies = Bodies::new(&batch(n));
+        let guard = Guard::new(&bodies, 100.0, Some(1024));
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_with_input(BenchmarkId::new("check", n), &n, |b, _| {
+            b.iter(|| guard.check(black_box(&bodies), &StepStats::default(), 1))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, step, peer, guard);
 criterion_main!(benches);
