@@ -165,7 +165,7 @@ pub fn run(args: &TradeArgs) -> anyhow::Result<()> {
         &file("energy.svg"),
         &report.energy_series,
     )?;
-    trade::recording::record(
+    let stopped = trade::recording::record(
         &scene,
         &settings.integrators,
         report.series_dt,
@@ -173,6 +173,15 @@ pub fn run(args: &TradeArgs) -> anyhow::Result<()> {
         &file("trade.rrd"),
         &file("trade.mcap"),
     )?;
+    if let Some((kind, d, body)) = stopped {
+        eprintln!(
+            "warning: trade.rrd and trade.mcap end before step {} (t = {} s): {} failed on body {body:?} there: {}",
+            d.step,
+            crate::run::time_ns(d.step, report.series_dt) as f64 / 1e9,
+            kind.name(),
+            d.cause
+        );
+    }
     println!("wrote");
     for name in [
         "trade.csv",

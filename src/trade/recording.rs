@@ -12,6 +12,7 @@ use crate::record::rerun::{RerunOptions, RerunSink};
 use crate::record::{Frame, RecordingLayout, Sink, TopicGroup};
 use crate::run::FrameBuilder;
 use crate::scene::{Scene, World};
+use crate::sim::guard::{Divergence, Guard};
 use crate::sim::{Bodies, IntegratorKind};
 use std::path::Path;
 
@@ -59,6 +60,10 @@ pub fn layout(world: &World, kinds: &[IntegratorKind], dt: f64) -> RecordingLayo
 }
 
 /// Runs every integrator on `scene` for `duration_secs` at `dt` and records them side by side.
+/// Every run is watched by the divergence [`Guard`] (the scene's `divergence_energy_ratio`,
+/// Newton failures stop it when substepping is on): when one run fails, the recording ends at
+/// the last recorded step before it (nothing non-finite is written) and the failure is returned
+/// with the integrator it happened to and the body's name; the files are finished either way.
 pub fn record(
     scene: &Scene,
     kinds: &[IntegratorKind],
@@ -66,7 +71,7 @@ pub fn record(
     duration_secs: f64,
     rrd: &Path,
     mcap: &Path,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<Option<(IntegratorKind, Divergence, String)>> {
     let world = scene.build()?;
     let layout = layout(&world, kinds, dt);
     let mut sinks: Vec<Box<dyn Sink>> = vec![
@@ -86,16 +91,30 @@ pub fn record(
             let bodies = Bodies::new(&world.bodies);
             let mut integrator = kind.build(dt, &scene.variational_settings());
             integrator.init(&bodies);
-            (bodies, integrator, FrameBuilder::new(&world))
+            let run = scene.run_settings();
+            let guard = Guard::new(
+                &bodies,
+                run.divergence_energy_ratio,
+                run.stop_on_newton_failure,
+            );
+            (bodies, integrator, FrameBuilder::new(&world), guard)
         })
         .collect();
+    let mut stopped = None;
     let mut poses = Vec::with_capacity(layout.frames.len());
     let mut states = Vec::with_capacity(layout.bodies.len());
     let mut result = Ok(());
     for step in 0..=steps {
         if step > 0 {
-            for (bodies, integrator, _) in &mut runs {
-                integrator.step(bodies, &gravity);
+            for (kind, (bodies, integrator, _, guard)) in kinds.iter().zip(&mut runs) {
+                let stats = integrator.step(bodies, &gravity);
+                if let Some(d) = guard.check(bodies, &stats, step) {
+                    let name = world.layout.bodies[d.body].name.clone();
+                    stopped.get_or_insert((*kind, d, name));
+                }
+            }
+            if stopped.is_some() {
+                break;
             }
         }
         if step % log_every != 0 && step != steps {
@@ -104,7 +123,7 @@ pub fn record(
         poses.clear();
         states.clear();
         let mut time_ns = 0;
-        for (bodies, _, frames) in &mut runs {
+        for (bodies, _, frames, _) in &mut runs {
             let frame = frames.frame(bodies, &gravity, step, dt);
             time_ns = frame.time_ns;
             poses.extend_from_slice(frame.world_from_link);
@@ -121,5 +140,5 @@ pub fn record(
             break;
         }
     }
-    crate::record::finish_all(sinks, result, &[rrd, mcap])
+    crate::record::finish_all(sinks, result.map(|()| stopped), &[rrd, mcap])
 }
