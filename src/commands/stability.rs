@@ -19,7 +19,7 @@ pub struct StabilityArgs {
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     pub integrators: Vec<String>,
     /// A coarser grid (8 step sizes, 5 shapes) for a quick look; its derived limits are
-    /// coarser than the full map's.
+    /// indicative only (the documented ones come from the full map).
     #[arg(long)]
     pub quick: bool,
 }
@@ -51,6 +51,12 @@ pub fn run(args: &StabilityArgs) -> anyhow::Result<()> {
         started.elapsed().as_secs_f64()
     );
     print!("{}", stability::output::summary(&rows, &kinds));
+    if args.quick {
+        println!(
+            "(quick grid: fewer step sizes and shapes, so its derived limits are indicative only; \
+             the documented ones come from the full map)"
+        );
+    }
     let csv = args.out.join("stability.csv");
     let png = args.out.join("stability.png");
     write_atomic(&csv, stability::output::csv(&rows).as_bytes())?;

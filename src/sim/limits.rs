@@ -21,11 +21,11 @@ pub const ENERGY_ERROR_BOUND: f64 = 0.01;
 ///
 /// | integrator | limit | first cell past it |
 /// |---|---|---|
-/// | `variational` | 0.03 | 0.1: rod-like `r = 1e-6` needs Newton substeps. Newton's iterations grow as `r` falls (at 0.1: 2, 3, 4 and over the cap of 10 for `r` = 1e-2, 1e-3, 1e-4, 1e-6; the Newton matrix `J - h ∂(T^T M)/∂ξ` inherits `J`'s condition `1/r`); `r >= 1e-2` stays `ok` up to 0.3 |
-/// | `moser-veselov` | 0.7 | 1: the Cayley equation has no solution for `h|Ω| > 1` (at 1 its Jacobian is singular), every shape substeps; the energy error is round-off everywhere |
+/// | `variational` | 0.03 | 0.1: rod-like `r = 1e-6` needs Newton substeps. Newton's iterations grow as `r` falls (at 0.1: 2, 3, 4 and over the cap of 10 for `r` = 1e-2, 1e-3, 1e-4, 1e-6; the Newton matrix `J - h ∂(T^T M)/∂ξ` inherits `J`'s condition `1/r`); shapes with `r >= 1e-2` stay `ok` up to 0.5 |
+/// | `moser-veselov` | 0.7 | 1: the isotropic body substeps (its step solves `sin θ = h|Ω|`: no solution past 1, a singular Jacobian at 1); from 2 on every shape substeps. The energy error stays at the Newton tolerance (≤ 1.4e-10) everywhere |
 /// | `variational4`, `variational6` | 0.01 | 0.03: `r = 1e-6` substeps (stages up to 1.7 `h`, same conditioning as `variational`) |
-/// | `euler`, `semi-implicit` | 0.001 | 0.003: energy error 4.8 % (`|M|^2` grows by `h^2 |M × Ω|^2` per step; 0.6 % at 0.001 over 20 000 steps). Both schemes update `M` alike, so their energy errors are identical |
-/// | `rk4` | 0.5 | 0.7: energy error 1.2 % (`r = 1e-6`); diverges from 3-4 (linear stability bound `2√2` on the imaginary axis) |
+/// | `euler`, `semi-implicit` | 0.001 | 0.003: energy error 4.8 % (`|M|^2` grows by `h^2 |M × Ω|^2` per step; 0.5 % at 0.001 over 20 000 steps). Both schemes update `M` alike, so their energy errors are identical |
+/// | `rk4` | 0.5 | 0.7: energy error 1.2 % (`r <= 1e-2`, generic spin; 0.17 % at 0.5); diverges from 3 or 4 (linear stability bound `2√2` on the imaginary axis) |
 pub fn h_omega_limit(kind: IntegratorKind) -> f64 {
     match kind {
         IntegratorKind::Variational => 0.03,

@@ -279,8 +279,8 @@ impl Grid {
     }
 
     /// A coarser map for a quick look (`--quick`): [`H_OMEGA_QUICK`] ×
-    /// ([`INERTIA_RATIOS_QUICK`] + flat disk) × both axes. Its derived limits can only be
-    /// coarser than the full map's.
+    /// ([`INERTIA_RATIOS_QUICK`] + flat disk) × both axes, a subset of the full map. Its
+    /// derived limits are indicative only: fewer step sizes and fewer shapes.
     pub fn quick() -> Self {
         Self::with(&H_OMEGA_QUICK, &INERTIA_RATIOS_QUICK)
     }
