@@ -2,7 +2,8 @@
 //! [`crate::commands`].
 
 use crate::commands::{
-    bench::BenchArgs, inspect::InspectArgs, simulate::SimulateArgs, trade::TradeArgs,
+    bench::BenchArgs, inspect::InspectArgs, simulate::SimulateArgs, stability::StabilityArgs,
+    trade::TradeArgs,
 };
 use clap::{Parser, Subcommand};
 
@@ -28,4 +29,7 @@ pub enum Command {
     Trade(TradeArgs),
     /// Time N bodies stepped K steps (no recording); prints `ns_per_body_step=<median>` last.
     Bench(BenchArgs),
+    /// Map where each integrator is accurate, substeps, fails or diverges against the rotation
+    /// per step h|Ω|, the inertia ratio and the spin axis; writes stability.csv and .png.
+    Stability(StabilityArgs),
 }

@@ -12,6 +12,7 @@ pub mod record;
 pub mod run;
 pub mod scene;
 pub mod sim;
+pub mod stability;
 pub mod trade;
 
 /// The tool's version, written into every recording's metadata.

@@ -4,9 +4,31 @@
 pub mod bench;
 pub mod inspect;
 pub mod simulate;
+pub mod stability;
 pub mod trade;
 
+use crate::sim::IntegratorKind;
 use nalgebra::Vector3;
+
+/// Integrator names from the command line; empty means all of [`IntegratorKind::ALL`]. An
+/// unknown name is an error that lists the known ones.
+pub fn parse_integrators(names: &[String]) -> anyhow::Result<Vec<IntegratorKind>> {
+    if names.is_empty() {
+        return Ok(IntegratorKind::ALL.to_vec());
+    }
+    names
+        .iter()
+        .map(|name| {
+            IntegratorKind::from_name(name).ok_or_else(|| {
+                let known: Vec<_> = IntegratorKind::ALL.iter().map(|k| k.name()).collect();
+                anyhow::anyhow!(
+                    "--integrators: unknown integrator {name:?} (expected one of: {})",
+                    known.join(", ")
+                )
+            })
+        })
+        .collect()
+}
 
 /// Parses `x,y,z` into three finite numbers (clap value parser).
 pub fn parse_vec3(s: &str) -> Result<[f64; 3], String> {

@@ -15,7 +15,8 @@ use std::sync::OnceLock;
 pub const FLOOR: f64 = 1e-17;
 
 const SIZE: (u32, u32) = (1400, 620);
-const FONT: &str = "sans-serif";
+/// The family name the font is registered under (shared with [`crate::stability::plot`]).
+pub(crate) const FONT: &str = "sans-serif";
 
 const FONT_CANDIDATES: &[&str] = &[
     "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
@@ -30,7 +31,7 @@ const FONT_CANDIDATES: &[&str] = &[
 ];
 
 /// Registers the font once; an error says where fonts were looked for.
-fn ensure_font() -> anyhow::Result<()> {
+pub(crate) fn ensure_font() -> anyhow::Result<()> {
     static FONT_RESULT: OnceLock<Result<(), String>> = OnceLock::new();
     FONT_RESULT
         .get_or_init(|| {
@@ -110,7 +111,7 @@ fn integrators(rows: &[TradeRow]) -> Vec<String> {
     names
 }
 
-fn draw_err<E: std::error::Error + Send + Sync + 'static>(
+pub(crate) fn draw_err<E: std::error::Error + Send + Sync + 'static>(
     e: DrawingAreaErrorKind<E>,
 ) -> anyhow::Error {
     anyhow!("drawing failed: {e}")
@@ -269,7 +270,10 @@ where
 }
 
 /// Draws into `<path>.part` with `draw`, then renames onto `path`.
-fn atomically(path: &Path, draw: impl FnOnce(&Path) -> anyhow::Result<()>) -> anyhow::Result<()> {
+pub(crate) fn atomically(
+    path: &Path,
+    draw: impl FnOnce(&Path) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
     let part = crate::fsutil::part_path(path);
     // Keep the real extension last so the backend picks the right encoder.
     let tmp = part.with_extension(format!(
