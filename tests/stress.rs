@@ -272,10 +272,10 @@ fn state_bits(b: &Bodies, i: usize) -> [u64; 13] {
 /// dt = 1e-7 s, 1e6 steps (t = 0.1 s), asymmetric body at |Ω| = 2.19 rad/s (h|Ω| = 2.2e-7).
 /// The order-2 truncation error is negligible here (the same body has a relative momentum error
 /// of 1.9e-6 at h = 0.005 s, t = 4 s in `tests/integrator_family.rs`; scaled by (h ratio)^2 and
-/// time: 1.9e-6 · (2e-5)^2 · 0.1/4 ≈ 2e-17), so every bound below is a round-off bound. A step
-/// makes a handful of roundings of size `EPS/2` in `q` and `M`; with `N = 1e6` steps the
-/// worst case (all of the same sign) is `N · EPS / 2 = 1.1e-10`, an unbiased walk
-/// `sqrt(N) · EPS ≈ 2e-13`.
+/// time: 1.9e-6 · (2e-5)^2 · 0.1/4 ≈ 2e-17), so every bound below is a round-off bound. One
+/// rounding of `EPS/2` per step, all of one sign, gives `N · EPS / 2 = 1.1e-10` over
+/// `N = 1e6` steps (a step makes a handful, so that is not the strict worst case, but it is
+/// already 7-10 times what is measured); an unbiased walk would give `sqrt(N) · EPS ≈ 2e-13`.
 #[test]
 fn stress_dt_1e7_asymmetric_against_jacobi_elliptic() {
     let (reference, init) = asymmetric(Vector3::from(ASYM_OMEGA).norm());
