@@ -38,8 +38,8 @@ use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use rapier3d_f64::math::{Pose, Rotation, Vector as RVector};
 use rapier3d_f64::prelude::{MassProperties, PhysicsWorld, RigidBodyBuilder, RigidBodyHandle};
 use std::hint::black_box;
-use tumble::sim::integrators::{IntegratorKind, Variational, VariationalSettings};
 use tumble::sim::guard::Guard;
+use tumble::sim::integrators::{IntegratorKind, Variational, VariationalSettings};
 use tumble::sim::{Bodies, BodyInit, Integrator, StepStats};
 
 const DT_SECS: f64 = 0.001;

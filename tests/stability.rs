@@ -263,3 +263,23 @@ fn unknown_integrator_is_one_clear_error() {
         "nothing written on bad input"
     );
 }
+
+/// Every entry of `limits::LIMITS_BY_RATIO` (the per-shape limits the step warning uses) is the
+/// limit the map derives for that inertia ratio, and the overall limit is their minimum.
+#[test]
+fn limits_by_ratio_are_the_derived_limits() {
+    let rows = full_map();
+    for (ratio, limits) in tumble::sim::limits::LIMITS_BY_RATIO {
+        for (&kind, &limit) in IntegratorKind::ALL.iter().zip(&limits) {
+            let derived = stability::derived_limit_at_ratio(rows, kind, ratio);
+            assert_eq!(derived, Some(limit), "{} at ratio {ratio}", kind.name());
+        }
+    }
+    for (col, &kind) in IntegratorKind::ALL.iter().enumerate() {
+        let min = tumble::sim::limits::LIMITS_BY_RATIO
+            .iter()
+            .map(|(_, l)| l[col])
+            .fold(f64::INFINITY, f64::min);
+        assert_eq!(min, h_omega_limit(kind), "{}", kind.name());
+    }
+}

@@ -183,7 +183,7 @@ pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
     };
     Some(format!(
         "warning: dt = {} s is too large for body {:?}{others}: it turns at up to |Ω| = {:.4e} rad/s, \
-         h|Ω| = {:.3} rad per step, over the {} limit of {} rad (README \"Limits\"; {}). \
+         h|Ω| = {:.3} rad per step, over the {} limit of {} rad for its inertia ratio {:.3e} (README \"Limits\"; {}). \
          Largest safe step: dt <= {:.3e} s",
         scene.sim.dt,
         world.layout.bodies[w.body].name,
@@ -191,6 +191,7 @@ pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
         w.h_omega,
         scene.sim.integrator,
         w.limit,
+        w.inertia_ratio,
         if scene.integrator().is_variational() {
             "past it Newton substeps where needed and the energy error grows"
         } else {

@@ -16,8 +16,9 @@ use nalgebra::Vector3;
 /// Energy error (relative) that defines the limit.
 pub const ENERGY_ERROR_BOUND: f64 = 0.01;
 
-/// The documented limit of `h|Ω|` (rad per step) for `kind`: the limit derived from the full
-/// stability map ([`crate::stability::derived_limit`]). What sets each, at the next grid value:
+/// The documented limit of `h|Ω|` (rad per step) for `kind` over every shape of the map (the
+/// minimum of [`LIMITS_BY_RATIO`]; the step warning uses the body's own row,
+/// [`h_omega_limit_at_ratio`]): the limit derived from the full stability map ([`crate::stability::derived_limit`]). What sets each, at the next grid value:
 ///
 /// | integrator | limit | first cell past it |
 /// |---|---|---|
@@ -36,6 +37,47 @@ pub fn h_omega_limit(kind: IntegratorKind) -> f64 {
         IntegratorKind::SemiImplicit => 0.001,
         IntegratorKind::Rk4 => 0.5,
     }
+}
+
+/// Rows of the stability map: inertia ratio `J_min / J_max`, then the limit of each integrator
+/// (in [`IntegratorKind::ALL`] order: variational, moser-veselov, variational4, variational6,
+/// euler, semi-implicit, rk4) over the map's cells of that ratio (both spin axes; at 0.5 the
+/// flat disk and the asymmetric body together). `tests/stability.rs` checks every entry against
+/// a freshly computed map ([`crate::stability::derived_limit_at_ratio`]).
+pub const LIMITS_BY_RATIO: [(f64, [f64; 7]); 7] = [
+    (1.0, [6.0, 0.7, 6.0, 6.0, 6.0, 6.0, 6.0]),
+    (0.5, [1.0, 1.0, 1.0, 1.0, 0.001, 0.001, 0.7]),
+    (0.1, [0.5, 1.0, 0.5, 0.7, 0.001, 0.001, 0.7]),
+    (1e-2, [0.5, 1.0, 0.2, 0.3, 0.001, 0.001, 0.5]),
+    (1e-3, [0.3, 1.0, 0.1, 0.1, 0.001, 0.001, 0.5]),
+    (1e-4, [0.1, 1.0, 0.03, 0.03, 0.001, 0.001, 0.5]),
+    (1e-6, [0.03, 1.0, 0.01, 0.01, 0.001, 0.001, 0.5]),
+];
+
+/// The limit of `h|Ω|` for a body of inertia ratio `J_min / J_max` (`inertia_ratio` in (0, 1]):
+/// the smaller of the limits of the two map rows that bracket it (so between rows it is never
+/// more permissive than either neighbour; below the last row, 1e-6, that row's). An exactly
+/// isotropic body (ratio 1 to 1e-12) takes the isotropic row alone.
+pub fn h_omega_limit_at_ratio(kind: IntegratorKind, inertia_ratio: f64) -> f64 {
+    let col = IntegratorKind::ALL
+        .iter()
+        .position(|&k| k == kind)
+        .unwrap_or(0);
+    let r = inertia_ratio.clamp(0.0, 1.0);
+    if r >= 1.0 - 1e-12 {
+        return LIMITS_BY_RATIO[0].1[col];
+    }
+    let below = LIMITS_BY_RATIO.iter().position(|&(ratio, _)| ratio <= r);
+    match below {
+        Some(0) => LIMITS_BY_RATIO[0].1[col],
+        Some(i) => LIMITS_BY_RATIO[i].1[col].min(LIMITS_BY_RATIO[i - 1].1[col]),
+        None => LIMITS_BY_RATIO[LIMITS_BY_RATIO.len() - 1].1[col],
+    }
+}
+
+/// `J_min / J_max` of principal moments.
+pub fn inertia_ratio(principal_moments: &Vector3<f64>) -> f64 {
+    principal_moments.min() / principal_moments.max()
 }
 
 /// The largest angular speed `|Ω|` (rad/s) a torque-free body with principal moments
@@ -77,33 +119,62 @@ pub struct StepWarning {
     pub spin_rate_max: f64,
     /// `dt · spin_rate_max`, rad.
     pub h_omega: f64,
-    /// The integrator's limit, rad.
+    /// The integrator's limit for that body's inertia ratio, rad.
     pub limit: f64,
+    /// That body's inertia ratio `J_min / J_max`.
+    pub inertia_ratio: f64,
     /// The largest step within the limit for every body, s.
     pub dt_safe: f64,
 }
 
-/// Checks every body's largest `h|Ω|` against the limit of `kind`.
+/// Checks every body's largest `h|Ω|` against the limit of `kind` for its inertia ratio
+/// ([`h_omega_limit_at_ratio`]); reports the body furthest past its limit.
 pub fn check_step(bodies: &Bodies, kind: IntegratorKind, dt_secs: f64) -> Option<StepWarning> {
-    let limit = h_omega_limit(kind);
-    let rates: Vec<f64> = (0..bodies.len())
-        .map(|i| spin_rate_max(&bodies.inertia_body[i], &bodies.angmom_body[i]))
+    let over: Vec<StepWarning> = (0..bodies.len())
+        .filter_map(|i| {
+            let rate = spin_rate_max(&bodies.inertia_body[i], &bodies.angmom_body[i]);
+            let ratio = inertia_ratio(&bodies.inertia_body[i]);
+            let limit = h_omega_limit_at_ratio(kind, ratio);
+            let h_omega = dt_secs.abs() * rate;
+            (h_omega > limit).then_some(StepWarning {
+                body: i,
+                bodies_over: 0,
+                spin_rate_max: rate,
+                h_omega,
+                limit,
+                inertia_ratio: ratio,
+                dt_safe: limit / rate,
+            })
+        })
         .collect();
-    let (body, &rate) = rates.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1))?;
-    let h_omega = dt_secs.abs() * rate;
-    (h_omega > limit).then(|| StepWarning {
-        body,
-        bodies_over: rates.iter().filter(|&&r| dt_secs.abs() * r > limit).count(),
-        spin_rate_max: rate,
-        h_omega,
-        limit,
-        dt_safe: limit / rate,
+    let worst = over.iter().min_by(|a, b| a.dt_safe.total_cmp(&b.dt_safe))?;
+    Some(StepWarning {
+        bodies_over: over.len(),
+        ..*worst
     })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Between two rows the smaller limit applies; the isotropic row only for isotropic bodies;
+    /// below the last row, the last row.
+    #[test]
+    fn limit_at_ratio_takes_the_bracketing_rows() {
+        let v = IntegratorKind::Variational;
+        assert_eq!(h_omega_limit_at_ratio(v, 1.0), 6.0);
+        assert_eq!(h_omega_limit_at_ratio(v, 0.99), 1.0); // rows 1 (6.0) and 0.5 (1.0)
+        assert_eq!(h_omega_limit_at_ratio(v, 0.5), 1.0);
+        assert_eq!(h_omega_limit_at_ratio(v, 0.385), 0.5); // rows 0.5 (1.0) and 0.1 (0.5)
+        assert_eq!(h_omega_limit_at_ratio(v, 1e-6), 0.03);
+        assert_eq!(h_omega_limit_at_ratio(v, 1e-9), 0.03);
+        assert_eq!(
+            h_omega_limit_at_ratio(IntegratorKind::MoserVeselov, 0.99),
+            0.7
+        );
+        assert_eq!(h_omega_limit(v), 0.03);
+    }
 
     /// Against a brute-force maximum of `|J^-1 M|` over the exact orbit, traced by a fine
     /// integration of Euler's equations (RK4, 2e5 steps over several periods).

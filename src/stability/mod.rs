@@ -387,6 +387,21 @@ pub fn derived_limit(rows: &[Row], kind: IntegratorKind) -> Option<f64> {
     limit
 }
 
+/// [`derived_limit`] over the rows of one inertia ratio (`J_min / J_max`; at 0.5 the flat disk
+/// and the asymmetric body together): the entries of [`crate::sim::limits::LIMITS_BY_RATIO`].
+pub fn derived_limit_at_ratio(
+    rows: &[Row],
+    kind: IntegratorKind,
+    inertia_ratio: f64,
+) -> Option<f64> {
+    let subset: Vec<Row> = rows
+        .iter()
+        .filter(|r| r.cell.shape.inertia_ratio() == inertia_ratio)
+        .cloned()
+        .collect();
+    derived_limit(&subset, kind)
+}
+
 /// The first grid `h_omega` above the derived limit of `kind` and its worst row (the one that
 /// sets the limit), if the map goes that far.
 pub fn limiting_row(rows: &[Row], kind: IntegratorKind) -> Option<&Row> {
