@@ -24,6 +24,17 @@
 //! angvel = [0.0, 5.0, 0.1]      # initial angular velocity of every body, world, rad/s (default 0)
 //! package_paths = ["../share"]  # optional extra package:// search folders, relative to the scene
 //! allow_non_physical_inertia = false  # accept inertia breaking the triangle inequality (default false)
+//! bodies = "links"              # "links": one free body per link | "rigid": the whole model as one body
+//! joints = { elbow = 0.5 }      # joint positions (rad or m) the model is placed (and locked) at (default 0)
+//! inertia = "urdf"              # mass properties from "urdf" | "geometry" | "auto" (default: [mass])
+//! density = 1000.0              # kg/m^3 for geometry-derived mass properties (default: [mass])
+//! geometry = "collision"        # "collision" (visual as fallback) | "visual" (default: [mass])
+//! links = { base = { inertia = "geometry", density = 2700.0 } }   # per-link overrides
+//!
+//! [mass]                        # scene-wide defaults of the mass settings (flags --inertia, --density, --geometry override them)
+//! inertia = "urdf"              # (default "urdf")
+//! density = 1000.0              # (default 1000)
+//! geometry = "collision"        # (default "collision")
 //! ```
 //!
 //! Every link with positive mass becomes one free rigid body at its forward-kinematics pose
@@ -31,6 +42,7 @@
 //! Unknown keys and bad values are errors naming the key.
 
 use crate::model::kinematics::rotation_from_rpy;
+use crate::model::policy::{self, GeometrySource, InertiaPolicy, MassSettings, ModelMassSettings};
 use crate::model::{Model, urdf};
 use crate::record::{BodyLayout, FrameLayout, RecordingLayout};
 use crate::sim::BodyInit;
@@ -38,7 +50,7 @@ use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSe
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Translation3, Vector3};
 use serde::Deserialize;
-use std::collections::{BTreeMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 /// The `[sim]` table.
@@ -101,6 +113,33 @@ pub struct ModelEntry {
     /// refused by default. Every other inertia rule still applies.
     #[serde(default)]
     pub allow_non_physical_inertia: bool,
+    /// What the model becomes: one body per link, or one rigid body.
+    #[serde(default)]
+    pub bodies: BodiesMode,
+    /// Joint positions (rad or m) the model is placed at; joints not named are at 0.
+    #[serde(default)]
+    pub joints: BTreeMap<String, f64>,
+    /// Mass settings of this model (refine the scene's `[mass]`).
+    #[serde(default)]
+    pub inertia: Option<InertiaPolicy>,
+    #[serde(default)]
+    pub density: Option<f64>,
+    #[serde(default)]
+    pub geometry: Option<GeometrySource>,
+    /// Per-link mass settings (refine the model's).
+    #[serde(default)]
+    pub links: BTreeMap<String, MassSettings>,
+}
+
+/// `bodies = "links" | "rigid"`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BodiesMode {
+    /// One free body per link with positive mass.
+    #[default]
+    Links,
+    /// The whole model, locked at `joints`, as one rigid body; every link frame rides on it.
+    Rigid,
 }
 
 impl ModelEntry {
@@ -115,6 +154,12 @@ impl ModelEntry {
             angvel: [0.0; 3],
             package_paths: Vec::new(),
             allow_non_physical_inertia: false,
+            bodies: BodiesMode::Links,
+            joints: BTreeMap::new(),
+            inertia: None,
+            density: None,
+            geometry: None,
+            links: BTreeMap::new(),
         }
     }
 }
@@ -126,6 +171,8 @@ struct SceneFile {
     sim: SimSettings,
     #[serde(default, rename = "model")]
     models: Vec<ModelEntry>,
+    #[serde(default)]
+    mass: MassSettings,
 }
 
 /// A parsed scene. Relative paths in it are relative to `base_dir`.
@@ -138,6 +185,8 @@ pub struct Scene {
     pub text: String,
     pub sim: SimSettings,
     pub models: Vec<ModelEntry>,
+    /// The `[mass]` table (scene-wide mass settings), after command-line overrides.
+    pub mass: MassSettings,
 }
 
 /// Command-line overrides of `[sim]` values (`None` = keep the scene's).
@@ -156,6 +205,8 @@ pub struct SimOverrides {
     pub substep: Option<bool>,
     pub max_substeps: Option<u32>,
     pub divergence_energy_ratio: Option<f64>,
+    /// `--inertia`, `--density`, `--geometry`: override the `[mass]` table.
+    pub mass: MassSettings,
 }
 
 impl Scene {
@@ -176,6 +227,7 @@ impl Scene {
             text: text.to_string(),
             sim: file.sim,
             models: file.models,
+            mass: file.mass,
         };
         scene.validate()?;
         Ok(scene)
@@ -189,6 +241,7 @@ impl Scene {
             text: String::new(),
             sim: SimSettings::default(),
             models: vec![ModelEntry::at(urdf.to_path_buf(), [0.0; 3])],
+            mass: MassSettings::default(),
         }
     }
 
@@ -231,6 +284,7 @@ impl Scene {
         if let Some(v) = o.divergence_energy_ratio {
             s.divergence_energy_ratio = v;
         }
+        self.mass = self.mass.refined(&o.mass);
         self.validate()
     }
 
@@ -367,10 +421,23 @@ impl Scene {
             serde_json::to_string(&SceneFile {
                 sim: s.clone(),
                 models: self.models.clone(),
+                mass: self.mass.clone(),
             })
             .unwrap_or_default(),
         );
         m
+    }
+
+    /// The mass settings of `entry`'s links: `[mass]` (after flags) refined by the model's keys.
+    pub fn mass_settings(&self, entry: &ModelEntry) -> ModelMassSettings {
+        ModelMassSettings {
+            model: self.mass.refined(&MassSettings {
+                inertia: entry.inertia,
+                density: entry.density,
+                geometry: entry.geometry,
+            }),
+            links: entry.links.clone(),
+        }
     }
 
     /// Loads the models and builds what is simulated and recorded.
@@ -384,14 +451,21 @@ impl Scene {
                 .iter()
                 .map(|p| self.base_dir.join(p))
                 .collect();
-            let model = urdf::load(&urdf_path, &package_paths)
-                .and_then(|m| {
-                    m.check_simulable(entry.allow_non_physical_inertia)
-                        .map(|()| m)
-                })
-                .with_context(|| format!("{}: model[{i}]", self.source.display()))?;
+            let context = || format!("{}: model[{i}]", self.source.display());
+            let joints: HashMap<String, f64> = entry.joints.clone().into_iter().collect();
+            let mut model =
+                urdf::load_at(&urdf_path, &package_paths, &joints).with_context(context)?;
+            policy::apply(&mut model, &self.mass_settings(entry)).with_context(context)?;
+            model
+                .check_simulable(entry.allow_non_physical_inertia)
+                .with_context(context)?;
             let before = world.layout.frames.len();
-            add_model(&mut world, &model, entry);
+            match entry.bodies {
+                BodiesMode::Links => add_model(&mut world, &model, entry),
+                BodiesMode::Rigid => {
+                    add_rigid_model(&mut world, &model, entry).with_context(context)?
+                }
+            }
             if world.layout.frames.len() == before {
                 bail!(
                     "{}: model[{i}] ({}) has no link with positive mass: nothing to simulate",
@@ -442,6 +516,11 @@ pub struct World {
 pub struct Attachment {
     pub body: usize,
     pub body_from_link: Isometry3<f64>,
+}
+
+/// The whole model as one rigid body (`bodies = "rigid"`). SKELETON: issue 5 fills it in.
+fn add_rigid_model(_world: &mut World, _model: &Model, _entry: &ModelEntry) -> anyhow::Result<()> {
+    bail!("bodies = \"rigid\" is not implemented yet")
 }
 
 /// One free body per link with positive mass.

@@ -151,6 +151,7 @@ pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
         substep: args.no_substep.then_some(false),
         max_substeps: args.max_substeps,
         divergence_energy_ratio: args.divergence_energy_ratio,
+        mass: Default::default(),
     })?;
     Ok(scene)
 }

@@ -1,8 +1,10 @@
 //! What a body is: URDF models, their links' mass properties and visual geometry.
 
+pub mod geometry;
 pub mod kinematics;
 pub mod mass_properties;
 pub mod package;
+pub mod policy;
 pub mod urdf;
 
 pub use mass_properties::MassProperties;

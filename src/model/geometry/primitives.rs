@@ -1,0 +1,1 @@
+//! Mass properties of the URDF primitives in closed form (SKELETON: issue 5 fills it in).
