@@ -3,7 +3,7 @@
 
 use crate::commands::{
     bench::BenchArgs, inspect::InspectArgs, simulate::SimulateArgs, stability::StabilityArgs,
-    trade::TradeArgs,
+    survey::SurveyArgs, trade::TradeArgs,
 };
 use clap::{Parser, Subcommand};
 
@@ -32,4 +32,6 @@ pub enum Command {
     /// Map where each integrator is accurate, substeps, fails or diverges against the rotation
     /// per step h|Ω|, the inertia ratio and the spin axis; writes stability.csv and .png.
     Stability(StabilityArgs),
+    /// Load every URDF under folders and tabulate which load and how healthy their inertial data are.
+    Survey(SurveyArgs),
 }

@@ -13,6 +13,7 @@ pub mod run;
 pub mod scene;
 pub mod sim;
 pub mod stability;
+pub mod survey;
 pub mod trade;
 
 /// The tool's version, written into every recording's metadata.

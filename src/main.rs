@@ -16,6 +16,7 @@ fn main() -> ExitCode {
         Command::Trade(args) => commands::trade::run(args).map(|()| 0),
         Command::Bench(args) => commands::bench::run(args).map(|()| 0),
         Command::Stability(args) => commands::stability::run(args).map(|()| 0),
+        Command::Survey(args) => commands::survey::run(args).map(|()| 0),
     };
     match result {
         Ok(code) => ExitCode::from(code),

@@ -5,6 +5,7 @@ pub mod bench;
 pub mod inspect;
 pub mod simulate;
 pub mod stability;
+pub mod survey;
 pub mod trade;
 
 use crate::sim::IntegratorKind;
