@@ -207,10 +207,14 @@ fn box_of_twelve_triangles_is_exact() {
     let mp = mass_properties(&box_mesh(lo, lo + d), 1000.0);
     let expected = box_closed_form(d, lo + d / 2.0, 1000.0);
     let (em, ec, ei) = mp_error(&mp, &expected, d.amax());
-    // Round-off only (a dozen operations): measured mass 1.9e-16, com 0, inertia 4.4e-16;
-    // bound 1e-14 (50 eps).
-    assert!(em < 1e-14 && ec < 1e-14 && ei < 1e-14, "{em:e} {ec:e} {ei:e}");
-    // Off-diagonals vanish to round-off of the diagonal (measured 5.2e-18 of 6.6e-2).
+    // Round-off only (a dozen operations per triangle): measured mass 1.2e-16, com 0,
+    // inertia 1.7e-16; bound 1e-14 (45 eps).
+    assert!(
+        em < 1e-14 && ec < 1e-14 && ei < 1e-14,
+        "{em:e} {ec:e} {ei:e}"
+    );
+    // Off-diagonals vanish to round-off of the diagonal: measured 2.6e-17 kg m² against
+    // 41.3 kg m²; bound 1e-14 relative.
     let off = mp.inertia - Matrix3::from_diagonal(&mp.inertia.diagonal());
     assert!(off.amax() < 1e-14 * mp.inertia.amax(), "{off}");
     assert!(mp.validate().is_empty());
@@ -218,7 +222,7 @@ fn box_of_twelve_triangles_is_exact() {
 
 #[test]
 fn prism_is_exact_and_converges_to_the_cylinder_at_second_order() {
-    let (r, l, rho) = (0.2, 0.9, 7800.0);
+    let (r, l, rho): (f64, f64, f64) = (0.2, 0.9, 7800.0);
     // Exact prism integrals: polygon area A = n r² sin α / 2 and polar moment
     // J = n r⁴ sin α (2 + cos α) / 12 (α = 2π/n; each of the n triangles (O, P_i, P_i+1) has
     // J = A_t (|a|² + |b|² + a·b)/6); n-fold symmetry gives ∫x² = ∫y² = J/2.
@@ -238,42 +242,49 @@ fn prism_is_exact_and_converges_to_the_cylinder_at_second_order() {
     let cylinder_izz = rho * cylinder_volume * r * r / 2.0;
     let mut volume_errors = Vec::new();
     let mut izz_errors = Vec::new();
-    for n in [16, 32, 64, 128] {
+    for n in [32, 64, 128, 256] {
         let mp = mass_properties(&prism(n, r, l), rho);
         let (em, ec, ei) = mp_error(&mp, &exact(n), r);
-        // Against the exact prism, round-off only: measured worst mass 2.2e-15, com 3.5e-17,
-        // inertia 2.4e-15 (n = 128); bound 1e-13.
-        assert!(em < 1e-13 && ec < 1e-13 && ei < 1e-13, "n={n}: {em:e} {ec:e} {ei:e}");
+        // Against the exact prism, round-off only (growing with n, and with the rounding of
+        // sin(2π/n) in the reference): measured worst mass 1.1e-14 (n = 256), com 1.6e-16 r,
+        // inertia 4.6e-15 (n = 128); bound 1e-13.
+        assert!(
+            em < 1e-13 && ec < 1e-13 && ei < 1e-13,
+            "n={n}: {em:e} {ec:e} {ei:e}"
+        );
         volume_errors.push(rel(mp.mass / rho, cylinder_volume));
         izz_errors.push(rel(mp.inertia[(2, 2)], cylinder_izz));
     }
-    // Against the cylinder the error is (2π/n)²/6 + O(n⁻⁴) for the volume (sin α ≈ α − α³/6):
-    // the observed order log2(e_n / e_2n) tends to 2. Measured orders 1.9968, 1.9992, 1.9998
-    // (volume) and 1.9959, 1.9990, 1.9997 (Izz); bound |order − 2| < 0.01.
+    // Against the cylinder the error is (2π/n)²/6 + O(n⁻⁴) for the volume (sin α ≈ α − α³/6)
+    // and (2π/n)²/3 + O(n⁻⁴) for Izz: the observed order log2(e_n / e_2n) tends to 2 as the
+    // n⁻⁴ term fades. n = 32, 64, 128, 256: measured orders 1.9979, 1.9995, 1.9999 (volume)
+    // and 1.9937, 1.9984, 1.9996 (Izz); bound |order − 2| < 0.01 (the n⁻⁴ term alone moves
+    // the first Izz order by 0.006).
     for errors in [&volume_errors, &izz_errors] {
         for w in errors.windows(2) {
             let order = (w[0] / w[1]).log2();
             assert!((order - 2.0).abs() < 0.01, "order {order} from {errors:?}");
         }
     }
-    // n = 128: volume 4.0e-4 below the cylinder (measured 4.015e-4, (2π/128)²/6 = 4.016e-4).
-    assert!((volume_errors[3] - (2.0 * PI / 128.0).powi(2) / 6.0).abs() < 1e-6);
+    // n = 128: measured 4.0155e-4 below the cylinder, the leading term (2π/128)²/6 = 4.0157e-4;
+    // bound 1e-6 (the next term, (2π/128)⁴/120, is 1.9e-8).
+    assert!((volume_errors[2] - (2.0 * PI / 128.0).powi(2) / 6.0).abs() < 1e-6);
 }
 
 #[test]
 fn icosphere_converges_to_the_ball_at_second_order() {
-    let (r, rho) = (0.15, 2700.0);
+    let (r, rho): (f64, f64) = (0.15, 2700.0);
     let ball_mass = rho * 4.0 / 3.0 * PI * r.powi(3);
     let ball_inertia = 2.0 / 5.0 * ball_mass * r * r;
     let mut mass_errors = Vec::new();
     let mut inertia_errors = Vec::new();
-    for levels in 2..=5 {
+    for levels in 3..=6 {
         let mesh = icosphere(levels, r);
         assert!(mesh.check().is_closed_manifold(), "{:?}", mesh.check());
         let mp = mass_properties(&mesh, rho);
         // Icosahedral symmetry leaves no preferred axis: the tensor is isotropic and the
-        // centre at the origin to round-off. Measured off-diagonal/diagonal 6.2e-16, diagonal
-        // spread 1.1e-15, |com| 1.4e-17 r; bound 1e-13.
+        // centre at the origin to round-off. Measured worst off-diagonal/diagonal 4.5e-16,
+        // diagonal spread 3.1e-15, |com| 4.0e-16 r (levels 3-6); bound 1e-13.
         let diagonal = mp.inertia.diagonal();
         let off = mp.inertia - Matrix3::from_diagonal(&diagonal);
         assert!(off.amax() < 1e-13 * diagonal.max(), "{}", mp.inertia);
@@ -283,16 +294,20 @@ fn icosphere_converges_to_the_ball_at_second_order() {
         inertia_errors.push(rel(diagonal.mean(), ball_inertia));
     }
     // Inscribed polyhedron: the missing volume scales with the squared edge length, which
-    // halves per level, so the error drops 4× per level. Measured orders 1.990, 1.997, 1.999
-    // (mass) and 1.989, 1.997, 1.999 (inertia); bound |order − 2| < 0.02.
+    // halves per level, so the error drops 4× per level. Levels 3-6: measured orders 1.9938,
+    // 1.9984, 1.9996 (mass) and 1.9904, 1.9976, 1.9994 (inertia); bound |order − 2| < 0.02.
     for errors in [&mass_errors, &inertia_errors] {
         for w in errors.windows(2) {
             let order = (w[0] / w[1]).log2();
             assert!((order - 2.0).abs() < 0.02, "order {order} from {errors:?}");
         }
     }
-    // 5 levels (20480 triangles): measured mass 1.1e-4 and inertia 1.8e-4 below the ball.
-    assert!(mass_errors[3] < 2e-4 && inertia_errors[3] < 3e-4, "{mass_errors:?} {inertia_errors:?}");
+    // 6 levels (81920 triangles): measured mass 1.35e-4 and inertia 2.25e-4 below the ball;
+    // bounds 2e-4 and 3e-4.
+    assert!(
+        mass_errors[3] < 2e-4 && inertia_errors[3] < 3e-4,
+        "{mass_errors:?} {inertia_errors:?}"
+    );
 }
 
 /// Tonon (2004), "Explicit Exact Formulas for the 3-D Tetrahedron Inertia Tensor in Terms of
@@ -307,7 +322,10 @@ fn icosphere_converges_to_the_ball_at_second_order() {
 fn tonon(p: [Vector3<f64>; 4], mu: f64) -> MassProperties {
     let centroid = (p[0] + p[1] + p[2] + p[3]) / 4.0;
     let q: Vec<Vector3<f64>> = p.iter().map(|v| v - centroid).collect();
-    let det = (q[1] - q[0]).cross(&(q[2] - q[0])).dot(&(q[3] - q[0])).abs();
+    let det = (q[1] - q[0])
+        .cross(&(q[2] - q[0]))
+        .dot(&(q[3] - q[0]))
+        .abs();
     // Σ_{i≤j} u_i u_j and Σ_i 2 u_i w_i + Σ_{i≠j} u_i w_j.
     let square = |k: usize| -> f64 {
         let mut s = 0.0;
@@ -353,18 +371,32 @@ fn tetrahedron_matches_tonon() {
     let mp = mass_properties(&tetrahedron(p), 1.0);
     let reference = tonon(p, 1.0);
     let (em, ec, ei) = mp_error(&mp, &reference, 50.0);
-    // Two independent evaluations of the same integrals: measured mass 1.4e-15, com 4.3e-17,
-    // inertia 1.1e-15; bound 1e-12.
-    assert!(em < 1e-12 && ec < 1e-12 && ei < 1e-12, "{em:e} {ec:e} {ei:e}");
-    // The paper's printed results (volume 1873.23, a = 43520.33, b = 194711.28,
-    // c = 191168.76, a' = 4417.66, b' = -46343.16, c' = 11996.20), 7 digits printed.
-    let printed = Matrix3::new(
-        43520.33, -11996.20, 46343.16, -11996.20, 194711.28, -4417.66, 46343.16, -4417.66,
-        191168.76,
+    // Two independent evaluations of the same integrals: measured mass 2.4e-16, com 3.6e-17
+    // (of 50 m), inertia 1.5e-16; bound 1e-12.
+    assert!(
+        em < 1e-12 && ec < 1e-12 && ei < 1e-12,
+        "{em:e} {ec:e} {ei:e}"
     );
-    // Measured volume 1.2e-7 and inertia 3.7e-8 relative; bound 1e-6 (rounding of the print).
-    assert!(rel(mp.mass, 1873.23) < 1e-6, "{}", mp.mass);
-    assert!(rel_matrix(&mp.inertia, &printed) < 1e-6, "{}", mp.inertia);
+    // The paper's printed results, to 5 decimals: volume 1873.233236, a = 43520.33257,
+    // b = 194711.28938, c = 191168.76173, a' = 4417.66150, b' = -46343.16662, c' = 11996.20119
+    // (a' = ∫yz, b' = ∫xz, c' = ∫xy; placed here in the usual tensor layout).
+    let printed = Matrix3::new(
+        43520.33257,
+        -11996.20119,
+        46343.16662,
+        -11996.20119,
+        194711.28938,
+        -4417.66150,
+        46343.16662,
+        -4417.66150,
+        191168.76173,
+    );
+    let volume_error = rel(mp.mass, 1873.233236);
+    let inertia_error = rel_matrix(&mp.inertia, &printed);
+    // The vertices are printed to 1e-5 m, which moves results of this 20 m tetrahedron by
+    // ~1e-7 relative: measured volume 6.9e-8, inertia 1.6e-8; bound 2e-7.
+    assert!(volume_error < 2e-7, "{}", mp.mass);
+    assert!(inertia_error < 2e-7, "{}", mp.inertia);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -372,7 +404,7 @@ fn tetrahedron_matches_tonon() {
 
 /// The naive integration: the same sums taken about the frame origin, then shifted to the
 /// centroid (what the library avoids with its reference point).
-fn naive_origin_inertia(mesh: &TriangleMesh) -> Matrix3<f64> {
+fn naive_origin_inertia(mesh: &TriangleMesh, rho: f64) -> Matrix3<f64> {
     let (mut v6, mut first, mut cov) = (0.0, Vector3::zeros(), Matrix3::zeros());
     for t in &mesh.triangles {
         let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
@@ -385,7 +417,7 @@ fn naive_origin_inertia(mesh: &TriangleMesh) -> Matrix3<f64> {
     let volume = v6 / 6.0;
     let centroid = first / (4.0 * v6);
     let cov = cov / 120.0 - centroid * centroid.transpose() * volume;
-    Matrix3::identity() * cov.trace() - cov
+    (Matrix3::identity() * cov.trace() - cov) * rho
 }
 
 #[test]
@@ -399,18 +431,20 @@ fn translation_by_a_kilometre_keeps_the_inertia() {
     let far_mesh = part.transformed(&Isometry3::translation(offset.x, offset.y, offset.z));
     let far = mass_properties(&far_mesh, 1000.0);
     let inertia_error = rel_matrix(&far.inertia, &here.inertia);
-    // Only the rounding of the moved vertices remains (ulp(1000 m) = 1.1e-13 m against 1 cm):
-    // measured 7.4e-12, i.e. 11 of 16 digits kept; bound 1e-10.
+    // Only the rounding of the moved vertices remains (ulp(1000 m) = 1.1e-13 m against 1 cm,
+    // 1e-11 relative): measured inertia 2.6e-12 and mass 1.9e-12, i.e. 11-12 of 16 digits
+    // kept, all lost in the input coordinates, none in the integration; bound 1e-10.
     assert!(inertia_error < 1e-10, "{inertia_error:e}");
     assert!(rel(far.mass, here.mass) < 1e-10);
-    // com moved by the offset: measured 1.1e-13 m (one ulp of 1000); bound 1e-12 m.
+    // com moved by the offset: measured 5.7e-14 m (half an ulp of 1000); bound 1e-12 m.
     assert!((far.com - here.com - offset).amax() < 1e-12);
-    // The naive origin integration loses (d/L)² of the digits: measured 2.3e-4 relative at
-    // 1.3 km (the design note's 2e-4); it must be visibly worse than 1e-6.
-    let naive_error = rel_matrix(&naive_origin_inertia(&far_mesh), &here.inertia);
+    // The naive origin integration keeps nothing: each V_t is of order d²L (d = 1.3 km,
+    // L = 2 cm) and they cancel to V ~ L³, losing (d/L)³ eps ~ 0.06 of the volume, and the
+    // covariance shift loses more: measured inertia error 4.5e6 relative. Bound: > 1e-6.
+    let naive_error = rel_matrix(&naive_origin_inertia(&far_mesh, 1000.0), &here.inertia);
     assert!(naive_error > 1e-6, "naive {naive_error:e}");
-    // At the origin both agree to round-off: measured 3.4e-16; bound 1e-13.
-    assert!(rel_matrix(&naive_origin_inertia(&part), &here.inertia) < 1e-13);
+    // At the origin both agree to round-off: measured 1.9e-15; bound 1e-13.
+    assert!(rel_matrix(&naive_origin_inertia(&part, 1000.0), &here.inertia) < 1e-13);
 }
 
 #[test]
@@ -424,7 +458,7 @@ fn rotation_rotates_the_tensor() {
         500.0,
     );
     let expected = r.matrix() * mp.inertia * r.matrix().transpose();
-    // Measured inertia 1.1e-15, com 2.8e-17 m, mass 4.4e-16; bound 1e-13.
+    // Measured inertia 5.5e-16, com 1.4e-17 m, mass 0; bound 1e-13.
     assert!(rel_matrix(&turned.inertia, &expected) < 1e-13);
     assert!((turned.com - r * mp.com).amax() < 1e-13);
     assert!(rel(turned.mass, mp.mass) < 1e-13);
@@ -447,8 +481,11 @@ fn two_boxes_combined_are_the_whole_box() {
     );
     let both = MassProperties::combine([&left, &right]).expect("positive mass");
     let (em, ec, ei) = mp_error(&both, &whole, 2.0);
-    // Measured mass 0, com 0, inertia 1.7e-16; bound 1e-14.
-    assert!(em < 1e-14 && ec < 1e-14 && ei < 1e-14, "{em:e} {ec:e} {ei:e}");
+    // Measured mass 0, com 0, inertia 1.1e-16; bound 1e-14.
+    assert!(
+        em < 1e-14 && ec < 1e-14 && ei < 1e-14,
+        "{em:e} {ec:e} {ei:e}"
+    );
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -470,7 +507,8 @@ fn mirrored_mesh_keeps_its_volume_and_mirrors_the_tensor() {
     let mm = mass_properties(&mirrored, 1000.0);
     let m = Matrix3::from_diagonal(&Vector3::new(-1.0, 1.0, 1.0));
     // Mass equal, com x negated, I → M I M: Ixy and Ixz change sign, Iyz and the diagonal
-    // stay. Measured mass 0, com 0, inertia 0 (the mirror is exact in binary); bound 1e-14.
+    // stay. Measured mass 0, com 0, inertia 1.8e-16 (the mirror is exact; the reversed
+    // winding reorders the sums); bound 1e-14.
     assert!(rel(mm.mass, mp.mass) < 1e-14);
     assert!((mm.com - m * mp.com).amax() < 1e-14);
     assert!(rel_matrix(&mm.inertia, &(m * mp.inertia * m)) < 1e-14);
@@ -492,8 +530,11 @@ fn anisotropic_scale_of_a_unit_cube_is_the_scaled_box() {
     let mp = mass_properties(&unit_cube().scaled(&s), 1000.0);
     let expected = box_closed_form(s, s / 2.0, 1000.0);
     let (em, ec, ei) = mp_error(&mp, &expected, 3.0);
-    // Measured mass 0, com 0, inertia 1.6e-16; bound 1e-14.
-    assert!(em < 1e-14 && ec < 1e-14 && ei < 1e-14, "{em:e} {ec:e} {ei:e}");
+    // Measured mass 0, com 0, inertia 0 (dyadic sizes); bound 1e-14.
+    assert!(
+        em < 1e-14 && ec < 1e-14 && ei < 1e-14,
+        "{em:e} {ec:e} {ei:e}"
+    );
     // Two negative scales: determinant positive, winding kept.
     let twice = unit_cube().scaled(&Vector3::new(-2.0, -3.0, 0.5));
     assert_eq!(twice.triangles, unit_cube().triangles);
@@ -510,7 +551,10 @@ fn open_mesh_reports_its_boundary_edges() {
     assert_eq!(mesh.check().boundary_edges, 3);
     let err = mesh.mass_properties(1000.0).unwrap_err();
     assert_eq!(err, MeshError::Open { boundary_edges: 3 });
-    assert!(err.to_string().starts_with("open mesh: 3 boundary edges"), "{err}");
+    assert!(
+        err.to_string().starts_with("open mesh: 3 boundary edges"),
+        "{err}"
+    );
     // A whole face missing: its 4 sides are boundary edges (the diagonal is not).
     let mut mesh = unit_cube();
     mesh.triangles.drain(0..2);
@@ -545,13 +589,19 @@ fn non_manifold_and_misoriented_meshes_are_reported() {
     assert_eq!(both.vertices.len(), 14);
     let err = both.mass_properties(1000.0).unwrap_err();
     assert_eq!(err, MeshError::NonManifold { edges: 1 });
-    assert!(err.to_string().starts_with("non-manifold mesh: 1 edges"), "{err}");
+    assert!(
+        err.to_string().starts_with("non-manifold mesh: 1 edges"),
+        "{err}"
+    );
     // One triangle turned over: its 3 edges run the same way as their neighbours'.
     let mut mesh = unit_cube();
     mesh.triangles[5].swap(0, 1);
     let err = mesh.mass_properties(1000.0).unwrap_err();
     assert_eq!(err, MeshError::InconsistentOrientation { edges: 3 });
-    assert!(err.to_string().contains("3 edges used twice in the same direction"));
+    assert!(
+        err.to_string()
+            .contains("3 edges used twice in the same direction")
+    );
 }
 
 #[test]
@@ -645,9 +695,13 @@ fn load(path: &Path) -> TriangleMesh {
 fn assert_box(mesh: &TriangleMesh, d: Vector3<f64>, centre: Vector3<f64>, what: &str) {
     let mp = mass_properties(mesh, 1000.0);
     let (em, ec, ei) = mp_error(&mp, &box_closed_form(d, centre, 1000.0), d.amax());
-    // Dyadic boxes read exactly: measured 0 for mass and com, 1.4e-16 inertia (STL, OBJ) and
-    // 2.2e-16 (DAE, through a rotation by 90° whose cosine is 6e-17); bound 1e-14.
-    assert!(em < 1e-14 && ec < 1e-14 && ei < 1e-14, "{what}: {em:e} {ec:e} {ei:e}");
+    // Dyadic boxes read exactly: measured 0 for STL (binary and ASCII); mass 0, com 0,
+    // inertia 1.4e-16 for OBJ; 4.3e-16, 3.5e-16, 4.8e-16 for DAE (a rotation by 90° whose
+    // cosine rounds to 6e-17, and the 0.001 unit); bound 1e-14.
+    assert!(
+        em < 1e-14 && ec < 1e-14 && ei < 1e-14,
+        "{what}: {em:e} {ec:e} {ei:e}"
+    );
 }
 
 #[test]
@@ -672,7 +726,10 @@ fn stl_binary_and_ascii_read_the_box() {
         assert_box(&read, d, centre, first_line);
     }
     // Two solids in one ASCII file: both read (a second box beside the first).
-    let other = box_mesh(lo + Vector3::new(5.0, 0.0, 0.0), lo + d + Vector3::new(5.0, 0.0, 0.0));
+    let other = box_mesh(
+        lo + Vector3::new(5.0, 0.0, 0.0),
+        lo + d + Vector3::new(5.0, 0.0, 0.0),
+    );
     let two = dir.path().join("two.stl");
     let text = ascii_stl(&mesh, "solid a") + &ascii_stl(&other, "solid b");
     std::fs::write(&two, text).expect("write");
@@ -708,12 +765,18 @@ fn stl_truncated_or_lying_is_a_clear_error() {
     let bytes = binary_stl(&unit_cube(), b"solid cube");
     std::fs::write(&path, &bytes[..600]).expect("write");
     let err = mesh_io::load_mesh(&path).unwrap_err().to_string();
-    assert!(err.contains("neither ASCII STL") && err.contains("600 bytes"), "{err}");
+    assert!(
+        err.contains("neither ASCII STL") && err.contains("600 bytes"),
+        "{err}"
+    );
     // Too short for any header, an empty file, an ASCII file cut mid-facet.
     for (content, expect) in [
         (&b"abc"[..], "too short"),
         (&b""[..], "too short"),
-        (&b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"[..], "EOF"),
+        (
+            &b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n"[..],
+            "EOF",
+        ),
     ] {
         std::fs::write(&path, content).expect("write");
         let err = mesh_io::load_mesh(&path).unwrap_err().to_string();
@@ -855,8 +918,11 @@ fn dae_applies_unit_and_node_transforms_and_ignores_up_axis() {
     );
     let expected = MassProperties::combine([&one, &mirrored]).expect("mass");
     let (em, ec, ei) = mp_error(&mp, &expected, 0.4);
-    // Measured mass 0, com 0, inertia 2.6e-16; bound 1e-13.
-    assert!(em < 1e-13 && ec < 1e-13 && ei < 1e-13, "{em:e} {ec:e} {ei:e}");
+    // Measured mass 6.5e-16, com 1.4e-16 (of 0.4 m), inertia 8.0e-16; bound 1e-13.
+    assert!(
+        em < 1e-13 && ec < 1e-13 && ei < 1e-13,
+        "{em:e} {ec:e} {ei:e}"
+    );
 }
 
 #[test]
@@ -866,7 +932,10 @@ fn unknown_missing_and_garbage_files_are_errors_not_panics() {
     std::fs::write(&ply, "ply").expect("write");
     let err = mesh_io::load_mesh(&ply).unwrap_err();
     assert!(matches!(err, MeshError::UnknownFormat { .. }), "{err}");
-    assert!(err.to_string().contains("mesh.ply: unknown mesh format"), "{err}");
+    assert!(
+        err.to_string().contains("mesh.ply: unknown mesh format"),
+        "{err}"
+    );
     let missing = dir.path().join("missing.stl");
     let err = mesh_io::load_mesh(&missing).unwrap_err();
     assert!(matches!(err, MeshError::Read { .. }), "{err}");

@@ -77,9 +77,7 @@ pub enum MeshError {
     #[error("empty mesh: no triangles")]
     Empty,
     /// Triangles that name a vertex index past the end of the vertex list.
-    #[error(
-        "{triangles} triangles index past the {vertices} vertices (corrupt index list)"
-    )]
+    #[error("{triangles} triangles index past the {vertices} vertices (corrupt index list)")]
     IndexOutOfRange { triangles: usize, vertices: usize },
     /// Vertices used by triangles with a NaN or infinite coordinate.
     #[error("{vertices} vertices have NaN or infinite coordinates")]

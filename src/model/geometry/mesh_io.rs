@@ -99,7 +99,11 @@ pub fn weld(vertices: &[Vector3<f64>], triangles: &[[u32; 3]]) -> TriangleMesh {
             };
             new[k] = *renumber[i as usize].get_or_insert_with(|| {
                 // `+ 0.0` turns -0.0 into 0.0 and leaves everything else unchanged.
-                let key = [(v.x + 0.0).to_bits(), (v.y + 0.0).to_bits(), (v.z + 0.0).to_bits()];
+                let key = [
+                    (v.x + 0.0).to_bits(),
+                    (v.y + 0.0).to_bits(),
+                    (v.z + 0.0).to_bits(),
+                ];
                 *index_of.entry(key).or_insert_with(|| {
                     welded.push(*v + Vector3::zeros());
                     (welded.len() - 1) as u32

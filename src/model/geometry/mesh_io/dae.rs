@@ -81,7 +81,10 @@ pub fn read_dae(bytes: &[u8], options: &DaeOptions) -> Result<TriangleMesh, Stri
         ));
     }
     let asset = child(root, "asset");
-    let meter = match asset.and_then(|a| child(a, "unit")).and_then(|u| u.attribute("meter")) {
+    let meter = match asset
+        .and_then(|a| child(a, "unit"))
+        .and_then(|u| u.attribute("meter"))
+    {
         None => 1.0,
         Some(s) => match s.trim().parse::<f64>() {
             Ok(m) if m.is_finite() && m > 0.0 => m,
@@ -97,7 +100,11 @@ pub fn read_dae(bytes: &[u8], options: &DaeOptions) -> Result<TriangleMesh, Stri
         (UpAxis::Ignore, _) | (_, "Z_UP") => Matrix3::identity(),
         (_, "Y_UP") => Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0),
         (_, "X_UP") => Matrix3::new(0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 1.0, 0.0, 0.0),
-        (_, other) => return Err(format!("<up_axis>{other}</up_axis>: not X_UP, Y_UP or Z_UP")),
+        (_, other) => {
+            return Err(format!(
+                "<up_axis>{other}</up_axis>: not X_UP, Y_UP or Z_UP"
+            ));
+        }
     };
     let mut reader = Reader {
         ids: doc
@@ -132,19 +139,13 @@ fn child<'a, 'i>(node: Node<'a, 'i>, name: &'static str) -> Option<Node<'a, 'i>>
 }
 
 /// The child elements named `name` (namespace ignored).
-fn children<'a, 'i>(
-    node: Node<'a, 'i>,
-    name: &'static str,
-) -> impl Iterator<Item = Node<'a, 'i>> {
+fn children<'a, 'i>(node: Node<'a, 'i>, name: &'static str) -> impl Iterator<Item = Node<'a, 'i>> {
     node.children()
         .filter(move |c| c.is_element() && c.tag_name().name() == name)
 }
 
 /// `<x id="...">` of a `#id` URL (local references only).
-fn target<'a, 'i>(
-    ids: &HashMap<&'a str, Node<'a, 'i>>,
-    url: Option<&str>,
-) -> Option<Node<'a, 'i>> {
+fn target<'a, 'i>(ids: &HashMap<&'a str, Node<'a, 'i>>, url: Option<&str>) -> Option<Node<'a, 'i>> {
     ids.get(url?.strip_prefix('#')?).copied()
 }
 
@@ -278,9 +279,8 @@ impl<'a, 'i> Reader<'a, 'i> {
             match c.tag_name().name() {
                 "node" => self.walk(c, transform.clone(), depth + 1)?,
                 "instance_node" => {
-                    let target = target(&self.ids, c.attribute("url")).ok_or_else(|| {
-                        format!("{}: <instance_node> url not found", label(node))
-                    })?;
+                    let target = target(&self.ids, c.attribute("url"))
+                        .ok_or_else(|| format!("{}: <instance_node> url not found", label(node)))?;
                     self.walk(target, transform.clone(), depth + 1)?;
                 }
                 "instance_geometry" => {
@@ -298,7 +298,11 @@ impl<'a, 'i> Reader<'a, 'i> {
     }
 
     /// Adds the triangles of one `<geometry>`, placed by `transform`.
-    fn add_geometry(&mut self, geometry: Node<'a, 'i>, transform: &Matrix4<f64>) -> Result<(), String> {
+    fn add_geometry(
+        &mut self,
+        geometry: Node<'a, 'i>,
+        transform: &Matrix4<f64>,
+    ) -> Result<(), String> {
         let Some(mesh) = child(geometry, "mesh") else {
             return Ok(());
         };
@@ -323,7 +327,8 @@ impl<'a, 'i> Reader<'a, 'i> {
             self.vertices
                 .extend(positions.iter().map(|p| linear * p + translation));
             index_u32(self.vertices.len())?;
-            let polygons = corner_lists(primitive, kind, stride, position_offset).map_err(context)?;
+            let polygons =
+                corner_lists(primitive, kind, stride, position_offset).map_err(context)?;
             for (polygon, strip) in polygons {
                 if let Some(&bad) = polygon.iter().find(|&&i| i >= count) {
                     return Err(context(format!(
@@ -369,8 +374,9 @@ impl<'a, 'i> Reader<'a, 'i> {
             let source = input.attribute("source");
             match input.attribute("semantic") {
                 Some("VERTEX") => {
-                    let vertices = target(&self.ids, source)
-                        .ok_or_else(|| "<input semantic=\"VERTEX\"> source not found".to_string())?;
+                    let vertices = target(&self.ids, source).ok_or_else(|| {
+                        "<input semantic=\"VERTEX\"> source not found".to_string()
+                    })?;
                     let position = children(vertices, "input")
                         .find(|i| i.attribute("semantic") == Some("POSITION"))
                         .and_then(|i| i.attribute("source"));
@@ -380,17 +386,16 @@ impl<'a, 'i> Reader<'a, 'i> {
                     found = Some((id, offset));
                 }
                 Some("POSITION") if found.is_none() => {
-                    let id = source
-                        .and_then(|s| s.strip_prefix('#'))
-                        .ok_or_else(|| "<input semantic=\"POSITION\"> without source".to_string())?;
+                    let id = source.and_then(|s| s.strip_prefix('#')).ok_or_else(|| {
+                        "<input semantic=\"POSITION\"> without source".to_string()
+                    })?;
                     found = Some((id, offset));
                 }
                 _ => {}
             }
         }
-        let (id, offset) = found.ok_or_else(|| {
-            format!("<{}> has no VERTEX input", primitive.tag_name().name())
-        })?;
+        let (id, offset) = found
+            .ok_or_else(|| format!("<{}> has no VERTEX input", primitive.tag_name().name()))?;
         Ok((id, offset, stride))
     }
 }
@@ -436,11 +441,11 @@ fn read_source(source: Node) -> Result<Vec<Vector3<f64>>, String> {
             label(source)
         ));
     }
-    let needed = count
-        .checked_sub(1)
-        .map_or(Some(0), |last| {
-            last.checked_mul(stride)?.checked_add(offset)?.checked_add(3)
-        });
+    let needed = count.checked_sub(1).map_or(Some(0), |last| {
+        last.checked_mul(stride)?
+            .checked_add(offset)?
+            .checked_add(3)
+    });
     if needed.is_none_or(|n| n > values.len()) {
         return Err(format!(
             "{}: accessor wants {count} positions (stride {stride}, offset {offset}) from {} \
@@ -472,7 +477,10 @@ fn corner_lists(
                 all.len()
             ));
         }
-        Ok(all.chunks_exact(stride).map(|c| c[position_offset]).collect())
+        Ok(all
+            .chunks_exact(stride)
+            .map(|c| c[position_offset])
+            .collect())
     };
     let mut out = Vec::new();
     match kind {
@@ -480,7 +488,10 @@ fn corner_lists(
             for p in children(primitive, "p") {
                 let c = corners(p)?;
                 if c.len() % 3 != 0 {
-                    return Err(format!("<triangles> has {} corners, not a multiple of 3", c.len()));
+                    return Err(format!(
+                        "<triangles> has {} corners, not a multiple of 3",
+                        c.len()
+                    ));
                 }
                 out.extend(c.chunks_exact(3).map(|t| (t.to_vec(), false)));
             }
@@ -494,7 +505,10 @@ fn corner_lists(
                 Some(p) => corners(p)?,
                 None => Vec::new(),
             };
-            let total: usize = counts.iter().try_fold(0usize, |a, &n| a.checked_add(n)).unwrap_or(usize::MAX);
+            let total: usize = counts
+                .iter()
+                .try_fold(0usize, |a, &n| a.checked_add(n))
+                .unwrap_or(usize::MAX);
             if total != c.len() {
                 return Err(format!(
                     "<polylist> <vcount> adds up to {total} corners, <p> has {}",

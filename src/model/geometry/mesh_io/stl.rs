@@ -61,10 +61,7 @@ pub fn read_stl(bytes: &[u8]) -> Result<TriangleMesh, String> {
 /// The text after an optional UTF-8 byte-order mark and leading blanks.
 fn text_start(bytes: &[u8]) -> &[u8] {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
-    let blanks = bytes
-        .iter()
-        .take_while(|b| b.is_ascii_whitespace())
-        .count();
+    let blanks = bytes.iter().take_while(|b| b.is_ascii_whitespace()).count();
     &bytes[blanks..]
 }
 
@@ -89,8 +86,8 @@ fn read_ascii(bytes: &[u8]) -> Result<TriangleMesh, String> {
     let mut triangles = Vec::new();
     for (k, block) in solid_blocks(&text).into_iter().enumerate() {
         let mut cursor = Cursor::new(block.into_bytes());
-        let reader = stl_io::create_stl_reader(&mut cursor)
-            .map_err(|e| format!("solid {}: {e}", k + 1))?;
+        let reader =
+            stl_io::create_stl_reader(&mut cursor).map_err(|e| format!("solid {}: {e}", k + 1))?;
         let part = collect(reader).map_err(|e| format!("solid {}: {e}", k + 1))?;
         let offset = index_u32(vertices.len())?;
         vertices.extend(part.vertices);
@@ -129,7 +126,11 @@ fn collect(
         let triangle = triangle.map_err(|e| e.to_string())?;
         let first = index_u32(vertices.len())?;
         for v in triangle.vertices {
-            vertices.push(Vector3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])));
+            vertices.push(Vector3::new(
+                f64::from(v[0]),
+                f64::from(v[1]),
+                f64::from(v[2]),
+            ));
         }
         index_u32(vertices.len())?;
         indices.push([first, first + 1, first + 2]);
