@@ -164,7 +164,8 @@ fn box_matches_quadrature() {
     for (size, rho) in [([0.1, 0.2, 0.3], 1000.0), ([2.0, 0.05, 0.7], 7800.0)] {
         let closed = primitives::cuboid(&Vector3::from(size), rho).unwrap();
         let numeric = box_by_quadrature(size, rho);
-        // Exact rule, rounding only: measured 1.1e-16 (mass) and 2.2e-16 (tensor); bound 1e-12.
+        // Exact rule, rounding only: measured at most 1.5e-16 (mass) and 2.1e-16 (tensor);
+        // bound 1e-12.
         assert!(rel(closed.mass, numeric.mass) < 1e-12, "{size:?}");
         assert!(rel_m(&closed.inertia, &numeric.inertia) < 1e-12, "{size:?}");
         assert_eq!(closed.com, Vector3::zeros());
@@ -185,8 +186,8 @@ fn cylinder_matches_sliced_quadrature() {
         2,
     );
     let closed = primitives::cylinder(r, l, rho).unwrap();
-    // Polynomial integrands of degree ≤ 3 in z: exact. Measured 0 (mass), 1.4e-16 (Ixx),
-    // 1.6e-16 (Izz); bound 1e-12.
+    // Polynomial integrands of degree ≤ 3 in z: exact. Measured 0 (mass), 0 (com), 1.6e-16
+    // (Ixx, Iyy), 2.2e-16 (Izz); bound 1e-12 (com 1e-15).
     assert!(rel(closed.mass, m) < 1e-12);
     assert!(zc.abs() < 1e-15);
     assert!(rel(closed.inertia[(0, 0)], ixx) < 1e-12);
@@ -210,8 +211,8 @@ fn sphere_matches_sliced_quadrature() {
         2000,
     );
     let closed = primitives::sphere(r, rho).unwrap();
-    // Quartic integrands in z: Simpson error ~ h⁴ = (1e-4)⁴ relative to r⁴. Measured 2.2e-16
-    // (mass), 7.0e-16 (Ixx), 5.9e-16 (Izz); bound 1e-10.
+    // Quartic integrands in z: Simpson's error ~ (h/r)⁴ / 180 with h/r = 1e-3. Measured 9.4e-16
+    // (mass), 4.5e-19 (com), 3.8e-13 (Ixx), 2.5e-13 (Izz); bound 1e-10 (com 1e-15).
     assert!(rel(closed.mass, m) < 1e-10, "{}", rel(closed.mass, m));
     assert!(zc.abs() < 1e-15);
     assert!(rel(closed.inertia[(0, 0)], ixx) < 1e-10);
@@ -233,9 +234,9 @@ fn hemisphere_centre_of_mass_is_three_eighths_of_the_radius() {
         2000,
     );
     let m_h = 2.0 / 3.0 * PI * r.powi(3);
-    // Measured 1.5e-16 relative; bound 1e-10.
+    // Simpson's error as for the sphere: measured 3.5e-15 relative; bound 1e-10.
     assert!(rel(zc, 3.0 * r / 8.0) < 1e-10, "{zc}");
-    // About its own centre of mass, a transverse axis: 83/320 m r². Measured 6.5e-16; bound 1e-10.
+    // About its own centre of mass, a transverse axis: 83/320 m r². Measured 3.5e-14; bound 1e-10.
     assert!(rel(ixx_c, 83.0 / 320.0 * m_h * r * r) < 1e-10);
 }
 
@@ -267,7 +268,8 @@ fn capsule_matches_cylinder_plus_sliced_hemispheres() {
         2000,
     );
     let closed = primitives::capsule(r, l, rho).unwrap();
-    // Measured 1.1e-16 (mass), 4.4e-16 (Ixx), 3.0e-16 (Izz); bound 1e-10.
+    // Measured 2.6e-14 (mass), 4.6e-17 (com), 9.9e-16 (Ixx, Iyy), 7.7e-15 (Izz); bound 1e-10
+    // (com 1e-14).
     assert!(rel(closed.mass, m) < 1e-10, "{}", rel(closed.mass, m));
     assert!(zc.abs() < 1e-14, "{zc}");
     assert!(
@@ -287,7 +289,7 @@ fn capsule_matches_cylinder_plus_sliced_hemispheres() {
 fn capsule_of_zero_length_is_a_sphere() {
     let capsule = primitives::capsule(0.2, 0.0, 1500.0).unwrap();
     let sphere = primitives::sphere(0.2, 1500.0).unwrap();
-    // Two hemispheres of mass 2/3 π r³ ρ each vs 4/3 π r³ ρ: measured 0 (mass), 1.2e-16 (tensor);
+    // Two hemispheres of mass 2/3 π r³ ρ each vs 4/3 π r³ ρ: measured 0 (mass), 0 (tensor);
     // bound 1e-14.
     assert!(rel(capsule.mass, sphere.mass) < 1e-14);
     assert!(rel_m(&capsule.inertia, &sphere.inertia) < 1e-14);
@@ -307,7 +309,7 @@ fn two_cubes_side_by_side_are_one_long_box() {
     let long = primitives::cuboid(&Vector3::new(2.0, 1.0, 1.0), 1000.0).unwrap();
     let mp = pair.mass_properties;
     assert_eq!(mp.mass, 2000.0);
-    // Measured 0 (com) and 1.1e-16 relative (tensor); bound 1e-14.
+    // Measured 0 (com) and 1.4e-16 relative (tensor, both comparisons); bound 1e-14.
     assert!(mp.com.amax() < 1e-14);
     assert!(rel_m(&mp.inertia, &long.inertia) < 1e-14);
     // And the closed form of the long box: 2000/12 (1 + 1), 2000/12 (4 + 1).
@@ -323,8 +325,8 @@ fn a_placed_and_turned_box_moves_its_com_and_turns_its_tensor() {
             .unwrap()
             .mass_properties;
     // Box 0.1 x 0.2 x 0.3 at (1, 2, 3) turned 90° about z: Ixx and Iyy swap.
-    // Measured 0 (com), 2.6e-16 relative (tensor: cos(pi/2) = 6e-17 leaves tiny off-diagonals);
-    // bound 1e-12.
+    // Measured 0 (mass), 0 (com), 1.1e-16 relative (tensor: cos(pi/2) = 6e-17 leaves tiny
+    // off-diagonals); bound 1e-12 (com 1e-14).
     assert!((turned.mass - 6.0).abs() < 1e-12);
     assert!((turned.com - Vector3::new(1.0, 2.0, 3.0)).amax() < 1e-14);
     let expected = Matrix3::from_diagonal(&Vector3::new(0.05, 0.065, 0.025));
@@ -353,7 +355,7 @@ fn sphere_and_cylinder_combine_by_the_parallel_axis_theorem() {
         + mc * (3.0 * rc * rc + lc * lc) / 12.0
         + mc * (zcyl - zc).powi(2);
     let izz = 0.4 * ms * rs * rs + mc * rc * rc / 2.0;
-    // Measured 0 (mass), 0 (com), 1.6e-16 (Ixx), 0 (Izz); bound 1e-13.
+    // Measured 0 for all five; bound 1e-13.
     assert!(rel(mixed.mass, m) < 1e-13);
     assert!((mixed.com - Vector3::new(0.0, 0.0, zc)).amax() < 1e-13);
     assert!(rel(mixed.inertia[(0, 0)], ixx) < 1e-13);
@@ -370,7 +372,7 @@ fn density_scales_mass_and_inertia_not_the_com() {
             .mass_properties
     };
     let (water, aluminium) = (at(1000.0), at(2700.0));
-    // Measured 1.6e-16 (mass ratio), 2.2e-16 (tensor), 0 (com); bound 1e-14.
+    // Measured 1.6e-16 (mass ratio), 1.9e-16 (tensor), 0 (com); bound 1e-14 (com 1e-15).
     assert!(rel(aluminium.mass / water.mass, 2.7) < 1e-14);
     assert!(rel_m(&aluminium.inertia, &(water.inertia * 2.7)) < 1e-14);
     assert!((aluminium.com - water.com).amax() < 1e-15);
@@ -414,8 +416,8 @@ fn auto_repairs_a_missing_inertial_from_a_box_collision() {
     assert_eq!(l.source, InertiaSource::Repaired);
     assert_eq!(l.urdf_inertial, None);
     let mp = l.inertial.unwrap();
-    // 0.1 x 0.2 x 0.3 m of water = 6 kg at (0.1, 0, 0). Measured 8.9e-16 (mass), 0 (com),
-    // 1.1e-16 relative (tensor); bound 1e-12.
+    // 0.1 x 0.2 x 0.3 m of water = 6 kg at (0.1, 0, 0). Measured 0 (mass), 0 (com), 1.1e-16
+    // relative (tensor); bound 1e-12 (com 1e-15).
     assert!((mp.mass - 6.0).abs() < 1e-12);
     assert!((mp.com - Vector3::new(0.1, 0.0, 0.0)).amax() < 1e-15);
     let expected = Matrix3::from_diagonal(&Vector3::new(0.065, 0.05, 0.025));
@@ -447,7 +449,7 @@ fn auto_repairs_a_negative_mass() {
     assert_eq!(l.urdf_inertial.unwrap().mass, -1.0);
     let mp = l.inertial.unwrap();
     let m = 4000.0 / 3.0 * PI * 1e-3;
-    // Measured 0 (mass), 1.0e-16 relative (tensor); bound 1e-12.
+    // Measured 2.1e-16 (mass), 4.1e-16 relative (tensor); bound 1e-12.
     assert!(rel(mp.mass, m) < 1e-12);
     assert!(rel_m(&mp.inertia, &(Matrix3::identity() * 0.4 * m * 0.01)) < 1e-12);
     // The finding moved from problems to notes.
@@ -518,7 +520,7 @@ fn geometry_policy_overrides_valid_values() {
     let l = link(&model, "valid");
     assert_eq!(l.source, InertiaSource::Geometry);
     assert_eq!(l.urdf_inertial.unwrap().mass, 2.0);
-    // Measured 8.9e-16; bound 1e-12.
+    // Measured 0; bound 1e-12.
     assert!((l.inertial.unwrap().mass - 6.0).abs() < 1e-12);
     assert!(
         l.notes[0].contains("the URDF's <inertial>, 2 kg, is not used"),
@@ -550,7 +552,7 @@ fn collision_is_preferred_and_visual_is_the_fallback_or_the_reverse() {
     );
     // `both`: collision cylinder (π kg) or visual sphere (4/3 π kg).
     let (c, v) = (link(&collision, "both"), link(&visual, "both"));
-    // Measured 0 and 4.4e-16 relative; bound 1e-12.
+    // Measured 1.4e-16 and 2.1e-16 relative; bound 1e-12.
     assert!(rel(c.inertial.unwrap().mass, PI) < 1e-12);
     assert!(rel(v.inertial.unwrap().mass, 4.0 / 3.0 * PI) < 1e-12);
     assert_eq!(c.geometry_used.unwrap().set, GeometrySource::Collision);
@@ -570,7 +572,7 @@ fn density_setting_scales_the_computed_mass() {
         GeometrySource::Collision,
     );
     let l = link(&model, "missing");
-    // 6 kg of water, so 16.2 kg of aluminium. Measured 3.6e-15; bound 1e-12.
+    // 6 kg of water, so 16.2 kg of aluminium. Measured 0; bound 1e-12.
     assert!((l.inertial.unwrap().mass - 16.2).abs() < 1e-12);
     assert_eq!(l.geometry_used.unwrap().density_kg_per_m3, 2700.0);
 }
@@ -710,7 +712,7 @@ fn scene_settings_per_model_and_per_link() {
         PI,                                                   // both: collision cylinder
     ];
     for ((name, m), e) in masses.iter().zip(expected) {
-        // Measured at most 1.8e-15 absolute; bound 1e-12.
+        // Measured at most 8.9e-16 absolute; bound 1e-12.
         assert!((m - e).abs() < 1e-12, "{name}: {m} vs {e}");
     }
 }
@@ -759,7 +761,7 @@ fn flags_replace_the_mass_table_but_models_and_links_still_refine() {
         .find(|b| b.name == "valid")
         .unwrap();
     assert_eq!(valid.mass, 2.0);
-    // `both` under visual preference: the sphere at 2700. Measured 0; bound 1e-12.
+    // `both` under visual preference: the sphere at 2700. Measured 1.6e-16; bound 1e-12.
     let both = world
         .layout
         .bodies
@@ -867,7 +869,7 @@ fn inspect_compare_json_has_both_sides_and_the_difference() {
     assert_eq!(valid["geometry"]["set"], "collision");
     assert_eq!(valid["geometry"]["shapes"], 1);
     let d = &valid["difference"];
-    // (2 − 6) / 6, |(0, 0, 0.05) − 0|, 1000 · 2 / 6. Measured 1.1e-16, 0, 1.1e-13; bound 1e-12.
+    // (2 − 6) / 6, |(0, 0, 0.05) − 0|, 1000 · 2 / 6. Measured 0, 0, 0; bound 1e-12.
     assert!((d["mass_relative"].as_f64().unwrap() + 2.0 / 3.0).abs() < 1e-12);
     assert!((d["com_distance"].as_f64().unwrap() - 0.05).abs() < 1e-12);
     assert!((d["density_matching_urdf_mass"].as_f64().unwrap() - 1000.0 / 3.0).abs() < 1e-12);
