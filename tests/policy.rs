@@ -67,7 +67,7 @@ fn rel(a: f64, b: f64) -> f64 {
 /// Composite Simpson's rule on `[a, b]` with `n` (even) intervals: exact for cubics, error
 /// `(b − a) h⁴ max|f⁗| / 180` otherwise.
 fn simpson(f: impl Fn(f64) -> f64, a: f64, b: f64, n: usize) -> f64 {
-    assert!(n % 2 == 0);
+    assert!(n.is_multiple_of(2));
     let h = (b - a) / n as f64;
     let mut sum = f(a) + f(b);
     for k in 1..n {

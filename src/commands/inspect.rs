@@ -362,7 +362,7 @@ fn render_comparison(out: &mut String, c: &Comparison) {
     let diff = c.difference();
     let _ = writeln!(
         out,
-        "  {:<18}{:<w$}  {:<w$}  {}",
+        "  {:<18}{:<w$}  {:<w$}  URDF vs geometry",
         "compare",
         if urdf.is_some() {
             "URDF <inertial>"
@@ -374,7 +374,6 @@ fn render_comparison(out: &mut String, c: &Comparison) {
         } else {
             "geometry: unavailable"
         },
-        "URDF vs geometry"
     );
     let mass = |mp: &MassProperties| format!("{} kg", num(mp.mass));
     let com = |mp: &MassProperties| format!("{} m", numbers(mp.com.as_slice()));

@@ -131,7 +131,7 @@ pub enum PolicyError {
     Geometry {
         path: PathBuf,
         link: String,
-        reason: GeometryError,
+        reason: Box<GeometryError>,
     },
 }
 
@@ -199,7 +199,7 @@ pub fn apply(model: &mut Model, settings: &ModelMassSettings) -> Result<(), Poli
                 from_geometry(link, &resolved).map_err(|reason| PolicyError::Geometry {
                     path: model.path.clone(),
                     link: link.name.clone(),
-                    reason,
+                    reason: Box::new(reason),
                 })?
             }
             InertiaPolicy::Auto => repair(link, &resolved),
