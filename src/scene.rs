@@ -336,9 +336,24 @@ impl Scene {
         if self.models.is_empty() {
             bail!("{file}: no [[model]] entry: the scene simulates nothing");
         }
+        // Densities, kg/m^3: finite and > 0 wherever given (unknown link names in `links` are
+        // checked against the URDF by `policy::apply`).
+        let density = |key: &str, v: Option<f64>| -> anyhow::Result<()> {
+            match v {
+                Some(v) if !(v.is_finite() && v > 0.0) => {
+                    bail!("{key} must be a positive finite number of kg/m^3 (got {v})")
+                }
+                _ => Ok(()),
+            }
+        };
+        density(&format!("{file}: mass.density"), self.mass.density)?;
         let mut names = HashSet::new();
         for (i, m) in self.models.iter().enumerate() {
             let key = format!("{file}: model[{i}]");
+            density(&format!("{key}.density"), m.density)?;
+            for (link, settings) in &m.links {
+                density(&format!("{key}.links.{link}.density"), settings.density)?;
+            }
             finite3(&format!("{key}.position"), &m.position)?;
             finite3(&format!("{key}.rpy"), &m.rpy)?;
             finite3(&format!("{key}.linvel"), &m.linvel)?;

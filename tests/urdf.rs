@@ -593,12 +593,16 @@ fn inspect_run_and_text() {
         model: data("missing_and_zero.urdf"),
         json: false,
         package_paths: vec![],
+        mass: Default::default(),
+        compare: false,
     };
     assert!(!inspect::run(&zero).unwrap());
     let missing = InspectArgs {
         model: PathBuf::from("/nonexistent.urdf"),
         json: false,
         package_paths: vec![],
+        mass: Default::default(),
+        compare: false,
     };
     let err = inspect::run(&missing).unwrap_err();
     assert!(format!("{err:#}").contains("/nonexistent.urdf"));

@@ -1,5 +1,9 @@
-//! `tumble inspect MODEL.urdf`: every link's mass properties, the problems found, and the whole
-//! model's mass, centre of mass and inertia.
+//! `tumble inspect MODEL.urdf`: every link's mass properties, where they came from, the problems
+//! found, and the whole model's mass, centre of mass and inertia.
+//!
+//! `--inertia`, `--density`, `--geometry` apply an inertia policy first ([`policy::apply`]) and
+//! show per link where its values came from and what was repaired; `--compare` prints the URDF's
+//! values and the geometry's side by side with their differences ([`compare`]).
 //!
 //! # `--json` output
 //!
@@ -11,18 +15,35 @@
 //!   "model": "arm",                       // <robot name>
 //!   "root": "base",                       // root link name
 //!   "ok": true,                           // no link has a problem (exit code 0)
+//!   "mass_settings": {"inertia": "urdf" | "geometry" | "auto", "density": 1000.0,
+//!                     "geometry": "collision" | "visual"},   // the flags, defaults filled in
 //!   "links": [                            // URDF order
 //!     {
 //!       "name": "forearm",
-//!       "source": "urdf" | "missing",     // "missing": no <inertial>; mass, com, inertia and
-//!                                         //   principal moments are then reported as zeros
+//!       "source": "urdf" | "missing" | "geometry" | "repaired",
+//!                                         // "missing": no <inertial>; "geometry": computed
+//!                                         //   because --inertia geometry; "repaired": --inertia
+//!                                         //   auto replaced missing or invalid values. A link
+//!                                         //   without values (a massless frame) reports mass,
+//!                                         //   com, inertia and principal moments as zeros
 //!       "mass": 1.0,
 //!       "com": [x, y, z],                 // centre of mass, link frame
 //!       "inertia": [[..], [..], [..]],    // about the com, link axes (inertial rpy applied)
 //!       "principal_moments": [a, b, c],   // ascending
 //!       "model_from_link": {"translation": [x, y, z], "rotation_xyzw": [x, y, z, w]},
 //!                                         // link pose at the zero joint configuration
-//!       "problems": ["..."]               // rules broken, in words; [] when fine
+//!       "problems": ["..."],              // rules broken by the values in use, in words
+//!       "notes": ["..."],                 // what the inertia policy did and why; [] if nothing
+//!       "geometry_used": {"set": "collision" | "visual", "fallback": false, "shapes": 2,
+//!                         "density": 1000.0} | null,   // what the values were computed from
+//!       // with --compare only:
+//!       "urdf": {"mass", "com", "inertia", "principal_moments"} | null,  // the <inertial>
+//!       "geometry": {"mass", "com", "inertia", "principal_moments", "set", "fallback",
+//!                    "shapes", "density"} | null,     // null when geometry_error is set
+//!       "geometry_error": "..." | null,
+//!       "difference": {"mass_relative", "com_distance", "principal_moments_relative": [3],
+//!                      "inertia_relative", "density_matching_urdf_mass"} | null
+//!                                         // see `compare`; null unless both sides exist
 //!     }
 //!   ],
 //!   "total_mass": 4.8,                    // sum over links with positive mass (0 if none)
@@ -34,7 +55,12 @@
 //!
 //! Non-finite numbers (a NaN mass in the URDF) are written as `null`, as JSON has no NaN.
 
+pub mod compare;
+
+use crate::model::geometry::GeometryUsed;
+use crate::model::policy::{self, GeometrySource, InertiaPolicy, ModelMassSettings};
 use crate::model::{InertiaSource, Link, MassProperties, Model, urdf};
+use compare::Comparison;
 use nalgebra::{Isometry3, Matrix3, Vector3};
 use serde_json::{Value, json};
 use std::fmt::Write;
@@ -51,18 +77,43 @@ pub struct InspectArgs {
     /// URDF's parent folders.
     #[arg(long = "package-path")]
     pub package_paths: Vec<PathBuf>,
+    /// --inertia, --density, --geometry: the inertia policy applied before reporting.
+    #[command(flatten)]
+    pub mass: super::MassArgs,
+    /// Print each link's URDF values and the values its geometry gives side by side (mass,
+    /// centre of mass, principal moments, relative differences).
+    #[arg(long)]
+    pub compare: bool,
+}
+
+/// What the report includes beyond the model itself.
+#[derive(Debug, Clone, Default)]
+pub struct ReportOptions {
+    /// The mass settings the model was loaded with (for the header, and the density and
+    /// geometry preference of `compare`).
+    pub settings: ModelMassSettings,
+    /// Add the URDF-versus-geometry comparison per link.
+    pub compare: bool,
 }
 
 /// Prints the report; `Ok(true)` when no link has a problem, `Ok(false)` otherwise, `Err` when
 /// the URDF cannot be loaded.
 pub fn run(args: &InspectArgs) -> anyhow::Result<bool> {
-    // ModelError already names the file (and link, rule): no extra context.
-    let model = urdf::load(&args.model, &args.package_paths)?;
+    // ModelError and PolicyError already name the file (and link, rule): no extra context.
+    let mut model = urdf::load(&args.model, &args.package_paths)?;
+    let options = ReportOptions {
+        settings: ModelMassSettings {
+            model: args.mass.settings(),
+            links: Default::default(),
+        },
+        compare: args.compare,
+    };
+    policy::apply(&mut model, &options.settings)?;
     if args.json {
-        let text = serde_json::to_string_pretty(&report(&model))?;
+        let text = serde_json::to_string_pretty(&report_with(&model, &options))?;
         println!("{text}");
     } else {
-        print!("{}", render_text(&model));
+        print!("{}", render_text_with(&model, &options));
     }
     Ok(!model.has_problems())
 }
@@ -93,8 +144,95 @@ fn link_mass_properties(link: &Link) -> MassProperties {
         .unwrap_or_else(|| MassProperties::point(0.0, Vector3::zeros()))
 }
 
-/// The `--json` document (structure in the module documentation).
+fn source_name(source: InertiaSource) -> &'static str {
+    match source {
+        InertiaSource::Urdf => "urdf",
+        InertiaSource::Missing => "missing",
+        InertiaSource::Geometry => "geometry",
+        InertiaSource::Repaired => "repaired",
+    }
+}
+
+fn set_name(set: GeometrySource) -> &'static str {
+    match set {
+        GeometrySource::Collision => "collision",
+        GeometrySource::Visual => "visual",
+    }
+}
+
+fn policy_name(policy: InertiaPolicy) -> &'static str {
+    match policy {
+        InertiaPolicy::Urdf => "urdf",
+        InertiaPolicy::Geometry => "geometry",
+        InertiaPolicy::Auto => "auto",
+    }
+}
+
+fn mass_properties_json(mp: &MassProperties) -> serde_json::Map<String, Value> {
+    let Value::Object(map) = json!({
+        "mass": mp.mass,
+        "com": vec3(&mp.com),
+        "inertia": mat3(&mp.inertia),
+        "principal_moments": vec3(&mp.principal_moments()),
+    }) else {
+        unreachable!("json! of an object literal is an object")
+    };
+    map
+}
+
+fn geometry_used_json(used: &GeometryUsed) -> serde_json::Map<String, Value> {
+    let Value::Object(map) = json!({
+        "set": set_name(used.set),
+        "fallback": used.fallback,
+        "shapes": used.shapes,
+        "density": used.density_kg_per_m3,
+    }) else {
+        unreachable!("json! of an object literal is an object")
+    };
+    map
+}
+
+/// The `--compare` keys of one link: `urdf`, `geometry`, `geometry_error`, `difference`.
+fn comparison_json(c: &Comparison) -> serde_json::Map<String, Value> {
+    let mut map = serde_json::Map::new();
+    map.insert(
+        "urdf".into(),
+        c.urdf
+            .as_ref()
+            .map_or(Value::Null, |mp| mass_properties_json(mp).into()),
+    );
+    let (geometry, error) = match &c.geometry {
+        Ok(g) => {
+            let mut m = mass_properties_json(&g.mass_properties);
+            m.extend(geometry_used_json(&g.used));
+            (Value::Object(m), Value::Null)
+        }
+        Err(e) => (Value::Null, Value::String(e.clone())),
+    };
+    map.insert("geometry".into(), geometry);
+    map.insert("geometry_error".into(), error);
+    map.insert(
+        "difference".into(),
+        c.difference().map_or(Value::Null, |d| {
+            json!({
+                "mass_relative": d.mass_relative,
+                "com_distance": d.com_distance_m,
+                "principal_moments_relative": vec3(&d.principal_moments_relative),
+                "inertia_relative": d.inertia_relative,
+                "density_matching_urdf_mass": d.density_matching_urdf_mass_kg_per_m3,
+            })
+        }),
+    );
+    map
+}
+
+/// The `--json` document of a model loaded with the default settings and no comparison.
 pub fn report(model: &Model) -> Value {
+    report_with(model, &ReportOptions::default())
+}
+
+/// The `--json` document (structure in the module documentation).
+pub fn report_with(model: &Model, options: &ReportOptions) -> Value {
     let links: Vec<Value> = model
         .links
         .iter()
@@ -105,27 +243,39 @@ pub fn report(model: &Model) -> Value {
             } else {
                 Vector3::zeros()
             };
-            json!({
+            let mut value = json!({
                 "name": link.name,
-                "source": match link.source {
-                    InertiaSource::Urdf => "urdf",
-                    InertiaSource::Missing => "missing",
-                },
+                "source": source_name(link.source),
                 "mass": mp.mass,
                 "com": vec3(&mp.com),
                 "inertia": mat3(&mp.inertia),
                 "principal_moments": vec3(&moments),
                 "model_from_link": pose(&link.model_from_link),
                 "problems": link.problems,
-            })
+                "notes": link.notes,
+                "geometry_used": link.geometry_used.as_ref().map(geometry_used_json),
+            });
+            if options.compare
+                && let Value::Object(map) = &mut value
+            {
+                let settings = options.settings.for_link(&link.name);
+                map.extend(comparison_json(&Comparison::of(link, &settings)));
+            }
+            value
         })
         .collect();
     let total = model.total_mass_properties();
+    let settings = options.settings.model.resolved();
     json!({
         "file": model.path.display().to_string(),
         "model": model.name,
         "root": model.links.get(model.root).map(|l| l.name.as_str()),
         "ok": !model.has_problems(),
+        "mass_settings": {
+            "inertia": policy_name(settings.inertia),
+            "density": settings.density,
+            "geometry": set_name(settings.geometry),
+        },
         "links": links,
         "total_mass": total.map_or(0.0, |t| t.mass),
         "com": total.map(|t| vec3(&t.com)),
@@ -169,8 +319,122 @@ fn matrix_rows(out: &mut String, label: &str, m: &Matrix3<f64>, unit: &str) {
     }
 }
 
-/// The human-readable report `inspect` prints.
+/// Where a link's values came from, in words (the text after its name).
+fn source_text(link: &Link) -> String {
+    let used = link.geometry_used.as_ref().map(GeometryUsed::describe);
+    match (link.source, used) {
+        (InertiaSource::Urdf, _) => "from <inertial>".into(),
+        (InertiaSource::Missing, _) => "no <inertial>: massless frame, zeros shown".into(),
+        (InertiaSource::Geometry, Some(used)) => format!("from geometry: {used}"),
+        (InertiaSource::Geometry, None) => "no geometry: massless frame, zeros shown".into(),
+        (InertiaSource::Repaired, Some(used)) => format!("repaired from geometry: {used}"),
+        (InertiaSource::Repaired, None) => "repaired".into(),
+    }
+}
+
+/// `x` as a signed percentage, 3 significant digits.
+fn percent(x: f64) -> String {
+    let p = 100.0 * x;
+    if !p.is_finite() {
+        format!("{p} %")
+    } else if p.abs() < 1e3 {
+        format!("{p:+.3} %")
+    } else {
+        format!("{p:+.2e} %")
+    }
+}
+
+fn numbers(values: &[f64]) -> String {
+    values.iter().map(|&x| num(x)).collect::<Vec<_>>().join(" ")
+}
+
+/// Width of the URDF and geometry columns of the comparison.
+const COMPARE_COLUMN: usize = 36;
+
+/// The `--compare` lines of one link.
+fn render_comparison(out: &mut String, c: &Comparison) {
+    let w = COMPARE_COLUMN;
+    let urdf = c.urdf.as_ref();
+    let geometry = c.geometry.as_ref().ok().map(|g| &g.mass_properties);
+    let cell = |mp: Option<&MassProperties>, f: &dyn Fn(&MassProperties) -> String| {
+        mp.map_or_else(|| "-".to_string(), f)
+    };
+    let diff = c.difference();
+    let _ = writeln!(
+        out,
+        "  {:<18}{:<w$}  {:<w$}  URDF vs geometry",
+        "compare",
+        if urdf.is_some() {
+            "URDF <inertial>"
+        } else {
+            "URDF: no <inertial>"
+        },
+        if geometry.is_some() {
+            "geometry"
+        } else {
+            "geometry: unavailable"
+        },
+    );
+    let mass = |mp: &MassProperties| format!("{} kg", num(mp.mass));
+    let com = |mp: &MassProperties| format!("{} m", numbers(mp.com.as_slice()));
+    let moments = |mp: &MassProperties| numbers(mp.principal_moments().as_slice());
+    let _ = writeln!(
+        out,
+        "    {:<16}{:<w$}  {:<w$}  {}",
+        "mass",
+        cell(urdf, &mass),
+        cell(geometry, &mass),
+        diff.map_or(String::new(), |d| percent(d.mass_relative))
+    );
+    let _ = writeln!(
+        out,
+        "    {:<16}{:<w$}  {:<w$}  {}",
+        "com",
+        cell(urdf, &com),
+        cell(geometry, &com),
+        diff.map_or(String::new(), |d| format!(
+            "{} m apart",
+            num(d.com_distance_m)
+        ))
+    );
+    let _ = writeln!(
+        out,
+        "    {:<16}{:<w$}  {:<w$}  {}",
+        "moments (kg m^2)",
+        cell(urdf, &moments),
+        cell(geometry, &moments),
+        diff.map_or(String::new(), |d| {
+            let p = d.principal_moments_relative;
+            format!("{} {} {}", percent(p.x), percent(p.y), percent(p.z))
+        })
+    );
+    if let Some(d) = diff {
+        let _ = writeln!(
+            out,
+            "    {:<16}tensors differ by {} (Frobenius, relative to the geometry's); the masses \
+             agree at {} kg/m^3",
+            "inertia",
+            percent(d.inertia_relative).trim_start_matches('+'),
+            num(d.density_matching_urdf_mass_kg_per_m3)
+        );
+    }
+    match &c.geometry {
+        Ok(g) => {
+            let _ = writeln!(out, "    {:<16}{}", "geometry", g.used.describe());
+        }
+        Err(e) => {
+            let _ = writeln!(out, "    {:<16}unavailable: {e}", "geometry");
+        }
+    }
+}
+
+/// The human-readable report of a model loaded with the default settings, no comparison.
 pub fn render_text(model: &Model) -> String {
+    render_text_with(model, &ReportOptions::default())
+}
+
+/// The human-readable report `inspect` prints.
+pub fn render_text_with(model: &Model, options: &ReportOptions) -> String {
     let mut out = String::new();
     let root = model.links.get(model.root).map_or("?", |l| l.name.as_str());
     let _ = writeln!(
@@ -180,13 +444,18 @@ pub fn render_text(model: &Model) -> String {
         model.path.display(),
         model.links.len()
     );
+    let settings = options.settings.model.resolved();
+    let _ = writeln!(
+        out,
+        "mass settings: inertia {}, density {} kg/m^3, geometry {} (used by geometry, auto and \
+         --compare)",
+        policy_name(settings.inertia),
+        settings.density,
+        set_name(settings.geometry)
+    );
     for link in &model.links {
         let _ = writeln!(out);
-        let source = match link.source {
-            InertiaSource::Urdf => "from <inertial>",
-            InertiaSource::Missing => "no <inertial>: massless frame, zeros shown",
-        };
-        let _ = writeln!(out, "link `{}` ({source})", link.name);
+        let _ = writeln!(out, "link `{}` ({})", link.name, source_text(link));
         let mp = link_mass_properties(link);
         let moments = if link.inertial.is_some() {
             mp.principal_moments()
@@ -220,6 +489,10 @@ pub fn render_text(model: &Model) -> String {
             "principal moments",
             row(&[moments.x, moments.y, moments.z])
         );
+        for (k, note) in link.notes.iter().enumerate() {
+            let head = if k == 0 { "notes" } else { "" };
+            let _ = writeln!(out, "  {head:<18}- {note}");
+        }
         if link.problems.is_empty() {
             let _ = writeln!(out, "  {:<18}none", "problems");
         } else {
@@ -227,6 +500,10 @@ pub fn render_text(model: &Model) -> String {
                 let head = if k == 0 { "problems" } else { "" };
                 let _ = writeln!(out, "  {head:<18}- {p}");
             }
+        }
+        if options.compare {
+            let settings = options.settings.for_link(&link.name);
+            render_comparison(&mut out, &Comparison::of(link, &settings));
         }
     }
     let _ = writeln!(out);

@@ -8,6 +8,7 @@ pub mod stability;
 pub mod survey;
 pub mod trade;
 
+use crate::model::policy::{GeometrySource, InertiaPolicy, MassSettings};
 use crate::sim::IntegratorKind;
 use nalgebra::Vector3;
 
@@ -52,4 +53,66 @@ pub fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
 /// Formats a vector for terminal output.
 pub fn fmt_vec3(v: &Vector3<f64>) -> String {
     format!("[{:.6}, {:.6}, {:.6}]", v.x, v.y, v.z)
+}
+
+/// `--inertia`, `--density`, `--geometry`: the mass settings flags shared by `simulate` and
+/// `inspect` (see [`crate::model::policy`]). Unset flags leave the scene's `[mass]` (or the
+/// defaults: urdf, 1000 kg/m^3, collision) as they are.
+#[derive(clap::Args, Debug, Clone, Default, PartialEq)]
+pub struct MassArgs {
+    /// Where link mass properties come from: urdf (the file's <inertial>), geometry (computed
+    /// from the link's shapes at --density), auto (the URDF's where present and valid, the
+    /// geometry's where missing or invalid). Overrides the scene's [mass] inertia.
+    #[arg(long, value_name = "urdf|geometry|auto", value_parser = parse_inertia_policy)]
+    pub inertia: Option<InertiaPolicy>,
+    /// Uniform density for geometry-derived mass properties, kg/m^3 (default 1000). Overrides
+    /// the scene's [mass] density.
+    #[arg(long, value_name = "KG_PER_M3", value_parser = parse_density)]
+    pub density: Option<f64>,
+    /// Which shapes geometry-derived mass properties use: collision (visual when a link has
+    /// none) or visual (collision when a link has none). Overrides the scene's [mass] geometry.
+    #[arg(long, value_name = "collision|visual", value_parser = parse_geometry_source)]
+    pub geometry: Option<GeometrySource>,
+}
+
+impl MassArgs {
+    /// As mass settings (`None` where a flag is unset).
+    pub fn settings(&self) -> MassSettings {
+        MassSettings {
+            inertia: self.inertia,
+            density: self.density,
+            geometry: self.geometry,
+        }
+    }
+}
+
+/// `urdf | geometry | auto` (clap value parser).
+pub fn parse_inertia_policy(s: &str) -> Result<InertiaPolicy, String> {
+    match s {
+        "urdf" => Ok(InertiaPolicy::Urdf),
+        "geometry" => Ok(InertiaPolicy::Geometry),
+        "auto" => Ok(InertiaPolicy::Auto),
+        _ => Err(format!("expected urdf, geometry or auto, got {s:?}")),
+    }
+}
+
+/// `collision | visual` (clap value parser).
+pub fn parse_geometry_source(s: &str) -> Result<GeometrySource, String> {
+    match s {
+        "collision" => Ok(GeometrySource::Collision),
+        "visual" => Ok(GeometrySource::Visual),
+        _ => Err(format!("expected collision or visual, got {s:?}")),
+    }
+}
+
+/// A density in kg/m^3: a positive finite number (clap value parser).
+pub fn parse_density(s: &str) -> Result<f64, String> {
+    let v: f64 = s.trim().parse().map_err(|e| format!("{s:?}: {e}"))?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "must be a positive finite number of kg/m^3, got {s}"
+        ))
+    }
 }

@@ -81,6 +81,10 @@ pub struct SimulateArgs {
     /// Leave the inertia ellipsoids out of the .rrd.
     #[arg(long)]
     pub no_ellipsoids: bool,
+    /// --inertia, --density, --geometry: replace the scene's [mass] values ([[model]] and
+    /// per-link keys of a scene still refine them).
+    #[command(flatten)]
+    pub mass: super::MassArgs,
 }
 
 fn parse_jacobian(s: &str) -> Result<Jacobian, String> {
@@ -151,7 +155,7 @@ pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
         substep: args.no_substep.then_some(false),
         max_substeps: args.max_substeps,
         divergence_energy_ratio: args.divergence_energy_ratio,
-        mass: Default::default(),
+        mass: args.mass.settings(),
     })?;
     Ok(scene)
 }

@@ -1,4 +1,5 @@
-//! What a body is: URDF models, their links' mass properties and visual geometry.
+//! What a body is: URDF models, their links' mass properties and their visual and collision
+//! geometry.
 
 pub mod geometry;
 pub mod kinematics;
@@ -33,6 +34,13 @@ pub enum InertiaSource {
     Urdf,
     /// No `<inertial>` element at all: the link is massless (a frame), not a body.
     Missing,
+    /// Computed from the link's geometry because `inertia = "geometry"` asked for it, whatever
+    /// the URDF says ([`policy::apply`]). `inertial: None` here means the link has no geometry
+    /// at all and is a massless frame.
+    Geometry,
+    /// `inertia = "auto"`: the URDF's `<inertial>` was missing or invalid and was replaced by
+    /// values computed from the link's geometry ([`policy::apply`]; why in `Link::notes`).
+    Repaired,
 }
 
 /// One URDF link.
@@ -46,9 +54,22 @@ pub struct Link {
     /// has no `<inertial>` element.
     pub inertial: Option<MassProperties>,
     pub source: InertiaSource,
-    /// Validation findings (rule broken, in words). Empty when the link is fine.
+    /// Validation findings (rule broken, in words) about the values in use and the visuals.
+    /// Empty when the link is fine. Findings about URDF values a policy replaced move to `notes`.
     pub problems: Vec<String>,
     pub visuals: Vec<Visual>,
+    /// The `<collision>` elements (used for mass properties only; tumble has no contacts).
+    pub collisions: Vec<Collision>,
+    /// The URDF's `<inertial>` as written (`None` when absent), kept whatever the inertia
+    /// policy puts in `inertial`, so that the two can be compared.
+    pub urdf_inertial: Option<MassProperties>,
+    /// Which geometry `inertial` was computed from, when it was ([`InertiaSource::Geometry`],
+    /// [`InertiaSource::Repaired`]).
+    pub geometry_used: Option<geometry::GeometryUsed>,
+    /// What the inertia policy did to this link and why, in words (e.g. "no <inertial>:
+    /// computed from 1 collision shape at 1000 kg/m^3"). Empty when the URDF's values are used
+    /// as they are.
+    pub notes: Vec<String>,
 }
 
 impl Link {
@@ -67,6 +88,15 @@ pub struct Visual {
     pub geometry: Geometry,
     /// RGBA in 0..1 from the `<material>` (inline or by reference to a robot-level material).
     pub rgba: Option<[f32; 4]>,
+}
+
+/// One `<collision>` element of a link.
+#[derive(Debug, Clone)]
+pub struct Collision {
+    /// The `name` attribute of `<collision>`, if any.
+    pub name: Option<String>,
+    pub link_from_collision: Isometry3<f64>,
+    pub geometry: Geometry,
 }
 
 /// URDF geometry, SI units. Cylinders and capsules have their axis along z, centred at the origin.

@@ -21,11 +21,15 @@
 //!   error in urdf-rs: such elements are cut out of the text before urdf-rs sees it (textures
 //!   are not used by tumble).
 //! - **Mesh URIs** are resolved by [`super::package`], never by urdf-rs (which needs ROS and
-//!   panics without it). An unresolved mesh is a problem on the link, not an error.
+//!   panics without it). An unresolved visual mesh is a problem on the link, not an error.
+//! - **Collision geometry** is kept (`Link::collisions`) for mass properties from geometry
+//!   ([`super::policy`]); its defects are reported when it is used, not at load time.
+//! - **The URDF's own values** stay in `Link::urdf_inertial` whatever an inertia policy later
+//!   puts in `Link::inertial`.
 
 use super::kinematics::{self, Joint, JointKind, KinematicsError, Mimic};
 use super::package;
-use super::{Geometry, InertiaSource, Link, MassProperties, Model, Visual};
+use super::{Collision, Geometry, InertiaSource, Link, MassProperties, Model, Visual};
 use nalgebra::{Matrix3, Vector3};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -276,6 +280,12 @@ pub fn load_str_at(
                 .enumerate()
                 .map(|(k, v)| visual(v, k, path, package_paths, &materials, &mut problems))
                 .collect();
+            let collisions = l
+                .collision
+                .iter()
+                .enumerate()
+                .map(|(k, c)| collision(c, k, path, package_paths))
+                .collect();
             Link {
                 name: l.name.clone(),
                 model_from_link,
@@ -283,6 +293,10 @@ pub fn load_str_at(
                 source,
                 problems,
                 visuals,
+                collisions,
+                urdf_inertial: inertial,
+                geometry_used: None,
+                notes: Vec::new(),
             }
         })
         .collect();
@@ -343,8 +357,51 @@ fn visual(
         Some(name) => format!("visual `{name}`"),
         None => format!("visual #{k}"),
     };
+    let geometry = geometry(&v.geometry, &label, urdf_path, package_paths, problems);
+    let rgba = v.material.as_ref().and_then(|m| match &m.color {
+        Some(c) => Some(rgba(c)),
+        None => materials.get(m.name.as_str()).copied(),
+    });
+    Visual {
+        name: v.name.clone(),
+        link_from_visual: kinematics::isometry_from_pose(&v.origin),
+        geometry,
+        rgba,
+    }
+}
+
+/// A `<collision>` element. Its geometry is only used for mass properties (inertia policy
+/// `geometry` or `auto`, `inspect --compare`), so what is wrong with it (an unresolved mesh, a
+/// zero size) is reported when it is used, not as a problem of the link at load time.
+fn collision(
+    c: &urdf_rs::Collision,
+    k: usize,
+    urdf_path: &Path,
+    package_paths: &[PathBuf],
+) -> Collision {
+    let label = match &c.name {
+        Some(name) => format!("collision `{name}`"),
+        None => format!("collision #{k}"),
+    };
+    let mut unused = Vec::new();
+    Collision {
+        name: c.name.clone(),
+        link_from_collision: kinematics::isometry_from_pose(&c.origin),
+        geometry: geometry(&c.geometry, &label, urdf_path, package_paths, &mut unused),
+    }
+}
+
+/// A URDF geometry in SI units, with `package://` and relative mesh paths resolved; what is
+/// wrong with it goes to `problems`, prefixed by `label`.
+fn geometry(
+    g: &urdf_rs::Geometry,
+    label: &str,
+    urdf_path: &Path,
+    package_paths: &[PathBuf],
+    problems: &mut Vec<String>,
+) -> Geometry {
     let positive = |values: &[f64]| values.iter().all(|x| x.is_finite() && *x > 0.0);
-    let geometry = match &v.geometry {
+    match g {
         urdf_rs::Geometry::Box { size } => {
             if !positive(&size.0) {
                 problems.push(format!(
@@ -359,8 +416,8 @@ fn visual(
         urdf_rs::Geometry::Cylinder { radius, length } => {
             if !positive(&[*radius, *length]) {
                 problems.push(format!(
-                    "{label}: cylinder radius {radius} and length {length} must be positive and finite"
-                ));
+                "{label}: cylinder radius {radius} and length {length} must be positive and finite"
+            ));
             }
             Geometry::Cylinder {
                 radius: *radius,
@@ -370,8 +427,8 @@ fn visual(
         urdf_rs::Geometry::Capsule { radius, length } => {
             if !(positive(&[*radius]) && length.is_finite() && *length >= 0.0) {
                 problems.push(format!(
-                    "{label}: capsule radius {radius} must be positive and length {length} non-negative"
-                ));
+                "{label}: capsule radius {radius} must be positive and length {length} non-negative"
+            ));
             }
             Geometry::Capsule {
                 radius: *radius,
@@ -398,7 +455,7 @@ fn visual(
             if resolved.is_none() {
                 problems.push(format!(
                     "{label}: mesh `{filename}` not found (searched --package-path, \
-                     ROS_PACKAGE_PATH and the URDF's parent folders)"
+                 ROS_PACKAGE_PATH and the URDF's parent folders)"
                 ));
             }
             Geometry::Mesh {
@@ -407,16 +464,6 @@ fn visual(
                 scale,
             }
         }
-    };
-    let rgba = v.material.as_ref().and_then(|m| match &m.color {
-        Some(c) => Some(rgba(c)),
-        None => materials.get(m.name.as_str()).copied(),
-    });
-    Visual {
-        name: v.name.clone(),
-        link_from_visual: kinematics::isometry_from_pose(&v.origin),
-        geometry,
-        rgba,
     }
 }
 
