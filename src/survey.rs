@@ -5,9 +5,13 @@
 //! keep their one-line error. Each loaded link falls in exactly one [`LinkClass`], from its
 //! `<inertial>` as written: missing, zero mass, invalid (a rule of
 //! [`crate::model::MassProperties::validate`] other than zero mass), light (valid, under 1 g),
-//! or valid.
+//! or valid. Then the `auto` policy ([`crate::model::policy`], density 1000 kg/m^3, collision
+//! geometry first) is applied to a copy: `repaired` counts the links whose missing or invalid
+//! values it replaced by geometry-derived ones, `still_invalid` the links with a non-zero mass
+//! that still break a rule afterwards (no usable geometry).
 
-use crate::model::{MassProperties, Model, urdf};
+use crate::model::policy::{self, InertiaPolicy, MassSettings, ModelMassSettings};
+use crate::model::{InertiaSource, MassProperties, Model, urdf};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -70,6 +74,10 @@ pub struct FileReport {
     pub links: BTreeMap<LinkClass, usize>,
     /// Links breaking the triangle inequality (a subset of `invalid`).
     pub triangle_violations: usize,
+    /// Links the `auto` policy repaired from geometry.
+    pub repaired: usize,
+    /// Links with a non-zero mass still invalid under `auto`.
+    pub still_invalid: usize,
 }
 
 /// Totals over the files under one root.
@@ -82,6 +90,8 @@ pub struct Summary {
     pub links: usize,
     pub by_class: BTreeMap<LinkClass, usize>,
     pub triangle_violations: usize,
+    pub repaired: usize,
+    pub still_invalid: usize,
 }
 
 /// Every `*.urdf` under `root` (or `root` itself when it is a file), sorted.
@@ -120,6 +130,8 @@ pub fn survey_file(path: &Path, package_paths: &[PathBuf]) -> FileReport {
             error: Some(e.to_string()),
             links: BTreeMap::new(),
             triangle_violations: 0,
+            repaired: 0,
+            still_invalid: 0,
         },
     }
 }
@@ -139,11 +151,35 @@ fn classify(path: &Path, model: &Model) -> FileReport {
             triangle_violations += 1;
         }
     }
+    let mut auto = model.clone();
+    let settings = ModelMassSettings {
+        model: MassSettings {
+            inertia: Some(InertiaPolicy::Auto),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let (repaired, still_invalid) = match policy::apply(&mut auto, &settings) {
+        Ok(()) => (
+            auto.links
+                .iter()
+                .filter(|l| l.source == InertiaSource::Repaired)
+                .count(),
+            auto.links
+                .iter()
+                .filter_map(|l| l.inertial.as_ref())
+                .filter(|mp| mp.mass != 0.0 && !mp.validate().is_empty())
+                .count(),
+        ),
+        Err(_) => (0, links.get(&LinkClass::Invalid).copied().unwrap_or(0)),
+    };
     FileReport {
         path: path.to_path_buf(),
         error: None,
         links,
         triangle_violations,
+        repaired,
+        still_invalid,
     }
 }
 
@@ -165,6 +201,8 @@ pub fn summarize(root: &Path, files: &[FileReport]) -> Summary {
             s.links += n;
         }
         s.triangle_violations += f.triangle_violations;
+        s.repaired += f.repaired;
+        s.still_invalid += f.still_invalid;
     }
     s
 }

@@ -55,9 +55,11 @@ pub fn run(args: &SurveyArgs) -> anyhow::Result<()> {
 
 fn print_table(summaries: &[Summary]) {
     let classes = LinkClass::ALL.map(LinkClass::name).join(" | ");
-    println!("| root | files | loaded | failed | links | {classes} | of which triangle |");
     println!(
-        "|---|---|---|---|---|{}---|",
+        "| root | files | loaded | failed | links | {classes} | of which triangle | repaired by auto | still invalid |"
+    );
+    println!(
+        "|---|---|---|---|---|{}---|---|---|",
         "---|".repeat(LinkClass::ALL.len())
     );
     for s in summaries {
@@ -66,14 +68,16 @@ fn print_table(summaries: &[Summary]) {
             .map(|c| s.by_class.get(c).copied().unwrap_or(0).to_string())
             .collect();
         println!(
-            "| {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             s.root.display(),
             s.files,
             s.loaded,
             s.failed,
             s.links,
             counts.join(" | "),
-            s.triangle_violations
+            s.triangle_violations,
+            s.repaired,
+            s.still_invalid
         );
     }
 }
