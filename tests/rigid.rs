@@ -249,7 +249,7 @@ fn arm_composite_matches_an_independent_computation() {
     let com_err = (com - com_ref).amax();
     assert!(com_err < 1e-15, "com {com} vs {com_ref}: {com_err:e}");
     // The body stores principal moments and axes; Q diag Qᵀ reproduces the tensor to the eigen
-    // solver's accuracy, a few eps |I|. Measured 5.1e-16 relative to the largest entry (0.07
+    // solver's accuracy, a few eps |I|. Measured 5.1e-16 relative to the largest entry (0.22
     // kg m²); bound 1e-14.
     let inertia_err = (inertia - inertia_ref).amax() / inertia_ref.amax();
     assert!(
