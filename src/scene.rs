@@ -43,7 +43,7 @@
 
 use crate::model::kinematics::rotation_from_rpy;
 use crate::model::policy::{self, GeometrySource, InertiaPolicy, MassSettings, ModelMassSettings};
-use crate::model::{Model, urdf};
+use crate::model::{MassProperties, Model, urdf};
 use crate::record::{BodyLayout, FrameLayout, RecordingLayout};
 use crate::sim::BodyInit;
 use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
@@ -369,6 +369,26 @@ impl Scene {
                 }
             }
         }
+        // --- whole-model bodies (issue 5): `bodies` and `joints` ---
+        self.validate_joints()?;
+        Ok(())
+    }
+
+    /// The `joints` of every `[[model]]`: each position a finite number. (Joint names are checked
+    /// against the URDF when the model is loaded: an unknown name is an error naming the scene
+    /// file, the model and the joint. `bodies` needs no check beyond its two spellings.)
+    fn validate_joints(&self) -> anyhow::Result<()> {
+        let file = self.source.display();
+        for (i, m) in self.models.iter().enumerate() {
+            for (joint, value) in &m.joints {
+                if !value.is_finite() {
+                    bail!(
+                        "{file}: model[{i}].joints.{joint} must be a finite number \
+                         (rad or m; got {value})"
+                    );
+                }
+            }
+        }
         Ok(())
     }
 
@@ -533,9 +553,148 @@ pub struct Attachment {
     pub body_from_link: Isometry3<f64>,
 }
 
-/// The whole model as one rigid body (`bodies = "rigid"`). SKELETON: issue 5 fills it in.
-fn add_rigid_model(_world: &mut World, _model: &Model, _entry: &ModelEntry) -> anyhow::Result<()> {
-    bail!("bodies = \"rigid\" is not implemented yet")
+/// The whole model, locked at the entry's `joints`, as one rigid body (`bodies = "rigid"`).
+///
+/// The composite, in the model (root link) frame, of the links with positive mass, link `i` with
+/// mass `m_i`, centre of mass `com_i` and inertia `I_i` (about `com_i`, link axes), placed by
+/// forward kinematics at `model_from_link_i = (R_i, p_i)`:
+///
+/// ```text
+/// m   = Σ m_i
+/// c_i = p_i + R_i com_i
+/// c   = Σ m_i c_i / m
+/// I   = Σ [ R_i I_i R_iᵀ + m_i (|d_i|² E − d_i d_iᵀ) ],   d_i = c_i − c   (about c, model axes)
+/// ```
+///
+/// ([`MassProperties::transformed`] then [`MassProperties::combine`], which sums the offsets
+/// from a reference point near the parts.) Its principal frame `model_from_principal = (c, Q)`,
+/// `I = Q diag(moments) Qᵀ`, is the body frame:
+///
+/// ```text
+/// world_from_body = world_from_model · model_from_principal
+/// body_from_link  = model_from_principal⁻¹ · model_from_link      (every link, massless too)
+/// ```
+///
+/// Recording: every link frame is recorded (frame ids `link`, or `name/link` with a `name`, as
+/// in links mode, so recordings of the two modes line up), all riding on the one body. The
+/// body is named after the model: the entry's `name`, else the URDF `<robot name>`; its
+/// [`BodyLayout`] refers to the root link frame (= the model frame), so `link_from_principal`
+/// is `model_from_principal`. The body gets the entry's `linvel` (of the composite centre of
+/// mass) and `angvel`.
+///
+/// Errors (the caller adds the scene file and model index): no link with positive mass; a
+/// composite that is not a valid rigid body (e.g. a total mass or inertia overflowing to
+/// infinity), naming the model and the broken rules; a link frame whose pose is not finite; a
+/// body name already used by an earlier model.
+fn add_rigid_model(world: &mut World, model: &Model, entry: &ModelEntry) -> anyhow::Result<()> {
+    let label = entry.name.clone().unwrap_or_else(|| model.name.clone());
+    let composite = rigid_composite(model, &label, entry.allow_non_physical_inertia)?;
+    if let Some(link) = model
+        .links
+        .iter()
+        .find(|l| !isometry_is_finite(&l.model_from_link))
+    {
+        bail!(
+            "bodies = \"rigid\": model `{label}` ({}): link `{}` has a non-finite pose",
+            model.path.display(),
+            link.name
+        );
+    }
+    if world.layout.bodies.iter().any(|b| b.name == label) {
+        bail!(
+            "bodies = \"rigid\": body name {label:?} (the model's) is used by an earlier model; \
+             give the model a different `name`"
+        );
+    }
+    let (moments, model_from_principal_rot) = composite.principal();
+    let model_from_principal =
+        Isometry3::from_parts(Translation3::from(composite.com), model_from_principal_rot);
+    let world_from_model = Isometry3::from_parts(
+        Translation3::from(Vector3::from(entry.position)),
+        rotation_from_rpy(entry.rpy),
+    );
+    let principal_from_model = model_from_principal.inverse();
+    let body = world.bodies.len();
+    world.bodies.push(BodyInit {
+        mass: composite.mass,
+        principal_moments: moments,
+        world_from_body: world_from_model * model_from_principal,
+        linvel_world: Vector3::from(entry.linvel),
+        angvel_world: Vector3::from(entry.angvel),
+    });
+    let first_frame = world.layout.frames.len();
+    for link in &model.links {
+        world.attachments.push(Attachment {
+            body,
+            body_from_link: principal_from_model * link.model_from_link,
+        });
+        world.layout.frames.push(FrameLayout {
+            frame_id: match &entry.name {
+                Some(prefix) => format!("{prefix}/{}", link.name),
+                None => link.name.clone(),
+            },
+            model: label.clone(),
+            link: link.name.clone(),
+            visuals: link.visuals.clone(),
+        });
+    }
+    world.layout.bodies.push(BodyLayout {
+        name: label,
+        frame: first_frame + model.root,
+        mass: composite.mass,
+        link_from_principal: model_from_principal,
+        principal_moments: moments,
+    });
+    Ok(())
+}
+
+/// The composite mass properties of `model`'s links with positive mass, in the model frame (see
+/// [`add_rigid_model`] for the formulas), checked to be a valid rigid body
+/// ([`MassProperties::validate_with`], the triangle rule skipped with `allow_non_physical`).
+/// `label` names the model in errors.
+fn rigid_composite(
+    model: &Model,
+    label: &str,
+    allow_non_physical: bool,
+) -> anyhow::Result<MassProperties> {
+    let parts: Vec<MassProperties> = model
+        .links
+        .iter()
+        .filter_map(|l| {
+            let mp = l.inertial.as_ref().filter(|mp| mp.mass > 0.0)?;
+            Some(mp.transformed(&l.model_from_link))
+        })
+        .collect();
+    if parts.is_empty() {
+        bail!(
+            "bodies = \"rigid\": model `{label}` ({}) has no link with positive mass: \
+             nothing to simulate",
+            model.path.display()
+        );
+    }
+    let invalid = |rules: &str| {
+        anyhow::anyhow!(
+            "bodies = \"rigid\": the composite of model `{label}` ({}) is not a valid rigid \
+             body: {rules}",
+            model.path.display()
+        )
+    };
+    let Some(composite) = MassProperties::combine(&parts) else {
+        let total: f64 = parts.iter().map(|p| p.mass).sum();
+        return Err(invalid(&format!(
+            "total mass is not a positive finite number ({total} kg)"
+        )));
+    };
+    let rules = composite.validate_with(allow_non_physical);
+    if !rules.is_empty() {
+        return Err(invalid(&rules.join("; ")));
+    }
+    Ok(composite)
+}
+
+fn isometry_is_finite(p: &Isometry3<f64>) -> bool {
+    p.translation.vector.iter().all(|x| x.is_finite())
+        && p.rotation.coords.iter().all(|x| x.is_finite())
 }
 
 /// One free body per link with positive mass.

@@ -72,9 +72,12 @@ pub struct FrameLayout {
 /// A simulated body (a link with mass, or a whole model locked rigid).
 #[derive(Debug, Clone)]
 pub struct BodyLayout {
-    /// Name used for per-body series and velocity messages (= the frame id of its link).
+    /// Name used for per-body series and velocity messages: the frame id of its link, or for a
+    /// whole model locked rigid (`bodies = "rigid"`) the model's name (the scene's `name`, else
+    /// the URDF `<robot name>`).
     pub name: String,
-    /// Index into [`RecordingLayout::frames`] of the frame the body moves.
+    /// Index into [`RecordingLayout::frames`] of the frame the body moves (a rigid model's: its
+    /// root link frame).
     pub frame: usize,
     pub mass: f64,
     /// Pose of the body's principal frame (origin at the centre of mass, axes along the
