@@ -491,9 +491,11 @@ impl Scene {
             let mut model =
                 urdf::load_at(&urdf_path, &package_paths, &joints).with_context(context)?;
             policy::apply(&mut model, &self.mass_settings(entry)).with_context(context)?;
-            model
-                .check_simulable(entry.allow_non_physical_inertia)
-                .with_context(context)?;
+            match entry.bodies {
+                BodiesMode::Links => model.check_simulable(entry.allow_non_physical_inertia),
+                BodiesMode::Rigid => check_rigid_parts(&model).map_err(Into::into),
+            }
+            .with_context(context)?;
             let before = world.layout.frames.len();
             match entry.bodies {
                 BodiesMode::Links => add_model(&mut world, &model, entry),
@@ -551,6 +553,44 @@ pub struct World {
 pub struct Attachment {
     pub body: usize,
     pub body_from_link: Isometry3<f64>,
+}
+
+/// The parts of a `bodies = "rigid"` model: each link with an `<inertial>` and a non-zero mass
+/// must have finite values, a positive mass and a positive *semi*-definite inertia (a point mass
+/// or a rod is a fine part of a composite: real robots have sensor links with mass and zero
+/// inertia); the composite itself is then validated in full by [`add_rigid_model`].
+fn check_rigid_parts(model: &Model) -> Result<(), crate::model::urdf::ModelError> {
+    for link in &model.links {
+        let Some(mp) = &link.inertial else { continue };
+        if mp.mass == 0.0 {
+            continue;
+        }
+        let finite = mp.mass.is_finite()
+            && mp.com.iter().all(|x| x.is_finite())
+            && mp.inertia.iter().all(|x| x.is_finite());
+        let rule = if !finite {
+            Some("mass, centre of mass or inertia not finite".to_string())
+        } else if mp.mass < 0.0 {
+            Some(format!("mass is negative: {} kg", mp.mass))
+        } else {
+            let moments = mp.principal_moments();
+            let scale = mp.inertia.amax();
+            (moments.min() < -1e-9 * scale).then(|| {
+                format!(
+                    "inertia is not positive semi-definite: principal moments {}, {}, {} kg m^2",
+                    moments.x, moments.y, moments.z
+                )
+            })
+        };
+        if let Some(rule) = rule {
+            return Err(crate::model::urdf::ModelError::NotSimulable {
+                path: model.path.clone(),
+                link: link.name.clone(),
+                rule,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The whole model, locked at the entry's `joints`, as one rigid body (`bodies = "rigid"`).

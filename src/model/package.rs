@@ -62,6 +62,9 @@ pub fn candidates(
         .strip_prefix("package://")
         .or_else(|| uri.strip_prefix("model://"));
     if let Some(rest) = package_uri {
+        // `package:///pkg/path` (an empty authority, as in example-robot-data's talos files) is
+        // read as `package://pkg/path`, as ROS and pybullet do.
+        let rest = rest.trim_start_matches('/');
         let Some((package, rest)) = rest.split_once('/') else {
             return Vec::new();
         };
@@ -174,5 +177,13 @@ mod tests {
         assert_eq!(c[2], PathBuf::from("/ros/pkg/meshes/a.stl"));
         assert!(c.contains(&PathBuf::from("/r/pkg/meshes/a.stl")));
         assert!(c.contains(&PathBuf::from("/r/pkg/pkg/meshes/a.stl")));
+        // An empty authority (`package:///pkg/...`, example-robot-data's talos) reads the same.
+        let empty_authority = candidates(
+            "package:///pkg/meshes/a.stl",
+            urdf,
+            &[PathBuf::from("/search")],
+            &[PathBuf::from("/ros/pkg")],
+        );
+        assert_eq!(empty_authority, c);
     }
 }
