@@ -493,7 +493,7 @@ impl Scene {
             policy::apply(&mut model, &self.mass_settings(entry)).with_context(context)?;
             match entry.bodies {
                 BodiesMode::Links => model.check_simulable(entry.allow_non_physical_inertia),
-                BodiesMode::Rigid => check_rigid_parts(&model).map_err(Into::into),
+                BodiesMode::Rigid => check_rigid_parts(&model),
             }
             .with_context(context)?;
             let before = world.layout.frames.len();

@@ -85,7 +85,7 @@ pub enum GeometryError {
         element: String,
         uri: String,
         path: PathBuf,
-        reason: MeshError,
+        reason: Box<MeshError>,
     },
     #[error("{element}: mass {mass_kg} kg is not a positive finite number")]
     Mass { element: String, mass_kg: f64 },
@@ -179,7 +179,7 @@ pub fn geometry_mass_properties(
                 element: element.to_string(),
                 uri: uri.clone(),
                 path: path.clone(),
-                reason,
+                reason: Box::new(reason),
             };
             let mesh = mesh_io::load_mesh(path).map_err(mesh_error)?;
             mesh.scaled(scale)
