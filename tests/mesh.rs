@@ -822,7 +822,7 @@ f -7 -5 -1 -3
 
 /// A DAE of a box `[0, 40] × [0, 20] × [0, 10]` mm as quads (`<polylist>`), placed by a node
 /// `translate(100, 0, 0) rotate(z, 90°)`, in a Y_UP file in millimetres; a second node places
-/// a tetrahedron-free `<triangles>` copy mirrored by `scale(-1, 1, 1)` at x = −300 mm.
+/// a `<triangles>` copy of the same box mirrored by `scale(-1, 1, 1)` at x = −300 mm.
 fn box_dae(second_instance: bool) -> String {
     let second = if second_instance {
         r##"<node id="mirror"><translate>-300 0 0</translate><scale>-1 1 1</scale>
@@ -959,7 +959,7 @@ fn unknown_missing_and_garbage_files_are_errors_not_panics() {
         dae.replace("1 7 5</p>", "1 7 50</p>").into_bytes(),
         dae.replace("meter=\"0.001\"", "meter=\"-1\"").into_bytes(),
         dae.replace("<rotate>0 0 1 90</rotate>", "<skew>1 0 0 0 1 0 0</skew>").into_bytes(),
-        dae[..dae.len() / 2].as_bytes().to_vec(),
+        dae.as_bytes()[..dae.len() / 2].to_vec(),
         b"v 0 0 0\nf 1 2 3\n".to_vec(),
         b"v 0 0 0\nv x y z\n".to_vec(),
         b"solid a\nfacet normal 0 0 1\nouter loop\nvertex 0 0 nan\n".to_vec(),

@@ -70,7 +70,7 @@ impl VolumeProperties {
     /// `Err` when the volume is zero to round-off ([`MeshError::Degenerate`]) or negative
     /// ([`MeshError::InsideOut`]).
     pub fn checked(self) -> Result<Self, MeshError> {
-        if !(self.volume_m3.abs() > self.degenerate_limit_m3) {
+        if self.volume_m3.is_nan() || self.volume_m3.abs() <= self.degenerate_limit_m3 {
             Err(MeshError::Degenerate {
                 volume_m3: self.volume_m3,
                 limit_m3: self.degenerate_limit_m3,

@@ -229,8 +229,11 @@ fn local_transform(node: Node) -> Result<Matrix4<f64>, String> {
                 let axis = Vector3::new(v[0], v[1], v[2]);
                 if v[3] == 0.0 {
                     Matrix4::identity()
-                } else if !(axis.norm() > 0.0) {
-                    return Err(format!("{} <rotate> about a zero axis", label(node)));
+                } else if axis.norm() == 0.0 || !axis.iter().all(|x| x.is_finite()) {
+                    return Err(format!(
+                        "{} <rotate> about a zero or non-finite axis",
+                        label(node)
+                    ));
                 } else {
                     Rotation3::from_axis_angle(&Unit::new_normalize(axis), v[3].to_radians())
                         .to_homogeneous()

@@ -13,6 +13,9 @@ use nalgebra::Vector3;
 
 /// Parses an OBJ file's bytes, all objects and groups merged, welded.
 pub fn read_obj(bytes: &[u8]) -> Result<TriangleMesh, String> {
+    // `..Default::default()` fills the fields behind tobj's optional `merging` and
+    // `reordering` features (off here, but features are unified across a build).
+    #[allow(clippy::needless_update)]
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
