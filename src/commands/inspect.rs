@@ -350,7 +350,7 @@ fn numbers(values: &[f64]) -> String {
 }
 
 /// Width of the URDF and geometry columns of the comparison.
-const COMPARE_COLUMN: usize = 36;
+const COMPARE_COLUMN: usize = 40;
 
 /// The `--compare` lines of one link.
 fn render_comparison(out: &mut String, c: &Comparison) {
