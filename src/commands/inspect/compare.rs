@@ -6,11 +6,12 @@
 //!
 //! ```text
 //! mass_relative              = (m_urdf − m_geom) / m_geom
-//! com_distance               = |c_urdf − c_geom|                         (m, link frame)
-//! principal_moments_relative = (λk_urdf − λk_geom) / λk_geom             (ascending moments, paired by rank)
-//! inertia_relative           = ‖I_urdf − I_geom‖_F / ‖I_geom‖_F          (about each com, link axes: sees turned axes too)
-//! density_matching_urdf_mass = ρ m_urdf / m_geom                         (kg/m^3: the density at which the masses agree;
-//!                                                                         none unless m_urdf > 0)
+//! com_distance               = |c_urdf − c_geom|                  m, link frame
+//! principal_moments_relative = (λk_urdf − λk_geom) / λk_geom      ascending, paired by rank
+//! inertia_relative           = ‖I_urdf − I_geom‖_F / ‖I_geom‖_F   about each com, link axes
+//!                                                                 (sees turned axes too)
+//! density_matching_urdf_mass = ρ m_urdf / m_geom                  kg/m^3 at which the masses
+//!                                                                 agree; none unless m_urdf > 0
 //! ```
 //!
 //! The geometry's mass scales with the density, which is a guess; the centre of mass and the
