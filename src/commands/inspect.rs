@@ -5,6 +5,12 @@
 //! show per link where its values came from and what was repaired; `--compare` prints the URDF's
 //! values and the geometry's side by side with their differences ([`compare`]).
 //!
+//! Exit codes (set in `main`): 0 no link has a problem, 1 some link has one, 2 an error. Problems
+//! describe the values in use: the findings about URDF values a policy replaced move to the
+//! link's notes, so `--inertia auto` exits 0 when it could repair every invalid link. Geometry
+//! that cannot give mass properties under `--inertia geometry` is an error (exit 2), as it is for
+//! `simulate`; under `auto` and `--compare` it is reported per link.
+//!
 //! # `--json` output
 //!
 //! One JSON object, SI units (kg, m, kg m²), model frame = root link frame. Stable keys:
