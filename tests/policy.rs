@@ -888,6 +888,8 @@ fn inspect_compare_json_has_both_sides_and_the_difference() {
     );
     let negative = by_name("negative");
     assert_eq!(negative["urdf"]["mass"], -1.0);
+    // No density gives a negative mass.
+    assert!(negative["difference"]["density_matching_urdf_mass"].is_null());
     assert!(
         negative["notes"][0]
             .as_str()
@@ -927,6 +929,7 @@ fn inspect_binary_text_json_and_exit_codes() {
         "link `valid` (from <inertial>)",
         "link `zero` (repaired from geometry: 1 visual shape (no collision geometry) at 1000 kg/m^3)",
         "notes             - invalid <inertial> (mass is negative: -1 kg",
+        "    moments         0.00500000 0.0100000 0.0100000 kg m^2",
         "compare           URDF <inertial>",
         "-66.667 %",
         "0.0500000 m apart",

@@ -5,6 +5,12 @@
 //! show per link where its values came from and what was repaired; `--compare` prints the URDF's
 //! values and the geometry's side by side with their differences ([`compare`]).
 //!
+//! Exit codes (set in `main`): 0 no link has a problem, 1 some link has one, 2 an error. Problems
+//! describe the values in use: the findings about URDF values a policy replaced move to the
+//! link's notes, so `--inertia auto` exits 0 when it could repair every invalid link. Geometry
+//! that cannot give mass properties under `--inertia geometry` is an error (exit 2), as it is for
+//! `simulate`; under `auto` and `--compare` it is reported per link.
+//!
 //! # `--json` output
 //!
 //! One JSON object, SI units (kg, m, kg m²), model frame = root link frame. Stable keys:
@@ -42,7 +48,8 @@
 //!                    "shapes", "density"} | null,     // null when geometry_error is set
 //!       "geometry_error": "..." | null,
 //!       "difference": {"mass_relative", "com_distance", "principal_moments_relative": [3],
-//!                      "inertia_relative", "density_matching_urdf_mass"} | null
+//!                      "inertia_relative", "density_matching_urdf_mass" (null when the
+//!                      URDF mass is not positive)} | null
 //!                                         // see `compare`; null unless both sides exist
 //!     }
 //!   ],
@@ -349,7 +356,7 @@ fn numbers(values: &[f64]) -> String {
 }
 
 /// Width of the URDF and geometry columns of the comparison.
-const COMPARE_COLUMN: usize = 36;
+const COMPARE_COLUMN: usize = 40;
 
 /// The `--compare` lines of one link.
 fn render_comparison(out: &mut String, c: &Comparison) {
@@ -377,45 +384,47 @@ fn render_comparison(out: &mut String, c: &Comparison) {
     );
     let mass = |mp: &MassProperties| format!("{} kg", num(mp.mass));
     let com = |mp: &MassProperties| format!("{} m", numbers(mp.com.as_slice()));
-    let moments = |mp: &MassProperties| numbers(mp.principal_moments().as_slice());
-    let _ = writeln!(
-        out,
-        "    {:<16}{:<w$}  {:<w$}  {}",
+    let moments =
+        |mp: &MassProperties| format!("{} kg m^2", numbers(mp.principal_moments().as_slice()));
+    let mut line = |label: &str, f: &dyn Fn(&MassProperties) -> String, difference: String| {
+        let text = format!(
+            "    {label:<16}{:<w$}  {:<w$}  {difference}",
+            cell(urdf, f),
+            cell(geometry, f)
+        );
+        let _ = writeln!(out, "{}", text.trim_end());
+    };
+    line(
         "mass",
-        cell(urdf, &mass),
-        cell(geometry, &mass),
-        diff.map_or(String::new(), |d| percent(d.mass_relative))
+        &mass,
+        diff.map_or(String::new(), |d| percent(d.mass_relative)),
     );
-    let _ = writeln!(
-        out,
-        "    {:<16}{:<w$}  {:<w$}  {}",
+    line(
         "com",
-        cell(urdf, &com),
-        cell(geometry, &com),
-        diff.map_or(String::new(), |d| format!(
-            "{} m apart",
-            num(d.com_distance_m)
-        ))
+        &com,
+        diff.map_or(String::new(), |d| {
+            format!("{} m apart", num(d.com_distance_m))
+        }),
     );
-    let _ = writeln!(
-        out,
-        "    {:<16}{:<w$}  {:<w$}  {}",
-        "moments (kg m^2)",
-        cell(urdf, &moments),
-        cell(geometry, &moments),
+    line(
+        "moments",
+        &moments,
         diff.map_or(String::new(), |d| {
             let p = d.principal_moments_relative;
             format!("{} {} {}", percent(p.x), percent(p.y), percent(p.z))
-        })
+        }),
     );
     if let Some(d) = diff {
+        let density = d
+            .density_matching_urdf_mass_kg_per_m3
+            .map_or(String::new(), |rho| {
+                format!("; the masses agree at {} kg/m^3", num(rho))
+            });
         let _ = writeln!(
             out,
-            "    {:<16}tensors differ by {} (Frobenius, relative to the geometry's); the masses \
-             agree at {} kg/m^3",
+            "    {:<16}tensors differ by {} (Frobenius, relative to the geometry's){density}",
             "inertia",
             percent(d.inertia_relative).trim_start_matches('+'),
-            num(d.density_matching_urdf_mass_kg_per_m3)
         );
     }
     match &c.geometry {

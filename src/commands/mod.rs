@@ -60,7 +60,7 @@ pub fn fmt_vec3(v: &Vector3<f64>) -> String {
 /// defaults: urdf, 1000 kg/m^3, collision) as they are.
 #[derive(clap::Args, Debug, Clone, Default, PartialEq)]
 pub struct MassArgs {
-    /// Where link mass properties come from: urdf (the file's <inertial>), geometry (computed
+    /// Where link mass properties come from: urdf (the file's inertial values), geometry (computed
     /// from the link's shapes at --density), auto (the URDF's where present and valid, the
     /// geometry's where missing or invalid). Overrides the scene's [mass] inertia.
     #[arg(long, value_name = "urdf|geometry|auto", value_parser = parse_inertia_policy)]

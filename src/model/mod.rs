@@ -66,7 +66,7 @@ pub struct Link {
     /// Which geometry `inertial` was computed from, when it was ([`InertiaSource::Geometry`],
     /// [`InertiaSource::Repaired`]).
     pub geometry_used: Option<geometry::GeometryUsed>,
-    /// What the inertia policy did to this link and why, in words (e.g. "no <inertial>:
+    /// What the inertia policy did to this link and why, in words (e.g. "no `<inertial>`:
     /// computed from 1 collision shape at 1000 kg/m^3"). Empty when the URDF's values are used
     /// as they are.
     pub notes: Vec<String>,

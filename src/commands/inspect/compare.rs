@@ -6,10 +6,12 @@
 //!
 //! ```text
 //! mass_relative              = (m_urdf − m_geom) / m_geom
-//! com_distance               = |c_urdf − c_geom|                         (m, link frame)
-//! principal_moments_relative = (λk_urdf − λk_geom) / λk_geom             (ascending moments, paired by rank)
-//! inertia_relative           = ‖I_urdf − I_geom‖_F / ‖I_geom‖_F          (about each com, link axes: sees turned axes too)
-//! density_matching_urdf_mass = ρ m_urdf / m_geom                         (kg/m^3: the density at which the masses agree)
+//! com_distance               = |c_urdf − c_geom|                  m, link frame
+//! principal_moments_relative = (λk_urdf − λk_geom) / λk_geom      ascending, paired by rank
+//! inertia_relative           = ‖I_urdf − I_geom‖_F / ‖I_geom‖_F   about each com, link axes
+//!                                                                 (sees turned axes too)
+//! density_matching_urdf_mass = ρ m_urdf / m_geom                  kg/m^3 at which the masses
+//!                                                                 agree; none unless m_urdf > 0
 //! ```
 //!
 //! The geometry's mass scales with the density, which is a guess; the centre of mass and the
@@ -37,7 +39,7 @@ pub struct Difference {
     pub com_distance_m: f64,
     pub principal_moments_relative: Vector3<f64>,
     pub inertia_relative: f64,
-    pub density_matching_urdf_mass_kg_per_m3: f64,
+    pub density_matching_urdf_mass_kg_per_m3: Option<f64>,
 }
 
 impl Comparison {
@@ -63,8 +65,8 @@ impl Comparison {
             com_distance_m: (urdf.com - geom.com).norm(),
             principal_moments_relative: (moments_urdf - moments_geom).component_div(&moments_geom),
             inertia_relative: (urdf.inertia - geom.inertia).norm() / geom.inertia.norm(),
-            density_matching_urdf_mass_kg_per_m3: computed.used.density_kg_per_m3 * urdf.mass
-                / geom.mass,
+            density_matching_urdf_mass_kg_per_m3: (urdf.mass > 0.0)
+                .then(|| computed.used.density_kg_per_m3 * urdf.mass / geom.mass),
         })
     }
 }
