@@ -749,6 +749,37 @@ fn stl_binary_and_ascii_read_the_box() {
     assert!(read.check().is_closed_manifold());
 }
 
+/// Regression: CAD exporters write round-off such as 4e-20 for a zero coordinate in some
+/// triangles and 0 in their neighbours (51 meshes of example-robot-data, e.g. solo's legs);
+/// exact welding left them open. A real gap, 1e-6 of the size, stays open.
+#[test]
+fn stl_zero_written_as_round_off_is_welded_but_a_real_gap_is_not() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("noisy.stl");
+    let write = |dirty: f32| {
+        // The cube's first triangle gets `dirty` for each of its zero coordinates.
+        let mut bytes = binary_stl(&unit_cube(), b"");
+        for k in 0..9 {
+            let at = 84 + 12 + 4 * k;
+            if bytes[at..at + 4] == [0, 0, 0, 0] {
+                bytes[at..at + 4].copy_from_slice(&dirty.to_le_bytes());
+            }
+        }
+        std::fs::write(&path, bytes).expect("write");
+        load(&path)
+    };
+    let noisy = write(3.98e-20);
+    assert_eq!(noisy.vertices.len(), 8);
+    assert_eq!(mass_properties(&noisy, 1.0).mass, 1.0);
+    let cracked = write(1e-6);
+    // Its three corners moved off the cube's: 3 extra vertices, 11 in all.
+    assert_eq!(cracked.vertices.len(), 11);
+    assert!(matches!(
+        cracked.mass_properties(1.0),
+        Err(MeshError::Open { .. })
+    ));
+}
+
 #[test]
 fn stl_truncated_or_lying_is_a_clear_error() {
     let dir = tempfile::tempdir().expect("tempdir");
