@@ -23,6 +23,7 @@ pub mod stl;
 pub use dae::{DaeOptions, UpAxis};
 
 use super::mesh::{MeshError, TriangleMesh};
+use crate::model::MassProperties;
 use nalgebra::Vector3;
 use std::collections::HashMap;
 use std::path::Path;
@@ -95,6 +96,20 @@ pub fn load_mesh(path: &Path) -> Result<TriangleMesh, MeshError> {
 /// size; an OBJ or DAE rarely more than 1e-9), so it merges only points the file cannot tell
 /// apart at its own scale, and moves them by at most 1e-12 D.
 pub const WELD_RELATIVE_TOLERANCE: f64 = 1e-12;
+
+/// Mass properties of the solid a mesh file bounds, scaled per axis by `scale` (a URDF
+/// `<mesh scale>`) at `density` (kg/m^3): [`load_mesh`], [`TriangleMesh::scaled`],
+/// [`TriangleMesh::mass_properties`], with every error naming the file.
+pub fn load_mass_properties(
+    path: &Path,
+    scale: &Vector3<f64>,
+    density: f64,
+) -> Result<MassProperties, MeshError> {
+    load_mesh(path)?
+        .scaled(scale)
+        .mass_properties(density)
+        .map_err(|e| e.in_file(path))
+}
 
 /// Merges equal vertices and renumbers the triangles; vertices come out in order of first use.
 ///
