@@ -749,6 +749,37 @@ fn stl_binary_and_ascii_read_the_box() {
     assert!(read.check().is_closed_manifold());
 }
 
+/// Regression: CAD exporters write round-off such as 4e-20 for a zero coordinate in some
+/// triangles and 0 in their neighbours (51 meshes of example-robot-data, e.g. solo's legs);
+/// exact welding left them open. A real gap, 1e-6 of the size, stays open.
+#[test]
+fn stl_zero_written_as_round_off_is_welded_but_a_real_gap_is_not() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("noisy.stl");
+    let write = |dirty: f32| {
+        // The cube's first triangle gets `dirty` for each of its zero coordinates.
+        let mut bytes = binary_stl(&unit_cube(), b"");
+        for k in 0..9 {
+            let at = 84 + 12 + 4 * k;
+            if bytes[at..at + 4] == [0, 0, 0, 0] {
+                bytes[at..at + 4].copy_from_slice(&dirty.to_le_bytes());
+            }
+        }
+        std::fs::write(&path, bytes).expect("write");
+        load(&path)
+    };
+    let noisy = write(3.98e-20);
+    assert_eq!(noisy.vertices.len(), 8);
+    assert_eq!(mass_properties(&noisy, 1.0).mass, 1.0);
+    let cracked = write(1e-6);
+    // Its three corners moved off the cube's: 3 extra vertices, 11 in all.
+    assert_eq!(cracked.vertices.len(), 11);
+    assert!(matches!(
+        cracked.mass_properties(1.0),
+        Err(MeshError::Open { .. })
+    ));
+}
+
 #[test]
 fn stl_truncated_or_lying_is_a_clear_error() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -782,6 +813,17 @@ fn stl_truncated_or_lying_is_a_clear_error() {
         let err = mesh_io::load_mesh(&path).unwrap_err().to_string();
         assert!(err.contains(expect) && err.contains("cut.stl"), "{err}");
     }
+    // A geometry error in a file names the file.
+    let mut open = unit_cube();
+    open.triangles.pop();
+    std::fs::write(&path, binary_stl(&open, b"")).expect("write");
+    let err = mesh_io::load_mass_properties(&path, &Vector3::repeat(1.0), 1000.0).unwrap_err();
+    assert_eq!(err.root(), &MeshError::Open { boundary_edges: 3 });
+    assert!(
+        err.to_string()
+            .contains("cut.stl: open mesh: 3 boundary edges"),
+        "{err}"
+    );
     // A valid binary STL with no triangles: an empty mesh, named.
     std::fs::write(&path, binary_stl(&TriangleMesh::default(), b"")).expect("write");
     let err = mesh_io::load_mesh(&path).unwrap_err();
@@ -923,6 +965,129 @@ fn dae_applies_unit_and_node_transforms_and_ignores_up_axis() {
         em < 1e-13 && ec < 1e-13 && ei < 1e-13,
         "{em:e} {ec:e} {ei:e}"
     );
+}
+
+/// The unit cube as `<polygons>` (quads), `<tristrips>` and `<trifans>`, one geometry each.
+fn primitives_dae(scene: &str) -> String {
+    let geometry = |id: &str, body: &str| {
+        format!(
+            r##"<geometry id="{id}"><mesh>
+      <source id="{id}-pos"><float_array id="{id}-arr" count="24">
+        0 0 0 1 0 0 0 1 0 1 1 0 0 0 1 1 0 1 0 1 1 1 1 1</float_array>
+        <technique_common><accessor source="#{id}-arr" count="8" stride="3"/></technique_common>
+      </source>
+      <vertices id="{id}-vtx"><input semantic="POSITION" source="#{id}-pos"/></vertices>
+      {body}
+    </mesh></geometry>"##
+        )
+    };
+    let input = |id: &str| format!(r##"<input semantic="VERTEX" source="#{id}-vtx" offset="0"/>"##);
+    // Quads (q0 q1 q2 q3) wound outward; as a strip (q1 q2 q0 q3); as a fan (q0 q1 q2 q3).
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let p = |order: [usize; 4]| -> String {
+        quads
+            .iter()
+            .map(|q| {
+                format!(
+                    "<p>{} {} {} {}</p>",
+                    q[order[0]], q[order[1]], q[order[2]], q[order[3]]
+                )
+            })
+            .collect()
+    };
+    format!(
+        r##"<COLLADA version="1.5.0"><library_geometries>
+    {}
+    {}
+    {}
+  </library_geometries>{scene}</COLLADA>"##,
+        geometry(
+            "poly",
+            &format!(
+                "<polygons count=\"6\">{}{}</polygons>",
+                input("poly"),
+                p([0, 1, 2, 3])
+            )
+        ),
+        geometry(
+            "strip",
+            &format!(
+                "<tristrips count=\"6\">{}{}</tristrips>",
+                input("strip"),
+                p([1, 2, 0, 3])
+            )
+        ),
+        geometry(
+            "fan",
+            &format!(
+                "<trifans count=\"6\">{}{}</trifans>",
+                input("fan"),
+                p([0, 1, 2, 3])
+            )
+        ),
+    )
+}
+
+#[test]
+fn dae_polygons_strips_fans_and_library_nodes() {
+    let read = |text: String| match mesh_io::dae::read_dae(text.as_bytes(), &DaeOptions::default())
+    {
+        Ok(mesh) => mesh,
+        Err(e) => panic!("{e}"),
+    };
+    let cube = |centre: Vector3<f64>| box_closed_form(Vector3::repeat(1.0), centre, 1000.0);
+    // No visual scene: every geometry at the origin. Three coincident cubes, welded into one
+    // vertex set, share all 18 edges: non-manifold (they bound no single solid).
+    let mesh = read(primitives_dae(""));
+    assert_eq!((mesh.vertices.len(), mesh.triangles.len()), (8, 36));
+    assert_eq!(
+        mesh.mass_properties(1000.0).unwrap_err(),
+        MeshError::NonManifold { edges: 18 }
+    );
+    // Placed through a library node instantiated twice, with different parent translations.
+    let scene = r##"<library_nodes><node id="lib"><translate>0 0 2</translate>
+        <instance_geometry url="#poly"/><node><translate>2 0 0</translate>
+        <instance_geometry url="#strip"/></node></node></library_nodes>
+      <library_visual_scenes><visual_scene id="s">
+        <node><instance_node url="#lib"/></node>
+        <node><translate>0 4 0</translate><instance_node url="#lib"/></node>
+        <node><matrix>1 0 0 -3  0 1 0 0  0 0 1 0  0 0 0 1</matrix><instance_geometry url="#fan"/></node>
+      </visual_scene></library_visual_scenes>
+      <scene><instance_visual_scene url="#s"/></scene>"##;
+    let mesh = read(primitives_dae(scene));
+    assert_eq!(mesh.triangles.len(), 60);
+    let parts: Vec<MassProperties> = [
+        Vector3::new(0.5, 0.5, 2.5),
+        Vector3::new(2.5, 0.5, 2.5),
+        Vector3::new(0.5, 4.5, 2.5),
+        Vector3::new(2.5, 4.5, 2.5),
+        Vector3::new(-2.5, 0.5, 0.5),
+    ]
+    .into_iter()
+    .map(cube)
+    .collect();
+    let expected = MassProperties::combine(&parts).expect("mass");
+    let (em, ec, ei) = mp_error(&mass_properties(&mesh, 1000.0), &expected, 5.0);
+    // Measured mass 0, com 0, inertia 2.0e-16; bound 1e-14.
+    assert!(
+        em < 1e-14 && ec < 1e-14 && ei < 1e-14,
+        "{em:e} {ec:e} {ei:e}"
+    );
+    // A cycle of library nodes is an error, not a stack overflow.
+    let cycle = r##"<library_nodes><node id="a"><instance_node url="#b"/></node>
+        <node id="b"><instance_node url="#a"/></node></library_nodes>
+      <library_visual_scenes><visual_scene id="s"><node><instance_node url="#a"/></node>
+      </visual_scene></library_visual_scenes>"##;
+    let err = mesh_io::dae::read_dae(primitives_dae(cycle).as_bytes(), &DaeOptions::default())
+        .unwrap_err();
+    assert!(err.contains("nested deeper than 64"), "{err}");
 }
 
 #[test]

@@ -33,9 +33,10 @@
 //!   the rotation assimp adds for it (keeping only the unit scale), MoveIt's `geometric_shapes`
 //!   clears the root transform of Collada files, Gazebo classic does not read the tag, and
 //!   assimp-based readers (Pinocchio/coal, gepetto-viewer) leave Y_UP files unrotated. Robot
-//!   meshes are authored in the link frame whatever the tag says (87 of the 286 DAE files in
-//!   example-robot-data say Y_UP, exported by Blender or SolidWorks plug-ins, and are drawn
-//!   right by those tools). [`UpAxis::RotateToZUp`] applies the COLLADA specification instead:
+//!   meshes are authored in the link frame whatever the tag says: 87 of the 286 DAE files in
+//!   example-robot-data 6.0.0 say Y_UP, and e.g. tiago's `arm_{1..6}_collision.dae` (Y_UP)
+//!   match the bounding boxes of the `arm_{1..6}.stl` visuals of the same links to 2 mm as
+//!   written, which a Y_UP → Z_UP rotation would break. [`UpAxis::RotateToZUp`] applies the COLLADA specification instead:
 //!   `Y_UP` maps (x, y, z) to (x, −z, y) and `X_UP` maps (x, y, z) to (−y, −z, x) (the spec's
 //!   right/up/in axes), both proper rotations.
 
