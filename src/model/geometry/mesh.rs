@@ -1,8 +1,9 @@
 //! Closed triangle meshes and the mass properties of the solid they bound.
 //!
 //! A [`TriangleMesh`] is an indexed triangle list in metres. [`TriangleMesh::mass_properties`]
-//! checks that the mesh is the boundary of a solid ([`TriangleMesh::check`], see [`topology`]),
-//! then integrates volume, centre of mass and inertia from the triangles alone ([`volume`]):
+//! checks that the mesh is the boundary of a solid ([`TriangleMesh::check`], the `topology`
+//! submodule), then integrates volume, centre of mass and inertia from the triangles alone
+//! (the `volume` submodule):
 //!
 //! ```text
 //! per triangle (a, b, c), taken relative to a reference point p near the mesh:

@@ -192,7 +192,7 @@ pub fn weld(vertices: &[Vector3<f64>], triangles: &[[u32; 3]]) -> TriangleMesh {
 fn neighbour_cells(cell: Vector3<i64>) -> impl Iterator<Item = [i64; 3]> {
     (0..27).map(move |n| {
         let d = Vector3::new(n % 3 - 1, (n / 3) % 3 - 1, n / 9 - 1);
-        (cell + d).into()
+        cell.zip_map(&d, i64::saturating_add).into()
     })
 }
 

@@ -374,7 +374,7 @@ impl<'a, 'i> Reader<'a, 'i> {
                     .map_err(|_| format!("<input offset=\"{s}\">: not an index"))?,
                 None => 0,
             };
-            stride = stride.max(offset + 1);
+            stride = stride.max(offset.saturating_add(1));
             let source = input.attribute("source");
             match input.attribute("semantic") {
                 Some("VERTEX") => {
