@@ -5,6 +5,7 @@
 
 use crate::survey::{self, FileReport, LinkClass, Summary};
 use anyhow::bail;
+use std::io::Write;
 use std::path::PathBuf;
 
 #[derive(clap::Args, Debug)]
@@ -23,7 +24,22 @@ pub struct SurveyArgs {
     pub failures: bool,
 }
 
+/// Runs the survey and prints it. A reader that goes away early (`tumble survey ... | head`)
+/// ends the output quietly: a broken pipe is not an error here.
 pub fn run(args: &SurveyArgs) -> anyhow::Result<()> {
+    match print_survey(args) {
+        Err(e) if is_broken_pipe(&e) => Ok(()),
+        other => other,
+    }
+}
+
+fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.downcast_ref::<std::io::Error>()
+        .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+}
+
+fn print_survey(args: &SurveyArgs) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
     let mut summaries = Vec::new();
     let mut all_files: Vec<FileReport> = Vec::new();
     for root in &args.roots {
@@ -38,36 +54,40 @@ pub fn run(args: &SurveyArgs) -> anyhow::Result<()> {
         all_files.extend(files);
     }
     if args.json {
-        println!(
+        writeln!(
+            out,
             "{}",
             serde_json::json!({"summaries": summaries, "files": all_files})
-        );
+        )?;
         return Ok(());
     }
-    print_table(&summaries);
+    print_table(&mut out, &summaries)?;
     if args.failures {
         for f in all_files.iter().filter(|f| f.error.is_some()) {
-            println!("{}", f.error.as_deref().unwrap_or_default());
+            writeln!(out, "{}", f.error.as_deref().unwrap_or_default())?;
         }
     }
     Ok(())
 }
 
-fn print_table(summaries: &[Summary]) {
+fn print_table(out: &mut impl Write, summaries: &[Summary]) -> std::io::Result<()> {
     let classes = LinkClass::ALL.map(LinkClass::name).join(" | ");
-    println!(
+    writeln!(
+        out,
         "| root | files | loaded | failed | links | {classes} | of which triangle | repaired by auto | still invalid |"
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "|---|---|---|---|---|{}---|---|---|",
         "---|".repeat(LinkClass::ALL.len())
-    );
+    )?;
     for s in summaries {
         let counts: Vec<String> = LinkClass::ALL
             .iter()
             .map(|c| s.by_class.get(c).copied().unwrap_or(0).to_string())
             .collect();
-        println!(
+        writeln!(
+            out,
             "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             s.root.display(),
             s.files,
@@ -78,6 +98,7 @@ fn print_table(summaries: &[Summary]) {
             s.triangle_violations,
             s.repaired,
             s.still_invalid
-        );
+        )?;
     }
+    Ok(())
 }
