@@ -4,7 +4,6 @@
 
 use crate::fsutil::write_atomic;
 use crate::scene::Scene;
-use crate::sim::IntegratorKind;
 use crate::trade::{self, TradeSettings};
 use anyhow::bail;
 use std::path::{Path, PathBuf};
@@ -62,22 +61,7 @@ pub fn settings_from_args(args: &TradeArgs) -> anyhow::Result<(Scene, TradeSetti
         .clone()
         .unwrap_or_else(|| bundled(DEFAULT_TRADE_SCENE));
     let scene = Scene::load(&path)?;
-    let integrators = if args.integrators.is_empty() {
-        IntegratorKind::ALL.to_vec()
-    } else {
-        args.integrators
-            .iter()
-            .map(|name| {
-                IntegratorKind::from_name(name).ok_or_else(|| {
-                    let names: Vec<_> = IntegratorKind::ALL.iter().map(|k| k.name()).collect();
-                    anyhow::anyhow!(
-                        "--integrators: unknown integrator {name:?} (expected one of: {})",
-                        names.join(", ")
-                    )
-                })
-            })
-            .collect::<anyhow::Result<_>>()?
-    };
+    let integrators = super::parse_integrators(&args.integrators)?;
     let dts = if args.dts.is_empty() {
         DEFAULT_DTS.to_vec()
     } else {
