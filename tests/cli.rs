@@ -3,20 +3,10 @@
 
 mod common;
 
+use common::{text, tumble};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn tumble(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tumble"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("cannot run tumble")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
+use std::process::Output;
 
 /// Files in `dir` (recursively), as paths relative to it.
 fn files(dir: &Path) -> Vec<PathBuf> {

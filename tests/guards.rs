@@ -5,21 +5,17 @@
 
 mod common;
 
+use common::text;
+
+/// Runs `tumble` in the current directory.
+fn tumble(args: &[&str]) -> Output {
+    common::tumble(args, Path::new("."))
+}
+
 use std::path::Path;
 use std::process::{Command, Output};
 use tumble::sim::IntegratorKind;
 use tumble::sim::limits::h_omega_limit_at_ratio;
-
-fn tumble(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tumble"))
-        .args(args)
-        .output()
-        .expect("cannot run tumble")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
 
 fn box_urdf() -> String {
     common::root()

@@ -9,9 +9,11 @@
 
 use clap::Parser;
 use nalgebra::{Matrix3, Vector3};
+mod common;
+
+use common::tumble;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 use tumble::cli::{Cli, Command as CliCommand};
 use tumble::commands::inspect::{self, ReportOptions};
 use tumble::commands::simulate;
@@ -147,14 +149,6 @@ fn revolution_by_quadrature(pieces: &[Piece], rho: f64, n: usize) -> (f64, f64, 
     }
     let zc = mz / m;
     (m, zc, ixx_origin - m * zc * zc, izz)
-}
-
-fn tumble(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tumble"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("cannot run tumble")
 }
 
 // ---------------------------------------------------------------- primitives

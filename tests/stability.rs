@@ -4,8 +4,10 @@
 //! The full map (7 integrators x 272 cells, ≈ 1.3 s in release on 2 threads) is computed once
 //! and shared by the tests of this file.
 
+mod common;
+
+use common::{text, tumble};
 use std::path::Path;
-use std::process::{Command, Output};
 use std::sync::OnceLock;
 use tumble::sim::IntegratorKind;
 use tumble::sim::limits::{ENERGY_ERROR_BOUND, h_omega_limit};
@@ -160,18 +162,6 @@ fn explicit_schemes_fail_at_large_steps() {
     }) {
         assert_eq!(r.status, Status::Diverged, "{r:?}");
     }
-}
-
-fn tumble(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tumble"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("cannot run tumble")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
 }
 
 /// Checks `dir/stability.csv` and `dir/stability.png`; returns the CSV's data lines.

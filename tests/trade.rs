@@ -4,16 +4,9 @@
 
 mod common;
 
-use std::path::Path;
-use std::process::Command;
+use common::tumble;
 
-fn tumble(args: &[&str], cwd: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_tumble"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("cannot run tumble")
-}
+use std::process::Command;
 
 const COLUMNS: &str =
     "integrator,dt,ns_per_body_step,pos_err,rot_err,energy_err_max,momentum_err,energy_drift_per_s";

@@ -92,3 +92,17 @@ pub fn reference_frames(scene: &tumble::scene::Scene) -> (Vec<String>, Recorded)
     let frames = frames.lock().unwrap().clone();
     (ids, frames)
 }
+
+/// Runs the `tumble` binary with `args` in the working directory `cwd`.
+pub fn tumble(args: &[&str], cwd: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_tumble"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("cannot run tumble")
+}
+
+/// Process output as text.
+pub fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
