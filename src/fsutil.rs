@@ -25,3 +25,16 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     }
     result
 }
+
+/// Refuses to replace an existing file unless `force`: "`path` exists; pass --force to replace
+/// it". Every command that writes a named output calls this before doing any work, so a refusal
+/// costs nothing and leaves everything as it was.
+pub fn check_not_overwriting(path: &Path, force: bool) -> anyhow::Result<()> {
+    if !force && path.exists() {
+        anyhow::bail!(
+            "{} exists; pass --force to replace it (or choose another output)",
+            path.display()
+        );
+    }
+    Ok(())
+}

@@ -1,7 +1,8 @@
 //! The `tumble` binary: parses arguments, dispatches, and maps results to exit codes.
 //! Exit codes: 0 success, 1 the input has problems (e.g. `inspect` found invalid links),
 //! 2 an error (bad input, unreadable or unwritable files); clap's usage errors also exit 2;
-//! 3 a simulation stopped by the divergence guard (its recordings are finished and readable).
+//! 3 a simulation stopped by the divergence guard (its recordings are finished and readable);
+//! 130 / 143 work stopped by SIGINT / SIGTERM at a clean boundary (its files finished).
 
 use clap::Parser;
 use std::process::ExitCode;
@@ -10,6 +11,9 @@ use tumble::commands;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if let Err(e) = tumble::interrupt::install() {
+        eprintln!("warning: {e:#}");
+    }
     let result = match &cli.command {
         Command::Inspect(args) => commands::inspect::run(args).map(|ok| if ok { 0 } else { 1 }),
         Command::Simulate(args) => commands::simulate::run(args).map(|()| 0),
@@ -22,7 +26,9 @@ fn main() -> ExitCode {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("error: {e:#}");
-            if e.downcast_ref::<tumble::run::Diverged>().is_some() {
+            if let Some(stop) = e.downcast_ref::<tumble::interrupt::Interrupted>() {
+                ExitCode::from(stop.exit_code())
+            } else if e.downcast_ref::<tumble::run::Diverged>().is_some() {
                 ExitCode::from(3)
             } else {
                 ExitCode::from(2)

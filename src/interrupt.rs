@@ -1,0 +1,127 @@
+//! Ctrl-C (SIGINT) and SIGTERM end long work at a clean boundary instead of killing the process
+//! mid-write; a closed output pipe (SIGPIPE) ends the process quietly, as for any Unix filter.
+//!
+//! [`install`] registers the handlers (signal-hook; this crate itself has no `unsafe`). The
+//! handlers only set an atomic flag; loops poll [`requested`] at their boundaries (the simulation
+//! loop after each step, `tumble dataset` between runs), finish their files and return
+//! [`Interrupted`], which `main` maps to the shell convention 128 + signal number (130 for SIGINT,
+//! 143 for SIGTERM). A second signal while the first is being handled terminates at once with that
+//! status, so a stuck shutdown can always be forced.
+//!
+//! SIGPIPE: Rust ignores it, so `println!` to a closed pipe (`tumble inspect ... | head -1`)
+//! panics. [`install`] restores the default action instead: the process ends silently when its
+//! reader goes away.
+
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+static FLAG: AtomicBool = AtomicBool::new(false);
+static SIGNAL: AtomicUsize = AtomicUsize::new(0);
+static INSTALLED: OnceLock<Result<(), String>> = OnceLock::new();
+static ALWAYS: AtomicBool = AtomicBool::new(true);
+
+/// SIGINT's number (2 on every Unix).
+pub const SIGINT: i32 = 2;
+/// SIGTERM's number (15 on every Unix).
+pub const SIGTERM: i32 = 15;
+
+/// Registers the SIGINT/SIGTERM/SIGPIPE handlers once per process; later calls return the first
+/// call's result.
+pub fn install() -> anyhow::Result<()> {
+    INSTALLED
+        .get_or_init(|| register().map_err(|e| e.to_string()))
+        .clone()
+        .map_err(|e| anyhow::anyhow!("cannot install signal handlers: {e}"))
+}
+
+#[cfg(unix)]
+fn register() -> std::io::Result<()> {
+    use signal_hook::consts::{SIGINT as INT, SIGPIPE, SIGTERM as TERM};
+    use signal_hook::flag;
+    debug_assert_eq!((INT, TERM), (SIGINT, SIGTERM));
+    for (signal, status) in [(INT, 128 + INT), (TERM, 128 + TERM)] {
+        // Order matters: the shutdown action sees the flag as it was before this delivery.
+        flag::register_conditional_shutdown(signal, status, &FLAG)?;
+        flag::register(signal, &FLAG)?;
+        // The signal number, for the message and the exit status. The handler only stores.
+        flag::register_usize(signal, &SIGNAL, signal as usize)?;
+    }
+    flag::register_conditional_default(SIGPIPE, &ALWAYS)?;
+    Ok(())
+}
+
+#[cfg(not(unix))]
+fn register() -> std::io::Result<()> {
+    Ok(())
+}
+
+/// Has SIGINT or SIGTERM arrived (or [`request`] been called)?
+pub fn requested() -> bool {
+    FLAG.load(Ordering::SeqCst)
+}
+
+/// The signal that arrived (2 or 15), or 0 for none / a [`request`] from code.
+pub fn signal() -> i32 {
+    SIGNAL.load(Ordering::SeqCst) as i32
+}
+
+/// Asks running loops to stop as if `signal` had arrived (tests; `0` for "no signal").
+pub fn request(signal: i32) {
+    SIGNAL.store(signal.max(0) as usize, Ordering::SeqCst);
+    FLAG.store(true, Ordering::SeqCst);
+}
+
+/// Clears a request (tests that run several interrupted loops in one process).
+pub fn clear() {
+    SIGNAL.store(0, Ordering::SeqCst);
+    FLAG.store(false, Ordering::SeqCst);
+}
+
+/// Work stopped early by SIGINT/SIGTERM after its files were finished. `main` exits with
+/// [`Interrupted::exit_code`].
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("{what} (stopped by {}; {finished})", signal_name(*signal))]
+pub struct Interrupted {
+    /// The signal number (0: asked by code).
+    pub signal: i32,
+    /// What was stopped, e.g. "simulation stopped at step 1200 of 5000 (t = 1.2 s)".
+    pub what: String,
+    /// What was kept, e.g. "recordings finished: logs/a.mcap, logs/a.rrd".
+    pub finished: String,
+}
+
+impl Interrupted {
+    /// 128 + signal number (130 for SIGINT, 143 for SIGTERM); 130 when no signal is known.
+    pub fn exit_code(&self) -> u8 {
+        match self.signal {
+            s @ 1..=127 => (128 + s) as u8,
+            _ => 130,
+        }
+    }
+}
+
+/// `SIGINT`, `SIGTERM`, or `a stop request`.
+pub fn signal_name(signal: i32) -> &'static str {
+    match signal {
+        SIGINT => "SIGINT",
+        SIGTERM => "SIGTERM",
+        _ => "a stop request",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exit_codes_follow_the_shell_convention() {
+        let i = |signal| Interrupted {
+            signal,
+            what: String::new(),
+            finished: String::new(),
+        };
+        assert_eq!(i(SIGINT).exit_code(), 130);
+        assert_eq!(i(SIGTERM).exit_code(), 143);
+        assert_eq!(i(0).exit_code(), 130);
+    }
+}
