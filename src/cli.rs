@@ -2,8 +2,8 @@
 //! [`crate::commands`].
 
 use crate::commands::{
-    bench::BenchArgs, inspect::InspectArgs, simulate::SimulateArgs, stability::StabilityArgs,
-    survey::SurveyArgs, trade::TradeArgs,
+    bench::BenchArgs, convert::ConvertArgs, diff::DiffArgs, info::InfoArgs, inspect::InspectArgs,
+    simulate::SimulateArgs, stability::StabilityArgs, survey::SurveyArgs, trade::TradeArgs,
 };
 use clap::{Parser, Subcommand};
 
@@ -34,4 +34,11 @@ pub enum Command {
     Stability(StabilityArgs),
     /// Load every URDF under folders and tabulate which load and how healthy their inertial data are.
     Survey(SurveyArgs),
+    /// What an MCAP recording holds: bodies, span, step size, integrator, settings, tool
+    /// version, message counts, complete or truncated.
+    Info(InfoArgs),
+    /// Compare two recordings frame by frame over time (position and orientation error).
+    Diff(DiffArgs),
+    /// Replay a tumble MCAP recording into a Rerun .rrd (same entities as a fresh run).
+    Convert(ConvertArgs),
 }

@@ -10,6 +10,7 @@ pub mod fsutil;
 pub mod interrupt;
 pub mod model;
 pub mod record;
+pub mod replay;
 pub mod run;
 pub mod scene;
 pub mod sim;

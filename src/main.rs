@@ -1,5 +1,6 @@
 //! The `tumble` binary: parses arguments, dispatches, and maps results to exit codes.
-//! Exit codes: 0 success, 1 the input has problems (e.g. `inspect` found invalid links),
+//! Exit codes: 0 success, 1 the input has problems (`inspect` found invalid links, `info` a
+//! truncated file, `diff` runs that differ beyond the tolerance),
 //! 2 an error (bad input, unreadable or unwritable files); clap's usage errors also exit 2;
 //! 3 a simulation stopped by the divergence guard (its recordings are finished and readable);
 //! 130 / 143 work stopped by SIGINT / SIGTERM at a clean boundary (its files finished).
@@ -21,6 +22,9 @@ fn main() -> ExitCode {
         Command::Bench(args) => commands::bench::run(args).map(|()| 0),
         Command::Stability(args) => commands::stability::run(args).map(|()| 0),
         Command::Survey(args) => commands::survey::run(args).map(|()| 0),
+        Command::Info(args) => commands::info::run(args).map(|ok| if ok { 0 } else { 1 }),
+        Command::Diff(args) => commands::diff::run(args).map(|same| if same { 0 } else { 1 }),
+        Command::Convert(args) => commands::convert::run(args).map(|ok| if ok { 0 } else { 1 }),
     };
     match result {
         Ok(code) => ExitCode::from(code),

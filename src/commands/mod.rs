@@ -2,6 +2,9 @@
 //! `main.rs` is the only place that turns results into exit codes.
 
 pub mod bench;
+pub mod convert;
+pub mod diff;
+pub mod info;
 pub mod inspect;
 pub mod simulate;
 pub mod stability;

@@ -14,7 +14,9 @@
 //! The schema of `/bodies` is a self-contained `FileDescriptorSet` (it includes
 //! `google/protobuf/timestamp.proto`), so generic protobuf readers decode it.
 //! A metadata record named `tumble` holds the scene, integrator settings and tool version
-//! (see [`RecordingLayout::metadata`]). Chunks are zstd-compressed; the summary and indexes are
+//! (see [`RecordingLayout::metadata`]) and, under `layout_json`, the recording layout (frames,
+//! visuals, bodies, topic groups; [`super::layout_json`]) from which `tumble convert` replays the
+//! file into Rerun. Chunks are zstd-compressed; the summary and indexes are
 //! written by `finish()`, which is always called explicitly. The file is written under
 //! `<path>.part` and renamed onto `path` only once it is complete.
 
@@ -28,6 +30,11 @@ use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
+
+/// Target chunk size, bytes (the mcap writer closes a chunk once it is this big). Small enough
+/// that a file cut short (a killed process, a full disk) loses little: every complete chunk is
+/// readable (`tumble convert`, `tumble info`); large enough that zstd still compresses well.
+pub const CHUNK_BYTES: u64 = 64 * 1024;
 
 /// Topic of the link transforms.
 pub const TF_TOPIC: &str = "/tf";
@@ -234,6 +241,7 @@ impl McapSink {
         let mut writer = mcap::WriteOptions::new()
             .profile("")
             .library(format!("tumble {}", crate::VERSION))
+            .chunk_size(Some(CHUNK_BYTES))
             .create(BufWriter::new(file))
             .with_context(|| format!("cannot write {}", part.display()))?;
         let tf_schema =
@@ -260,9 +268,14 @@ impl McapSink {
                 group,
             });
         }
+        let mut metadata = layout.metadata.clone();
+        metadata.insert(
+            super::layout_json::LAYOUT_KEY.into(),
+            super::layout_json::to_json(layout),
+        );
         writer.write_metadata(&mcap::records::Metadata {
             name: METADATA_NAME.into(),
-            metadata: layout.metadata.clone(),
+            metadata,
         })?;
         Ok(Self {
             writer,

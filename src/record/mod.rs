@@ -3,6 +3,7 @@
 //! A recorder receives a [`RecordingLayout`] once (what frames exist, what they look like, the
 //! metadata) and then one [`Frame`] per recorded step. It knows nothing of integrators.
 
+pub mod layout_json;
 pub mod mcap;
 pub mod rerun;
 

@@ -379,6 +379,8 @@ pub struct RerunSink {
     buffer: Buffer,
     last_time_ns: Option<i64>,
     warnings: Vec<String>,
+    /// Entities of [`RerunSink::write_series`] whose series names were sent.
+    series_named: BTreeSet<EntityPath>,
     done: bool,
 }
 
@@ -416,6 +418,7 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         buffer: Buffer::new(layout.frames.len(), layout.bodies.len()),
         last_time_ns: None,
         warnings: Vec::new(),
+        series_named: BTreeSet::new(),
         done: false,
     };
     lock(&state).encoder = Some(encoder.context("cannot write the .rrd header")?);
@@ -767,6 +770,50 @@ impl RerunSink {
             )?;
         }
         self.buffer.clear();
+        self.check_sink()
+    }
+
+    /// Sends extra scalar series (e.g. `tumble diff`'s errors) to `entity` on both timelines:
+    /// `values` holds `names.len()` values per row, rows at `time_ns` / `step`. The series names
+    /// are sent once per entity as a static `SeriesLines`. Frames buffered so far are sent first,
+    /// so every entity's rows stay in time order.
+    pub fn write_series(
+        &mut self,
+        entity: &EntityPath,
+        names: &[&str],
+        time_ns: &[i64],
+        step: &[i64],
+        values: &[f64],
+    ) -> Result<()> {
+        if time_ns.len() != step.len() || values.len() != time_ns.len() * names.len() {
+            bail!(
+                "series {entity}: {} times, {} steps, {} values for {} names",
+                time_ns.len(),
+                step.len(),
+                values.len(),
+                names.len()
+            );
+        }
+        if self.series_named.insert(entity.clone()) {
+            self.send(static_chunk(
+                entity.clone(),
+                &[&rerun::SeriesLines::new().with_names(names.iter().copied())],
+            )?)?;
+        }
+        if time_ns.is_empty() {
+            return Ok(());
+        }
+        self.flush_buffer()?;
+        let rec = self.rec()?;
+        rec.send_columns(
+            entity.clone(),
+            [
+                TimeColumn::new_duration_nanos(SIM_TIME_TIMELINE, time_ns.iter().copied()),
+                TimeColumn::new_sequence(STEP_TIMELINE, step.iter().copied()),
+            ],
+            rerun::Scalars::new(values.iter().copied())
+                .columns(std::iter::repeat_n(names.len(), time_ns.len()))?,
+        )?;
         self.check_sink()
     }
 

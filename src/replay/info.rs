@@ -1,0 +1,255 @@
+//! `tumble info`: what an MCAP recording holds, read in one streaming pass.
+
+use super::stream::{Item, McapStream, StreamEnd};
+use crate::record::layout_json::{LAYOUT_KEY, from_json};
+use crate::record::mcap::METADATA_NAME;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// One channel's messages.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct TopicInfo {
+    pub topic: String,
+    pub schema: String,
+    pub messages: u64,
+    /// First and last log time, s.
+    pub time_start: f64,
+    pub time_end: f64,
+}
+
+/// A simulated body of the recording.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct BodyInfo {
+    pub name: String,
+    /// The frame it moves.
+    pub frame: String,
+    pub mass: f64,
+    /// kg m^2
+    pub principal_moments: [f64; 3],
+}
+
+/// What `tumble info` reports (also its `--json` output).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct RecordingInfo {
+    pub path: PathBuf,
+    pub bytes: u64,
+    /// The MCAP header's library, e.g. "tumble 0.1.0".
+    pub library: String,
+    /// Written by tumble: a `tumble` metadata record is present.
+    pub tumble: bool,
+    pub tool_version: Option<String>,
+    pub integrator: Option<String>,
+    /// Step size, s (from the metadata).
+    pub dt: Option<f64>,
+    /// Steps the run was asked for, and every how many steps it recorded.
+    pub steps: Option<u64>,
+    pub log_every: Option<u64>,
+    /// Recorded span of the messages, s (last minus first log time).
+    pub duration: f64,
+    /// Frame ids (from the layout, else from the first `/tf` message).
+    pub frames: Vec<String>,
+    pub bodies: Vec<BodyInfo>,
+    pub topics: Vec<TopicInfo>,
+    pub messages: u64,
+    /// Footer, summary and closing magic present.
+    pub complete: bool,
+    /// When not complete: what went wrong and how much was readable.
+    pub truncation: Option<String>,
+    /// The summary's message count agrees with the messages read (complete files only).
+    pub summary_agrees: Option<bool>,
+    /// The `tumble` metadata record without the scene text and layout (see `metadata_keys`).
+    pub settings: BTreeMap<String, String>,
+    /// Keys of the `tumble` metadata record, including the long ones left out of `settings`.
+    pub metadata_keys: Vec<String>,
+}
+
+/// Metadata values too long to print: shown by key only.
+const LONG_KEYS: [&str; 3] = ["scene", "settings_json", LAYOUT_KEY];
+
+/// Reads `path` once, front to back.
+pub fn info(path: &Path) -> anyhow::Result<RecordingInfo> {
+    let bytes = std::fs::metadata(path)
+        .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?
+        .len();
+    let mut stream = McapStream::open(path)?;
+    let mut topics: BTreeMap<String, TopicInfo> = BTreeMap::new();
+    let mut metadata: Option<BTreeMap<String, String>> = None;
+    let mut tf_frames: Vec<String> = Vec::new();
+    let mut messages = 0u64;
+    let (mut first, mut last) = (u64::MAX, 0u64);
+    while let Some(item) = stream.next_item() {
+        match item {
+            Item::Metadata(m) if m.name == METADATA_NAME => metadata = Some(m.metadata),
+            Item::Metadata(_) => {}
+            Item::Message {
+                topic,
+                schema,
+                log_time,
+                data,
+            } => {
+                messages += 1;
+                first = first.min(log_time);
+                last = last.max(log_time);
+                let entry = topics
+                    .entry(topic.to_string())
+                    .or_insert_with(|| TopicInfo {
+                        topic: topic.to_string(),
+                        schema: schema.to_string(),
+                        messages: 0,
+                        time_start: log_time as f64 / 1e9,
+                        time_end: 0.0,
+                    });
+                entry.messages += 1;
+                entry.time_end = log_time as f64 / 1e9;
+                if tf_frames.is_empty()
+                    && &*schema == "foxglove.FrameTransforms"
+                    && let Ok(frames) = super::steps::decode_transforms(&data)
+                {
+                    tf_frames = frames.into_iter().map(|(name, _)| name).collect();
+                }
+            }
+        }
+    }
+    if stream.library().is_none() {
+        let why = match stream.end() {
+            StreamEnd::Truncated { error, .. } => error.clone(),
+            _ => "no header".into(),
+        };
+        anyhow::bail!("{}: not an MCAP file ({why})", path.display());
+    }
+    let end = stream.end().clone();
+    let complete = end == StreamEnd::Complete;
+    let metadata_all = metadata.clone().unwrap_or_default();
+    let layout = metadata_all.get(LAYOUT_KEY).and_then(|j| from_json(j).ok());
+    let (frames, bodies) = match &layout {
+        Some(layout) => (
+            layout.frames.iter().map(|f| f.frame_id.clone()).collect(),
+            layout
+                .bodies
+                .iter()
+                .map(|b| BodyInfo {
+                    name: b.name.clone(),
+                    frame: layout.frames[b.frame].frame_id.clone(),
+                    mass: b.mass,
+                    principal_moments: b.principal_moments.into(),
+                })
+                .collect(),
+        ),
+        None => (tf_frames, Vec::new()),
+    };
+    let get = |key: &str| metadata_all.get(key).cloned();
+    let recovered_steps = topics
+        .values()
+        .filter(|t| t.topic.ends_with("/bodies"))
+        .map(|t| t.messages)
+        .min()
+        .unwrap_or(0);
+    let truncation = super::convert::truncation_warning(
+        path,
+        &end,
+        recovered_steps,
+        (messages > 0).then_some((first as i64, last as i64)),
+        super::convert::expected_recorded_steps(&metadata_all),
+    );
+    Ok(RecordingInfo {
+        path: path.to_owned(),
+        bytes,
+        library: stream.library().unwrap_or_default().to_string(),
+        tumble: metadata.is_some(),
+        tool_version: get("tool_version"),
+        integrator: get("integrator"),
+        dt: get("dt").and_then(|v| v.parse().ok()),
+        steps: get("steps").and_then(|v| v.parse().ok()),
+        log_every: get("log_every").and_then(|v| v.parse().ok()),
+        duration: if messages > 0 {
+            (last - first) as f64 / 1e9
+        } else {
+            0.0
+        },
+        frames,
+        bodies,
+        topics: topics.into_values().collect(),
+        messages,
+        complete,
+        truncation,
+        summary_agrees: stream.statistics().map(|s| s.message_count == messages),
+        settings: metadata_all
+            .iter()
+            .filter(|(k, _)| !LONG_KEYS.contains(&k.as_str()))
+            .map(|(k, v)| (k.clone(), v.clone()))
+            .collect(),
+        metadata_keys: metadata_all.keys().cloned().collect(),
+    })
+}
+
+/// The human-readable report.
+pub fn text(info: &RecordingInfo) -> String {
+    let mut out = String::new();
+    let status = if info.complete {
+        "complete (summary and footer present)".to_string()
+    } else {
+        "TRUNCATED".to_string()
+    };
+    out.push_str(&format!(
+        "{} ({} bytes, {}): {status}\n",
+        info.path.display(),
+        info.bytes,
+        info.library
+    ));
+    if !info.tumble {
+        out.push_str("not written by tumble (no `tumble` metadata record)\n");
+    }
+    let opt = |v: &Option<String>| v.clone().unwrap_or_else(|| "?".into());
+    out.push_str(&format!(
+        "tool version {}; integrator {}; dt {} s; steps {}; log_every {}\n",
+        opt(&info.tool_version),
+        opt(&info.integrator),
+        info.dt.map_or("?".into(), |v| format!("{v}")),
+        info.steps.map_or("?".into(), |v| v.to_string()),
+        info.log_every.map_or("?".into(), |v| v.to_string()),
+    ));
+    out.push_str(&format!(
+        "recorded span {} s, {} messages\n",
+        info.duration, info.messages
+    ));
+    out.push_str(&format!(
+        "{} frames: {}\n",
+        info.frames.len(),
+        info.frames.join(", ")
+    ));
+    if !info.bodies.is_empty() {
+        out.push_str(&format!("{} bodies:\n", info.bodies.len()));
+        for b in &info.bodies {
+            out.push_str(&format!(
+                "  {:<24} mass {:.6} kg, principal moments [{:.6e}, {:.6e}, {:.6e}] kg m^2 (frame {})\n",
+                b.name,
+                b.mass,
+                b.principal_moments[0],
+                b.principal_moments[1],
+                b.principal_moments[2],
+                b.frame
+            ));
+        }
+    }
+    out.push_str("topics:\n");
+    for t in &info.topics {
+        out.push_str(&format!(
+            "  {:<20} {:<26} {:>8} messages, t = {} .. {} s\n",
+            t.topic, t.schema, t.messages, t.time_start, t.time_end
+        ));
+    }
+    if !info.settings.is_empty() {
+        out.push_str("settings:\n");
+        for (k, v) in &info.settings {
+            out.push_str(&format!("  {k} = {v}\n"));
+        }
+    }
+    match info.summary_agrees {
+        Some(true) => out.push_str("summary statistics agree with the messages read\n"),
+        Some(false) => {
+            out.push_str("WARNING: the summary's message count differs from the messages read\n")
+        }
+        None => {}
+    }
+    out
+}
