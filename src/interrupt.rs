@@ -1,16 +1,18 @@
 //! Ctrl-C (SIGINT) and SIGTERM end long work at a clean boundary instead of killing the process
 //! mid-write; a closed output pipe (SIGPIPE) ends the process quietly, as for any Unix filter.
 //!
-//! [`install`] registers the handlers (signal-hook; this crate itself has no `unsafe`). The
-//! handlers only set an atomic flag; loops poll [`requested`] at their boundaries (the simulation
-//! loop after each step, `tumble dataset` between runs), finish their files and return
+//! Commands that write long recordings or datasets call [`install`] first (`simulate`, `dataset`):
+//! the handlers only set an atomic flag; loops poll [`requested`] at their boundaries (the
+//! simulation loop after each step, `tumble dataset` between runs), finish their files and return
 //! [`Interrupted`], which `main` maps to the shell convention 128 + signal number (130 for SIGINT,
 //! 143 for SIGTERM). A second signal while the first is being handled terminates at once with that
-//! status, so a stuck shutdown can always be forced.
+//! status, so a stuck shutdown can always be forced. Other commands keep the default action (the
+//! process ends at once; their outputs are written under `.part` names and renamed when complete,
+//! so nothing half-written appears under a final name).
 //!
 //! SIGPIPE: Rust ignores it, so `println!` to a closed pipe (`tumble inspect ... | head -1`)
-//! panics. [`install`] restores the default action instead: the process ends silently when its
-//! reader goes away.
+//! panics. [`restore_sigpipe`] (called by `main` for every command) restores the default action
+//! instead: the process ends silently when its reader goes away.
 
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -18,6 +20,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 static FLAG: AtomicBool = AtomicBool::new(false);
 static SIGNAL: AtomicUsize = AtomicUsize::new(0);
 static INSTALLED: OnceLock<Result<(), String>> = OnceLock::new();
+static PIPE: OnceLock<Result<(), String>> = OnceLock::new();
 static ALWAYS: AtomicBool = AtomicBool::new(true);
 
 /// SIGINT's number (2 on every Unix).
@@ -25,8 +28,8 @@ pub const SIGINT: i32 = 2;
 /// SIGTERM's number (15 on every Unix).
 pub const SIGTERM: i32 = 15;
 
-/// Registers the SIGINT/SIGTERM/SIGPIPE handlers once per process; later calls return the first
-/// call's result.
+/// Registers the SIGINT/SIGTERM handlers once per process; later calls return the first call's
+/// result.
 pub fn install() -> anyhow::Result<()> {
     INSTALLED
         .get_or_init(|| register().map_err(|e| e.to_string()))
@@ -34,9 +37,27 @@ pub fn install() -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("cannot install signal handlers: {e}"))
 }
 
+/// Gives SIGPIPE its default action back (once per process).
+pub fn restore_sigpipe() -> anyhow::Result<()> {
+    PIPE.get_or_init(|| register_pipe().map_err(|e| e.to_string()))
+        .clone()
+        .map_err(|e| anyhow::anyhow!("cannot restore SIGPIPE: {e}"))
+}
+
+#[cfg(unix)]
+fn register_pipe() -> std::io::Result<()> {
+    signal_hook::flag::register_conditional_default(signal_hook::consts::SIGPIPE, &ALWAYS)?;
+    Ok(())
+}
+
+#[cfg(not(unix))]
+fn register_pipe() -> std::io::Result<()> {
+    Ok(())
+}
+
 #[cfg(unix)]
 fn register() -> std::io::Result<()> {
-    use signal_hook::consts::{SIGINT as INT, SIGPIPE, SIGTERM as TERM};
+    use signal_hook::consts::{SIGINT as INT, SIGTERM as TERM};
     use signal_hook::flag;
     debug_assert_eq!((INT, TERM), (SIGINT, SIGTERM));
     for (signal, status) in [(INT, 128 + INT), (TERM, 128 + TERM)] {
@@ -46,7 +67,6 @@ fn register() -> std::io::Result<()> {
         // The signal number, for the message and the exit status. The handler only stores.
         flag::register_usize(signal, &SIGNAL, signal as usize)?;
     }
-    flag::register_conditional_default(SIGPIPE, &ALWAYS)?;
     Ok(())
 }
 

@@ -12,7 +12,7 @@ use tumble::commands;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    if let Err(e) = tumble::interrupt::install() {
+    if let Err(e) = tumble::interrupt::restore_sigpipe() {
         eprintln!("warning: {e:#}");
     }
     let result = match &cli.command {

@@ -18,6 +18,10 @@ pub struct RunSettings {
     pub divergence_energy_ratio: f64,
     /// `Some(max_substeps)`: substepping is on, so a Newton failure is final and stops the run.
     pub stop_on_newton_failure: Option<u32>,
+    /// Stop after the current step when SIGINT/SIGTERM arrives ([`crate::interrupt`]): the
+    /// step is recorded and [`RunSummary::interrupted`] set. Off by default ([`Self::new`] and
+    /// `Scene::run_settings`); `simulate` turns it on.
+    pub stop_on_interrupt: bool,
 }
 
 /// What a run did.
@@ -37,6 +41,9 @@ pub struct RunSummary {
     /// Set when the guard stopped the run: `steps` is then the last good step, and the
     /// recordings end at the last recorded step before it.
     pub stopped: Option<Divergence>,
+    /// Set when SIGINT/SIGTERM stopped the run (the signal number; 0 for a request from code):
+    /// `steps` is then the last step done, and it was recorded.
+    pub interrupted: Option<i32>,
 }
 
 /// Simulation time of step `k` in integer nanoseconds. Exact integer arithmetic when `dt_secs`
@@ -147,8 +154,14 @@ pub fn run(
             summary.steps = step - 1;
             return Ok(summary);
         }
-        if step % log_every == 0 || step == settings.steps {
+        let stop = settings.stop_on_interrupt && crate::interrupt::requested();
+        if step % log_every == 0 || step == settings.steps || stop {
             record(&bodies, step, &mut summary)?;
+        }
+        if stop {
+            summary.interrupted = Some(crate::interrupt::signal());
+            summary.steps = step;
+            break;
         }
     }
     summary.energy_final = total_energy(&bodies, &g);

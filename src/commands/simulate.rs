@@ -1,6 +1,8 @@
 //! `tumble simulate [SCENE.toml | MODEL.urdf] [--out STEM]`: runs a scene and writes
 //! `STEM.mcap` and `STEM.rrd`.
 
+use crate::budget::{Estimate, human_bytes, peak_memory_bytes};
+use crate::fsutil::check_not_overwriting;
 use crate::record::Sink;
 use crate::record::mcap::McapSink;
 use crate::record::rerun::{RerunOptions, RerunSink};
@@ -81,6 +83,13 @@ pub struct SimulateArgs {
     /// Leave the inertia ellipsoids out of the .rrd.
     #[arg(long)]
     pub no_ellipsoids: bool,
+    /// Replace STEM.mcap and STEM.rrd if they exist (without it, an existing output is an error).
+    #[arg(long)]
+    pub force: bool,
+    /// Run even when the estimated recordings exceed 64 GiB or the computing time 7 days (the
+    /// estimate is checked before anything runs; see README "Reliability").
+    #[arg(long)]
+    pub allow_huge: bool,
     /// --inertia, --density, --geometry: replace the scene's [mass] values ([[model]] and
     /// per-link keys of a scene still refine them).
     #[command(flatten)]
@@ -227,13 +236,29 @@ pub fn simulate_world(
     let mut integrator = scene
         .integrator()
         .build(scene.sim.dt, &scene.variational_settings());
-    let result = crate::run::run(
-        world,
-        integrator.as_mut(),
-        &scene.run_settings(),
-        &mut sinks,
-    );
+    let settings = crate::run::RunSettings {
+        stop_on_interrupt: true,
+        ..scene.run_settings()
+    };
+    let result = crate::run::run(world, integrator.as_mut(), &settings, &mut sinks);
     let summary = crate::record::finish_all(sinks, result, &[&mcap, &rrd])?;
+    if let Some(signal) = summary.interrupted {
+        return Err(crate::interrupt::Interrupted {
+            signal,
+            what: format!(
+                "simulation stopped after step {} of {} (t = {} s)",
+                summary.steps,
+                settings.steps,
+                crate::run::time_ns(summary.steps, scene.sim.dt) as f64 / 1e9
+            ),
+            finished: format!(
+                "the recordings end at that step and are complete: {} {}",
+                mcap.display(),
+                rrd.display()
+            ),
+        }
+        .into());
+    }
     if let Some(divergence) = summary.stopped {
         return Err(Diverged {
             divergence,
@@ -266,10 +291,21 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         let name = scene.source.file_stem().unwrap_or_default();
         Path::new("logs").join(name)
     });
+    let (mcap, rrd) = (with_extension(&stem, "mcap"), with_extension(&stem, "rrd"));
+    check_not_overwriting(&mcap, args.force)?;
+    check_not_overwriting(&rrd, args.force)?;
     let world = scene.build()?;
+    Estimate::run(
+        world.bodies.len() as f64,
+        world.layout.frames.len() as f64,
+        scene.steps() as f64,
+        Some(scene.sim.log_every as f64),
+    )
+    .check(args.allow_huge)?;
     if let Some(warning) = step_warning(&scene, &world) {
         eprintln!("{warning}");
     }
+    crate::interrupt::install()?;
     let started = std::time::Instant::now();
     let out = simulate_world(
         &scene,
@@ -311,6 +347,9 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
              (substepping is off); reduce dt, raise the cap, or leave sim.substep on",
             s.stats.newton_failures
         );
+    }
+    if let Some(peak) = peak_memory_bytes() {
+        println!("peak memory (VmHWM) {}", human_bytes(peak as f64));
     }
     println!("wrote {} frames to", s.frames_recorded);
     println!("  {}", out.mcap.display());

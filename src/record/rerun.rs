@@ -57,18 +57,19 @@
 //!
 //! # Reproducibility
 //!
-//! Same layout and frames give the same recording: equal chunks, row ids, times and values
-//! (`rerun rrd print -vvv` prints the same). The bytes are not guaranteed equal: Rerun's Arrow
-//! IPC encoding is not canonical. Plain `RecordingStream::save` cannot: every
-//! row and chunk carries a Rerun TUID (wall-clock nanoseconds plus a random per-thread counter),
-//! the `SetStoreInfo` message has one too, the properties chunk holds `Timestamp::now()`, and
-//! rows logged with `log` are grouped into chunks by a timer. So this module (1) sends every
-//! chunk itself, never row by row, (2) records the name but no start time in the properties, and
+//! Same layout and frames give the same bytes (tested across runs and processes). Plain
+//! `RecordingStream::save` cannot: every row and chunk carries a Rerun TUID (wall-clock
+//! nanoseconds plus a random per-thread counter), the `SetStoreInfo` message has one too, the
+//! properties chunk holds `Timestamp::now()`, rows logged with `log` are grouped into chunks by a
+//! timer, and the RRD footer lists its columns in hash-map order. So this module (1) sends every
+//! chunk itself, never row by row, (2) records the name but no start time in the properties,
 //! (3) writes through its own [`LogSink`] that renumbers TUIDs with a counter (time part 0,
-//! increasing in send order, so Rerun's ordering semantics are kept) before encoding. The
-//! recording id is the layout name plus a hash of the name and metadata: the same inputs give
-//! the same id, different scenes or settings do not get merged by the viewer.
+//! increasing in send order, so Rerun's ordering semantics are kept) before encoding, and (4)
+//! rewrites the footer with its columns sorted ([`super::rrd_footer`]). The recording id is the
+//! layout name plus a hash of the name and metadata: the same inputs give the same id, different
+//! scenes or settings do not get merged by the viewer.
 
+use super::rrd_footer::{FooterHold, FooterWriter};
 use super::{BodyLayout, Frame, FrameLayout, RecordingLayout, Sink};
 use crate::fsutil::part_path;
 use crate::model::{Geometry, Visual};
@@ -83,7 +84,6 @@ use rerun::{
 };
 use std::collections::BTreeSet;
 use std::fs::File;
-use std::io::{BufWriter, Write as _};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
@@ -220,7 +220,7 @@ fn color(rgba: Option<[f32; 4]>) -> rerun::Rgba32 {
 /// Where the encoded stream goes; shared between the [`RerunSink`] and the [`RrdFileSink`] that
 /// the recording stream's forwarding thread owns.
 struct FileState {
-    encoder: Option<Encoder<BufWriter<File>>>,
+    encoder: Option<Encoder<FooterWriter>>,
     /// Last TUID handed out (counter part; the time part is 0).
     last_id: u64,
     /// First error met by the forwarding thread (it cannot return errors).
@@ -379,6 +379,8 @@ pub struct RerunSink {
     buffer: Buffer,
     last_time_ns: Option<i64>,
     warnings: Vec<String>,
+    /// Holds the encoder's footer back for [`super::rrd_footer`].
+    footer_hold: FooterHold,
     /// Entities of [`RerunSink::write_series`] whose series names were sent.
     series_named: BTreeSet<EntityPath>,
     done: bool,
@@ -397,10 +399,11 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
     let part_path = part_path(path);
     let file = File::create(&part_path)
         .with_context(|| format!("cannot create {}", part_path.display()))?;
+    let (footer_writer, footer_hold) = FooterWriter::new(file);
     let encoder = Encoder::new_eager(
         CrateVersion::LOCAL,
         EncodingOptions::PROTOBUF_COMPRESSED,
-        BufWriter::new(file),
+        footer_writer,
     );
     let state = Arc::new(Mutex::new(FileState {
         encoder: None,
@@ -418,6 +421,7 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         buffer: Buffer::new(layout.frames.len(), layout.bodies.len()),
         last_time_ns: None,
         warnings: Vec::new(),
+        footer_hold,
         series_named: BTreeSet::new(),
         done: false,
     };
@@ -833,12 +837,15 @@ impl RerunSink {
             state.encoder.take().context("the .rrd encoder is gone")?
         };
         let mut encoder = encoder;
+        encoder.flush_blocking()?;
+        self.footer_hold.hold();
         encoder
             .finish()
             .with_context(|| format!("writing the footer of {}", self.part_path.display()))?;
-        let mut writer = encoder.into_inner()?;
-        writer.flush()?;
-        let file = writer.into_inner().map_err(|err| err.into_error())?;
+        let file = encoder
+            .into_inner()?
+            .finish()
+            .with_context(|| format!("writing the footer of {}", self.part_path.display()))?;
         file.sync_all()
             .with_context(|| format!("syncing {}", self.part_path.display()))?;
         drop(file);
