@@ -256,6 +256,10 @@ fn convert_replays_with_the_entities_of_a_fresh_run() {
     let (fresh, converted) = (print("arm.rrd"), print("conv.rrd"));
     assert!(fresh.contains("world_from_link") && fresh.len() > 10_000);
     assert_eq!(fresh, converted);
+    // And byte for byte (recordings are reproducible, README "Reliability").
+    assert!(
+        std::fs::read(d.join("arm.rrd")).unwrap() == std::fs::read(d.join("conv.rrd")).unwrap()
+    );
     // An existing output is not replaced without --force.
     let before = std::fs::read(d.join("conv.rrd")).unwrap();
     let again = tumble(&["convert", mcap.to_str().unwrap(), "--rrd", "conv.rrd"], d);

@@ -25,6 +25,9 @@ pub struct BenchArgs {
     /// Timed runs; the median is printed last.
     #[arg(long, default_value_t = 5)]
     pub repeats: usize,
+    /// Run even when the estimated computing time exceeds 7 days (memory is always checked).
+    #[arg(long)]
+    pub allow_huge: bool,
 }
 
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
@@ -45,6 +48,13 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
             args.dt
         );
     }
+    crate::budget::Estimate::run(
+        args.bodies as f64,
+        0.0,
+        args.steps as f64 * args.repeats as f64,
+        None,
+    )
+    .check(args.allow_huge)?;
     let start = Bodies::new(&free_body_batch(args.bodies));
     let gravity = Vector3::new(0.0, 0.0, -9.81);
     let settings = Default::default();

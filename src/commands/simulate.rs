@@ -225,7 +225,8 @@ pub fn simulate_world(
     rerun_options: &RerunOptions,
 ) -> anyhow::Result<Outputs> {
     if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create the output folder {}", dir.display()))?;
     }
     let mcap = with_extension(stem, "mcap");
     let rrd = with_extension(stem, "rrd");

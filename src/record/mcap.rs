@@ -372,21 +372,29 @@ impl Sink for McapSink {
         Ok(())
     }
 
-    fn finish(mut self: Box<Self>) -> anyhow::Result<()> {
+    fn finish(self: Box<Self>) -> anyhow::Result<()> {
+        let (part, path) = (self.part.clone(), self.path.clone());
+        self.complete()?;
+        std::fs::rename(&part, &path)
+            .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))
+    }
+
+    fn path(&self) -> Option<PathBuf> {
+        Some(self.path.clone())
+    }
+
+    fn complete(mut self: Box<Self>) -> anyhow::Result<()> {
         self.writer
             .finish()
             .with_context(|| format!("cannot finish {}", self.part.display()))?;
-        let McapSink {
-            writer, part, path, ..
-        } = *self;
+        let McapSink { writer, part, .. } = *self;
         let file = writer
             .into_inner()
             .into_inner()
-            .map_err(|e| e.into_error())?;
-        file.sync_all().ok();
-        drop(file);
-        std::fs::rename(&part, &path)
-            .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))?;
+            .map_err(|e| e.into_error())
+            .with_context(|| format!("cannot write {}", part.display()))?;
+        file.sync_all()
+            .with_context(|| format!("cannot sync {}", part.display()))?;
         Ok(())
     }
 }

@@ -132,37 +132,73 @@ pub struct Frame<'a> {
     pub bodies: &'a [BodyState],
 }
 
-/// Ends a recording run: after `result` is `Ok`, finishes every sink (each renames its
-/// `<path>.part` onto `path`); after an error, finishes none and removes the `.part` files of
-/// `outputs`, so nothing half-written appears under a final name.
+/// Ends a recording run. After `result` is `Ok`, completes every sink under its `<path>.part`
+/// name first and renames them onto their final names only when all of them completed, so a run
+/// publishes all its files or none (a full disk while finishing the second file does not leave
+/// the first one behind as if the run had succeeded). After an error, or when completing one
+/// fails, no sink is published and the `.part` files of `outputs` are removed: nothing
+/// half-written ever appears under a final name.
 pub fn finish_all<T>(
     sinks: Vec<Box<dyn Sink>>,
     result: anyhow::Result<T>,
     outputs: &[&std::path::Path],
 ) -> anyhow::Result<T> {
-    match result {
-        Ok(value) => {
-            for sink in sinks {
-                sink.finish()?;
-            }
-            Ok(value)
+    let discard = |paths: &[&std::path::Path]| {
+        for path in paths {
+            std::fs::remove_file(crate::fsutil::part_path(path)).ok();
         }
+    };
+    let value = match result {
+        Ok(value) => value,
         Err(e) => {
             drop(sinks);
-            for path in outputs {
+            discard(outputs);
+            return Err(e);
+        }
+    };
+    let mut completed = Vec::new();
+    for sink in sinks {
+        let outcome = match sink.path() {
+            Some(path) => sink.complete().map(|()| completed.push(path)),
+            None => sink.finish(),
+        };
+        if let Err(e) = outcome {
+            discard(outputs);
+            for path in &completed {
                 std::fs::remove_file(crate::fsutil::part_path(path)).ok();
             }
-            Err(e)
+            return Err(e);
         }
     }
+    for path in &completed {
+        let part = crate::fsutil::part_path(path);
+        std::fs::rename(&part, path).map_err(|e| {
+            anyhow::anyhow!(
+                "cannot rename {} to {}: {e}",
+                part.display(),
+                path.display()
+            )
+        })?;
+    }
+    Ok(value)
 }
 
 /// A recording being written.
 pub trait Sink {
     /// Record one step. Frames arrive in increasing time.
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()>;
-    /// Flush everything and close the file so that readers see a complete recording.
+    /// Flush everything and close the file so that readers see a complete recording under its
+    /// final name.
     fn finish(self: Box<Self>) -> anyhow::Result<()>;
+    /// The file's final name, for sinks that write one under `<path>.part` (then
+    /// [`finish_all`] uses [`Sink::complete`] and renames itself).
+    fn path(&self) -> Option<std::path::PathBuf> {
+        None
+    }
+    /// Like [`Sink::finish`], but leaves the complete file under `<path>.part`.
+    fn complete(self: Box<Self>) -> anyhow::Result<()> {
+        self.finish()
+    }
 }
 
 #[cfg(test)]

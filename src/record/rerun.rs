@@ -49,8 +49,9 @@
 //!
 //! # Writing
 //!
-//! Time-varying data is buffered and sent by columns (`send_columns`) every
-//! [`BATCH_FRAMES`] frames and on [`Sink::finish`], so memory stays bounded. The file is written
+//! Time-varying data is buffered and sent by columns (`send_columns`) every [`batch_frames`]
+//! frames (about [`BATCH_BYTES`] of columns) and on [`Sink::finish`]; after each batch the sink waits until Rerun's
+//! forwarding thread has encoded it, so memory stays bounded however fast frames arrive. The file is written
 //! as `<path>.part` and renamed onto `<path>` by [`Sink::finish`] after the footer is written and
 //! the file synced; on error, or when the sink is dropped unfinished, `<path>.part` is removed
 //! and nothing appears under `<path>`.
@@ -94,8 +95,21 @@ pub const SIM_TIME_TIMELINE: &str = "sim_time";
 pub const STEP_TIMELINE: &str = "step";
 /// The parent frame of every link frame.
 pub const WORLD_FRAME: &str = "world";
-/// Frames buffered before a batch of columns is sent.
-pub const BATCH_FRAMES: usize = 1000;
+/// Bytes of columns buffered before a batch is sent (see [`batch_frames`]).
+pub const BATCH_BYTES: usize = 1 << 20;
+/// Fewest and most frames per batch.
+pub const BATCH_FRAMES_MIN: usize = 256;
+pub const BATCH_FRAMES_MAX: usize = 65_536;
+
+/// Frames per batch for a layout: about [`BATCH_BYTES`] of buffered columns (per frame: 28 bytes
+/// of f32 pose per link, 32 of f64 plots per body, 16 of times), within [`BATCH_FRAMES_MIN`] ..
+/// [`BATCH_FRAMES_MAX`]. Every batch becomes one Rerun chunk per entity, and Rerun's footer keeps
+/// a manifest row per chunk, so large batches keep long recordings' footers (and the memory
+/// that builds them) small, while the byte bound keeps the buffer small for many bodies.
+pub fn batch_frames(frames: usize, bodies: usize) -> usize {
+    let row_bytes = 16 + 28 * frames + 32 * bodies + 24;
+    (BATCH_BYTES / row_bytes).clamp(BATCH_FRAMES_MIN, BATCH_FRAMES_MAX)
+}
 /// Series names of the energy plots, in the order of the values.
 pub const ENERGY_SERIES: [&str; 3] = ["kinetic", "potential", "total"];
 
@@ -197,14 +211,26 @@ fn recording_id(layout: &RecordingLayout) -> String {
     format!("{}-{hash:016x}", application_id(&layout.name))
 }
 
+/// `x` as f32 with a negative zero made positive. A zero's sign carries no meaning here, and
+/// MCAP's protobuf drops it (proto3 omits a field equal to its default, and `-0.0 == 0.0`), so
+/// without this a recording replayed from MCAP would differ in a bit.
+fn f32c(x: f64) -> f32 {
+    x as f32 + 0.0
+}
+
+/// `x` with a negative zero made positive (see [`f32c`]).
+fn f64c(x: f64) -> f64 {
+    x + 0.0
+}
+
 fn f32x3(v: &nalgebra::Vector3<f64>) -> [f32; 3] {
-    [v.x as f32, v.y as f32, v.z as f32]
+    [f32c(v.x), f32c(v.y), f32c(v.z)]
 }
 
 /// Quaternion as `[x, y, z, w]` in f32.
 fn quat_xyzw(iso: &Isometry3<f64>) -> [f32; 4] {
     let q = iso.rotation.quaternion();
-    [q.i as f32, q.j as f32, q.k as f32, q.w as f32]
+    [f32c(q.i), f32c(q.j), f32c(q.k), f32c(q.w)]
 }
 
 fn color(rgba: Option<[f32; 4]>) -> rerun::Rgba32 {
@@ -377,6 +403,8 @@ pub struct RerunSink {
     frames: Vec<FrameTrack>,
     bodies: Vec<BodyTrack>,
     buffer: Buffer,
+    /// [`batch_frames`] of the layout.
+    batch_frames: usize,
     last_time_ns: Option<i64>,
     warnings: Vec<String>,
     /// Holds the encoder's footer back for [`super::rrd_footer`].
@@ -419,6 +447,7 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         frames: Vec::new(),
         bodies: Vec::new(),
         buffer: Buffer::new(layout.frames.len(), layout.bodies.len()),
+        batch_frames: batch_frames(layout.frames.len(), layout.bodies.len()),
         last_time_ns: None,
         warnings: Vec::new(),
         footer_hold,
@@ -773,6 +802,10 @@ impl RerunSink {
                     .columns(std::iter::repeat_n(3, n))?,
             )?;
         }
+        // Wait until the stream's forwarding thread has encoded what was sent: a producer faster
+        // than the encoder would otherwise queue chunks without bound.
+        rec.flush_blocking()
+            .with_context(|| format!("writing {}", self.part_path.display()))?;
         self.buffer.clear();
         self.check_sink()
     }
@@ -821,7 +854,7 @@ impl RerunSink {
         self.check_sink()
     }
 
-    /// Flushes, closes the stream, writes the footer, syncs and renames `<path>.part` to `<path>`.
+    /// Flushes, closes the stream, writes the footer and syncs `<path>.part` (a complete file).
     fn close(&mut self) -> Result<()> {
         self.flush_buffer()?;
         let rec = self.rec.take().context("the Rerun recording is closed")?;
@@ -849,15 +882,20 @@ impl RerunSink {
         file.sync_all()
             .with_context(|| format!("syncing {}", self.part_path.display()))?;
         drop(file);
+        self.done = true;
+        Ok(())
+    }
+
+    /// [`Self::close`], then renames `<path>.part` onto `<path>`.
+    fn close_and_rename(&mut self) -> Result<()> {
+        self.close()?;
         std::fs::rename(&self.part_path, &self.final_path).with_context(|| {
             format!(
                 "renaming {} to {}",
                 self.part_path.display(),
                 self.final_path.display()
             )
-        })?;
-        self.done = true;
-        Ok(())
+        })
     }
 }
 
@@ -895,21 +933,33 @@ impl Sink for RerunSink {
         let (mut kinetic, mut potential) = (0.0, 0.0);
         for (i, body) in frame.bodies.iter().enumerate() {
             let total = body.kinetic_energy + body.potential_energy;
-            buffer.energy[i].extend([body.kinetic_energy, body.potential_energy, total]);
-            buffer.angular_momentum[i].push(body.angmom_world.norm());
+            buffer.energy[i].extend([
+                f64c(body.kinetic_energy),
+                f64c(body.potential_energy),
+                f64c(total),
+            ]);
+            buffer.angular_momentum[i].push(f64c(body.angmom_world.norm()));
             kinetic += body.kinetic_energy;
             potential += body.potential_energy;
         }
         buffer
             .scene_energy
             .extend([kinetic, potential, kinetic + potential]);
-        if buffer.len() >= BATCH_FRAMES {
+        if buffer.len() >= self.batch_frames {
             self.flush_buffer()?;
         }
         Ok(())
     }
 
     fn finish(mut self: Box<Self>) -> Result<()> {
+        self.close_and_rename()
+    }
+
+    fn path(&self) -> Option<PathBuf> {
+        Some(self.final_path.clone())
+    }
+
+    fn complete(mut self: Box<Self>) -> Result<()> {
         self.close()
     }
 }
