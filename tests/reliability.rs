@@ -104,7 +104,7 @@ fn interrupt_with(signal: &str, code: i32) {
     );
     assert_eq!(
         frames.len() as u64,
-        step / 1000 + 1 + u64::from(step % 1000 != 0)
+        step / 1000 + 1 + u64::from(!step.is_multiple_of(1000))
     );
 
     // The .rrd is complete too: Rerun verifies it and has the same last time.
