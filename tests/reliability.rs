@@ -379,3 +379,53 @@ fn peak_memory_does_not_grow_with_the_length_of_a_run() {
     let long = peak("10"); // 1e7 body-steps, 1e6 recorded (297 MB written); measured 21.7 MiB
     assert!(long < short + 8.0, "{short} MiB -> {long} MiB");
 }
+
+/// A reader that goes away (`tumble inspect big.urdf | head -1`) ends tumble quietly through
+/// SIGPIPE's default action, as for any Unix filter: no panic message from `println!`.
+#[test]
+fn a_closed_output_pipe_ends_quietly() {
+    use std::io::Read as _;
+    use std::os::unix::process::ExitStatusExt as _;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // 3000 links: about 1 MB of report, far more than a pipe buffer (64 KiB).
+    let mut urdf = String::from("<robot name=\"chain\">\n");
+    for i in 0..3000 {
+        urdf.push_str(&format!(
+            "<link name=\"l{i}\"><inertial><mass value=\"1\"/>\
+             <inertia ixx=\"1\" iyy=\"1\" izz=\"1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n"
+        ));
+        if i > 0 {
+            urdf.push_str(&format!(
+                "<joint name=\"j{i}\" type=\"fixed\"><parent link=\"l{}\"/><child link=\"l{i}\"/></joint>\n",
+                i - 1
+            ));
+        }
+    }
+    urdf.push_str("</robot>\n");
+    std::fs::write(d.join("chain.urdf"), urdf).unwrap();
+    let mut child = Command::new(exe())
+        .args(["inspect", "chain.urdf"])
+        .current_dir(d)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = [0u8; 16];
+    child
+        .stdout
+        .as_mut()
+        .unwrap()
+        .read_exact(&mut first)
+        .unwrap();
+    drop(child.stdout.take()); // the reader goes away
+    let out = child.wait_with_output().unwrap();
+    let err = text(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(
+        out.status.signal(),
+        Some(13),
+        "ended by SIGPIPE: {:?} {err}",
+        out.status
+    );
+}
