@@ -160,6 +160,29 @@ fn existing_outputs_are_not_replaced_without_force() {
     assert!(tumble(&forced, d).status.success());
     assert_ne!(std::fs::read(d.join("run.rrd")).unwrap(), b"keep me");
     assert_eq!(listing(d), ["run.mcap", "run.rrd"]);
+    // The same for trade's output folder and the stability map.
+    for args in [
+        vec![
+            "trade",
+            "--out",
+            "t",
+            "--dt",
+            "0.01",
+            "--repeats",
+            "1",
+            "--drift-horizon",
+            "10",
+        ],
+        vec!["stability", "--quick", "--integrators", "rk4", "--out", "s"],
+    ] {
+        assert!(tumble(&args, d).status.success(), "{args:?}");
+        let again = tumble(&args, d);
+        assert_eq!(again.status.code(), Some(2), "{args:?}");
+        assert!(text(&again.stderr).contains("--force"));
+        let mut forced = args.clone();
+        forced.push("--force");
+        assert!(tumble(&forced, d).status.success(), "{forced:?}");
+    }
 }
 
 /// A file-size limit (RLIMIT_FSIZE, the unprivileged stand-in for a full disk: writes past it

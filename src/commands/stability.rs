@@ -22,10 +22,17 @@ pub struct StabilityArgs {
     /// indicative only (the documented ones come from the full map).
     #[arg(long)]
     pub quick: bool,
+    /// Replace stability.csv and stability.png if they exist.
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(args: &StabilityArgs) -> anyhow::Result<()> {
     let kinds = parse_integrators(&args.integrators)?;
+    let csv = args.out.join("stability.csv");
+    let png = args.out.join("stability.png");
+    crate::fsutil::check_not_overwriting(&csv, args.force)?;
+    crate::fsutil::check_not_overwriting(&png, args.force)?;
     let grid = if args.quick {
         Grid::quick()
     } else {
@@ -57,8 +64,6 @@ pub fn run(args: &StabilityArgs) -> anyhow::Result<()> {
              the documented ones come from the full map)"
         );
     }
-    let csv = args.out.join("stability.csv");
-    let png = args.out.join("stability.png");
     write_atomic(&csv, stability::output::csv(&rows).as_bytes())?;
     stability::plot::heat_map(&png, &grid, &rows, &kinds)?;
     println!("wrote");

@@ -36,6 +36,9 @@ pub struct TradeArgs {
     /// Timed repeats per integrator and step size; the median is reported.
     #[arg(long, default_value_t = 5)]
     pub repeats: usize,
+    /// Replace the output files if they exist (without it, an existing output is an error).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// `path` if present, else its copy in the source tree the binary was built from.
@@ -102,8 +105,23 @@ pub fn settings_from_args(args: &TradeArgs) -> anyhow::Result<(Scene, TradeSetti
     ))
 }
 
+/// The files `tumble trade` writes into its output folder.
+pub const OUTPUT_FILES: [&str; 8] = [
+    "trade.csv",
+    "trade.json",
+    "work_precision.png",
+    "work_precision.svg",
+    "energy.png",
+    "energy.svg",
+    "trade.rrd",
+    "trade.mcap",
+];
+
 pub fn run(args: &TradeArgs) -> anyhow::Result<()> {
     let (scene, settings) = settings_from_args(args)?;
+    for name in OUTPUT_FILES {
+        crate::fsutil::check_not_overwriting(&args.out.join(name), args.force)?;
+    }
     std::fs::create_dir_all(&args.out)
         .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", args.out.display()))?;
     println!(
@@ -167,16 +185,7 @@ pub fn run(args: &TradeArgs) -> anyhow::Result<()> {
         );
     }
     println!("wrote");
-    for name in [
-        "trade.csv",
-        "trade.json",
-        "work_precision.png",
-        "work_precision.svg",
-        "energy.png",
-        "energy.svg",
-        "trade.rrd",
-        "trade.mcap",
-    ] {
+    for name in OUTPUT_FILES {
         println!("  {}", file(name).display());
     }
     println!(
