@@ -7,6 +7,7 @@
 pub mod cli;
 pub mod commands;
 pub mod fsutil;
+pub mod input;
 pub mod interrupt;
 pub mod model;
 pub mod record;
