@@ -125,6 +125,82 @@ pub fn read_text(path: &Path, cap: u64) -> std::io::Result<String> {
     })
 }
 
+/// Deepest element nesting accepted in an XML file (URDF, Collada). Real files nest a few
+/// levels (URDF) to a few dozen (Collada node hierarchies); the XML readers recurse per level
+/// (urdf-rs's XML tree overflows the 8 MB main stack near 20 000 levels), so deeper files are
+/// refused before any of them parses them.
+pub const MAX_XML_DEPTH: usize = 1000;
+
+/// Checks that `xml` nests elements at most [`MAX_XML_DEPTH`] deep, with a scan of the text
+/// alone (no tree is built): start tags open a level, end tags and `/>` close one; comments,
+/// CDATA sections, processing instructions, `<!DOCTYPE ...>` and quoted attribute values are
+/// skipped. Malformed text is left for the XML parser to report; only the depth is judged here.
+pub fn check_xml_depth(xml: &str) -> Result<(), String> {
+    let b = xml.as_bytes();
+    let find = |from: usize, pat: &[u8]| -> usize {
+        b[from.min(b.len())..]
+            .windows(pat.len())
+            .position(|w| w == pat)
+            .map_or(b.len(), |p| from + p + pat.len())
+    };
+    let (mut i, mut depth) = (0usize, 0usize);
+    while i < b.len() {
+        if b[i] != b'<' {
+            i += 1;
+            continue;
+        }
+        let rest = &b[i..];
+        if rest.starts_with(b"<!--") {
+            i = find(i + 4, b"-->");
+        } else if rest.starts_with(b"<![CDATA[") {
+            i = find(i + 9, b"]]>");
+        } else if rest.starts_with(b"<?") {
+            i = find(i + 2, b"?>");
+        } else if rest.starts_with(b"<!") {
+            // `<!DOCTYPE name [ ... ]>`: skip to the `>` after any internal subset.
+            let mut j = i + 2;
+            let mut bracket = 0usize;
+            while j < b.len() && !(b[j] == b'>' && bracket == 0) {
+                match b[j] {
+                    b'[' => bracket += 1,
+                    b']' => bracket = bracket.saturating_sub(1),
+                    _ => {}
+                }
+                j += 1;
+            }
+            i = j + 1;
+        } else if rest.starts_with(b"</") {
+            depth = depth.saturating_sub(1);
+            i = find(i + 2, b">");
+        } else {
+            // A start tag: to its `>` outside quotes; `/>` closes it at once.
+            let mut j = i + 1;
+            let mut quote = None;
+            while j < b.len() {
+                match (quote, b[j]) {
+                    (None, b'"' | b'\'') => quote = Some(b[j]),
+                    (Some(q), c) if c == q => quote = None,
+                    (None, b'>') => break,
+                    _ => {}
+                }
+                j += 1;
+            }
+            if b.get(j.wrapping_sub(1)) != Some(&b'/') {
+                depth += 1;
+                if depth > MAX_XML_DEPTH {
+                    return Err(format!(
+                        "elements nested more than {MAX_XML_DEPTH} deep (line {}); real files \
+                         nest a few dozen at most",
+                        1 + b[..i].iter().filter(|&&c| c == b'\n').count()
+                    ));
+                }
+            }
+            i = j + 1;
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -140,6 +216,22 @@ mod tests {
             assert!(e.to_string().contains(kind), "{path}: {e}");
             assert!(e.to_string().contains("only regular files"), "{path}: {e}");
         }
+    }
+
+    #[test]
+    fn xml_depth() {
+        let nested = |d: usize| format!("{}{}", "<a x='>'>".repeat(d), "</a>".repeat(d));
+        assert!(check_xml_depth(&nested(MAX_XML_DEPTH)).is_ok());
+        let e = check_xml_depth(&nested(MAX_XML_DEPTH + 1)).unwrap_err();
+        assert!(e.contains("nested more than 1000 deep (line 1)"), "{e}");
+        // Self-closing tags, comments, CDATA and DOCTYPE open nothing.
+        let flat = format!(
+            "<?xml version='1.0'?><!DOCTYPE r [<!ENTITY e 'x'>]><r>{}</r>",
+            "<b/><!-- <c> --><![CDATA[<d>]]>".repeat(5000)
+        );
+        assert!(check_xml_depth(&flat).is_ok());
+        // Malformed text is the XML parser's to report, not the scan's.
+        assert!(check_xml_depth("<<<<'").is_ok());
     }
 
     #[test]

@@ -104,6 +104,12 @@ pub fn resolve_detailed(
     Err(unreadable.unwrap_or(Unresolved::NotFound))
 }
 
+/// What is wrong with `uri` from its form alone, without looking at any file: malformed, or a
+/// `package://` path climbing out of its package. `None` when the form is fine.
+pub fn uri_problem(uri: &str) -> Option<Unresolved> {
+    checked_candidates(uri, Path::new(""), &[], &[]).err()
+}
+
 /// Every path [`resolve_with`] would try, in order (existing or not). Useful to explain a miss.
 /// Empty for a malformed URI or a package path escaping its package.
 pub fn candidates(

@@ -148,6 +148,10 @@ pub fn load_str_at(
     joint_positions: &HashMap<String, f64>,
 ) -> Result<Model, ModelError> {
     let file = || path.to_path_buf();
+    crate::input::check_xml_depth(xml).map_err(|message| ModelError::Xml {
+        path: file(),
+        message,
+    })?;
     let options = roxmltree::ParsingOptions {
         allow_dtd: true,
         ..Default::default()
@@ -462,9 +466,15 @@ fn geometry(
                 package_paths,
                 &package::ros_package_path(),
             )
-            .map_err(|why| {
+            .or_else(|why| {
                 let sep = if why == package::Unresolved::NotFound { " " } else { ": " };
                 problems.push(format!("{label}: mesh `{filename}`{sep}{why}"));
+                // A file that exists but must not be read (a device, a FIFO, over the size
+                // cap) is kept, so that whoever reads it says why it cannot (`crate::input`).
+                match why {
+                    package::Unresolved::NotReadable { path, .. } => Ok(path),
+                    _ => Err(()),
+                }
             })
             .ok();
             Geometry::Mesh {

@@ -661,6 +661,13 @@ impl RerunSink {
                     ));
                     return Ok(());
                 };
+                if let Err(err) = crate::input::check(path, crate::input::MESH_MAX_BYTES) {
+                    self.warn(format!(
+                        "{entity}: cannot read mesh {}: {err}, left out of the Rerun recording",
+                        path.display()
+                    ));
+                    return Ok(());
+                }
                 let ext = path
                     .extension()
                     .and_then(|e| e.to_str())
