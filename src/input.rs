@@ -53,7 +53,7 @@ fn describe(file_type: &std::fs::FileType) -> &'static str {
 
 /// `cap` in words: whole MiB when it is some, else bytes.
 fn describe_cap(cap: u64) -> String {
-    if cap >= 1 << 20 && cap % (1 << 20) == 0 {
+    if cap >= 1 << 20 && cap.is_multiple_of(1 << 20) {
         format!("{} MiB", cap >> 20)
     } else {
         format!("{cap} bytes")
@@ -241,7 +241,10 @@ mod tests {
         std::fs::write(&path, "0123456789").unwrap();
         assert_eq!(read_text(&path, 10).unwrap(), "0123456789");
         let e = read_bytes(&path, 9).unwrap_err();
-        assert!(e.to_string().contains("10 bytes, over the 9 bytes limit"), "{e}");
+        assert!(
+            e.to_string().contains("10 bytes, over the 9 bytes limit"),
+            "{e}"
+        );
         std::fs::write(&path, b"ab\xffcd").unwrap();
         let e = read_text(&path, 10).unwrap_err();
         assert!(e.to_string().contains("not UTF-8 text"), "{e}");

@@ -456,12 +456,14 @@ fn mesh_target(
     hostile: Vec<Vec<u8>>,
     read: impl Fn(&[u8]) -> Result<TriangleMesh, String>,
 ) {
-    fuzz(target, mutated(valid, hostile), |bytes| match read(&bytes) {
-        Ok(mesh) => {
-            exercise_mesh(&mesh);
-            Ok(Outcome::Accepted)
+    fuzz(target, mutated(valid, hostile), |bytes| {
+        match read(&bytes) {
+            Ok(mesh) => {
+                exercise_mesh(&mesh);
+                Ok(Outcome::Accepted)
+            }
+            Err(e) => nonempty(target, e),
         }
-        Err(e) => nonempty(target, e),
     });
 }
 
@@ -531,10 +533,7 @@ fn mutations_edit_what_they_say() {
     assert_eq!(value, b"<a x=\"nan\">\n<b y=\"2\"/>\n</a>\n");
     let cut = apply(seed, &[Mutation::Truncate(Index::at(0.0))]);
     assert!(cut.is_empty());
-    let deleted = apply(
-        seed,
-        &[Mutation::Delete(Index::at(0.0), Index::at(0.99))],
-    );
+    let deleted = apply(seed, &[Mutation::Delete(Index::at(0.0), Index::at(0.99))]);
     assert!(deleted.len() < seed.len());
     let duplicated = apply(
         seed,

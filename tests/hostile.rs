@@ -393,12 +393,7 @@ fn deeply_nested_xml_is_refused_without_a_crash() {
     write(&tmp.path().join("deep.dae"), &dae);
     let holder = mesh_urdf(tmp.path(), &tmp.path().join("deep.dae"));
     let run = run_with_limit(
-        &args(&[
-            "inspect",
-            holder.to_str().unwrap(),
-            "--inertia",
-            "geometry",
-        ]),
+        &args(&["inspect", holder.to_str().unwrap(), "--inertia", "geometry"]),
         tmp.path(),
     );
     assert_no_panic("deep dae", &run);
@@ -459,12 +454,7 @@ fn fifos_are_refused_not_waited_on() {
     );
     let holder = mesh_urdf(tmp.path(), &tmp.path().join("pipe.stl"));
     let run = run_with_limit(
-        &args(&[
-            "inspect",
-            holder.to_str().unwrap(),
-            "--inertia",
-            "geometry",
-        ]),
+        &args(&["inspect", holder.to_str().unwrap(), "--inertia", "geometry"]),
         tmp.path(),
     );
     assert_no_panic("fifo mesh", &run);
@@ -562,7 +552,13 @@ fn relative_parent_paths_inside_a_package_still_resolve() {
             ),
         );
         let run = run_with_limit(
-            &args(&["inspect", "urdf/robot.urdf", "--inertia", "geometry", "--json"]),
+            &args(&[
+                "inspect",
+                "urdf/robot.urdf",
+                "--inertia",
+                "geometry",
+                "--json",
+            ]),
             &pkg,
         );
         assert_eq!(run.status, Some(0), "{uri}: {}", run.stderr);

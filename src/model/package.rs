@@ -271,10 +271,7 @@ mod tests {
         let urdf = Path::new("/nonexistent/robot.urdf");
         for uri in ["/dev/zero", "file:///dev/urandom", "/"] {
             let e = resolve_detailed(uri, urdf, &[], &[]).unwrap_err();
-            assert!(
-                e.to_string().contains("not a regular file"),
-                "{uri}: {e}"
-            );
+            assert!(e.to_string().contains("not a regular file"), "{uri}: {e}");
         }
     }
 

@@ -183,7 +183,11 @@ pub fn load_str_at(
         path: file(),
         location: locate_parse_problem(&doc),
         // urdf-rs's messages may span lines (serde-xml-rs token dumps): one line here.
-        message: e.to_string().split_whitespace().collect::<Vec<_>>().join(" "),
+        message: e
+            .to_string()
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" "),
     })?;
 
     if robot.links.is_empty() {
@@ -467,7 +471,11 @@ fn geometry(
                 &package::ros_package_path(),
             )
             .or_else(|why| {
-                let sep = if why == package::Unresolved::NotFound { " " } else { ": " };
+                let sep = if why == package::Unresolved::NotFound {
+                    " "
+                } else {
+                    ": "
+                };
                 problems.push(format!("{label}: mesh `{filename}`{sep}{why}"));
                 // A file that exists but must not be read (a device, a FIFO, over the size
                 // cap) is kept, so that whoever reads it says why it cannot (`crate::input`).

@@ -681,7 +681,10 @@ impl RerunSink {
                 }
                 // Bounded, regular files only (`crate::input`), then as `from_file_path` would.
                 let read = crate::input::read_bytes(path, crate::input::MESH_MAX_BYTES).map(|b| {
-                    rerun::Asset3D::from_file_contents(b, rerun::components::MediaType::guess_from_path(path))
+                    rerun::Asset3D::from_file_contents(
+                        b,
+                        rerun::components::MediaType::guess_from_path(path),
+                    )
                 });
                 let asset = match read {
                     Ok(asset) => asset.with_albedo_factor(color(visual.rgba)),

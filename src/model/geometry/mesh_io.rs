@@ -69,9 +69,11 @@ pub fn load_mesh(path: &Path) -> Result<TriangleMesh, MeshError> {
     let format = MeshFormat::from_path(path).ok_or_else(|| MeshError::UnknownFormat {
         path: path.to_path_buf(),
     })?;
-    let bytes = crate::input::read_bytes(path, crate::input::MESH_MAX_BYTES).map_err(|e| MeshError::Read {
-        path: path.to_path_buf(),
-        message: e.to_string(),
+    let bytes = crate::input::read_bytes(path, crate::input::MESH_MAX_BYTES).map_err(|e| {
+        MeshError::Read {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        }
     })?;
     let mesh = match format {
         MeshFormat::Stl => stl::read_stl(&bytes),
