@@ -127,7 +127,7 @@ pub fn read_text(path: &Path, cap: u64) -> std::io::Result<String> {
 
 /// Deepest element nesting accepted in an XML file (URDF, Collada). Real files nest a few
 /// levels (URDF) to a few dozen (Collada node hierarchies); the XML readers recurse per level
-/// (urdf-rs's XML tree overflows the 8 MB main stack near 20 000 levels), so deeper files are
+/// (a 20 000-deep URDF overflowed the 8 MB main stack), so deeper files are
 /// refused before any of them parses them.
 pub const MAX_XML_DEPTH: usize = 1000;
 
