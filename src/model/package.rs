@@ -25,7 +25,8 @@
 //!   legitimately reach `../meshes/...`, and the file is the URDF author's choice as in every
 //!   URDF tool. What is opened is still bounded: only a regular file of at most
 //!   [`crate::input::MESH_MAX_BYTES`] resolves ([`Unresolved::NotReadable`] otherwise: `/dev/zero`,
-//!   `file:///dev/urandom`, a FIFO or a directory never resolve, and are never opened).
+//!   `file:///dev/urandom`, a FIFO or a directory never resolve; judged from metadata, never
+//!   opened).
 
 use std::path::{Path, PathBuf};
 
@@ -92,13 +93,15 @@ pub fn resolve_detailed(
     for path in candidates {
         match crate::input::check(&path, crate::input::MESH_MAX_BYTES) {
             Ok(_) => return Ok(path),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => {
+            // The file exists but breaks a rule of `crate::input` (its metadata was read).
+            Err(e) if e.kind() == std::io::ErrorKind::InvalidInput => {
                 unreadable.get_or_insert(Unresolved::NotReadable {
                     path,
                     reason: e.to_string(),
                 });
             }
+            // Missing, a file where a folder is expected, no permission: not this candidate.
+            Err(_) => {}
         }
     }
     Err(unreadable.unwrap_or(Unresolved::NotFound))
