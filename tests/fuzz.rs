@@ -14,10 +14,13 @@
 //! README ("Hostile input"):
 //!
 //! ```sh
-//! TUMBLE_FUZZ_CASES=1000000 TUMBLE_FUZZ_SEED=1 cargo test --release --test fuzz -- --nocapture --test-threads 1
+//! for t in urdf scene stl obj; do
+//!   TUMBLE_FUZZ_CASES=1000000 TUMBLE_FUZZ_SEED=1 cargo test --release --test fuzz -- --nocapture fuzz_$t; done
+//! TUMBLE_FUZZ_CASES=200000 TUMBLE_FUZZ_SEED=1 cargo test --release --test fuzz -- --nocapture fuzz_dae
 //! ```
 //!
-//! Each target prints `fuzz <target>: N executions, 0 panics, slowest case S s`.
+//! Each target prints `fuzz <target>: N executions (A accepted, R refused with a message), 0 panics,
+//! slowest case S s`.
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
