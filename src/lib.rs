@@ -8,6 +8,7 @@ pub mod budget;
 pub mod cli;
 pub mod commands;
 pub mod fsutil;
+pub mod input;
 pub mod interrupt;
 pub mod model;
 pub mod record;

@@ -53,12 +53,21 @@ use serde::Deserialize;
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
+/// `[x, y, z]`: exactly three numbers. (Through `toml`, serde's own `[f64; 3]` reads the first
+/// three elements of a longer array and silently drops the rest.)
+fn vec3<'de, D: serde::Deserializer<'de>>(deserializer: D) -> Result<[f64; 3], D::Error> {
+    let v = Vec::<f64>::deserialize(deserializer)?;
+    <[f64; 3]>::try_from(v.as_slice())
+        .map_err(|_| serde::de::Error::invalid_length(v.len(), &"an array of 3 numbers"))
+}
+
 /// The `[sim]` table.
 #[derive(Debug, Clone, PartialEq, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SimSettings {
     pub dt: f64,
     pub duration: f64,
+    #[serde(deserialize_with = "vec3")]
     pub gravity: [f64; 3],
     pub integrator: String,
     pub log_every: u64,
@@ -98,13 +107,13 @@ pub struct ModelEntry {
     pub urdf: PathBuf,
     #[serde(default)]
     pub name: Option<String>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "vec3")]
     pub position: [f64; 3],
-    #[serde(default)]
+    #[serde(default, deserialize_with = "vec3")]
     pub rpy: [f64; 3],
-    #[serde(default)]
+    #[serde(default, deserialize_with = "vec3")]
     pub linvel: [f64; 3],
-    #[serde(default)]
+    #[serde(default, deserialize_with = "vec3")]
     pub angvel: [f64; 3],
     #[serde(default)]
     pub package_paths: Vec<PathBuf>,
@@ -212,7 +221,7 @@ pub struct SimOverrides {
 impl Scene {
     /// Reads a scene file.
     pub fn load(path: &Path) -> anyhow::Result<Self> {
-        let text = std::fs::read_to_string(path)
+        let text = crate::input::read_text(path, crate::input::SCENE_MAX_BYTES)
             .with_context(|| format!("cannot read scene {}", path.display()))?;
         Self::parse(&text, path)
     }

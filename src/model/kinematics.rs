@@ -108,6 +108,17 @@ pub enum KinematicsError {
     ZeroAxis { joint: String, axis: [f64; 3] },
     #[error("joint `{joint}` mimics `{mimicked}`, which does not exist")]
     UnknownMimic { joint: String, mimicked: String },
+    #[error(
+        "joint `{joint}` mimics `{mimicked}` with multiplier {multiplier} and offset {offset}: \
+         its position {value} is not finite"
+    )]
+    MimicNotFinite {
+        joint: String,
+        mimicked: String,
+        multiplier: f64,
+        offset: f64,
+        value: f64,
+    },
 }
 
 /// `R = Rz(yaw) Ry(pitch) Rx(roll)` for URDF `rpy = [roll, pitch, yaw]` (fixed axes x, y, z).
@@ -262,7 +273,17 @@ pub fn forward_kinematics(
                     });
                 }
                 let q = joint_positions.get(&m.joint).copied().unwrap_or(0.0);
-                Ok(m.multiplier * q + m.offset)
+                let value = m.multiplier * q + m.offset;
+                if !value.is_finite() {
+                    return Err(KinematicsError::MimicNotFinite {
+                        joint: joint.name.clone(),
+                        mimicked: m.joint.clone(),
+                        multiplier: m.multiplier,
+                        offset: m.offset,
+                        value,
+                    });
+                }
+                Ok(value)
             }
             None => Ok(joint_positions.get(&joint.name).copied().unwrap_or(0.0)),
         }

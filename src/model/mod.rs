@@ -119,7 +119,9 @@ pub enum Geometry {
         length: f64,
     },
     /// A mesh file. `path` is the resolved file (`None` when `package://`/relative resolution
-    /// failed; `uri` keeps what the URDF said).
+    /// found no file; `uri` keeps what the URDF said). A file that exists but is not a regular
+    /// file of at most [`crate::input::MESH_MAX_BYTES`] is kept here with a problem on the
+    /// link; every reader refuses it through [`crate::input`], saying why.
     Mesh {
         uri: String,
         path: Option<PathBuf>,

@@ -15,6 +15,18 @@
 //! - anything else: an absolute path as is, a relative path relative to the URDF's folder.
 //!
 //! Package names may contain any character but `/` (hyphens included).
+//!
+//! Hostile paths (README "Hostile input"):
+//!
+//! - The path inside a package is normalised lexically (`.` and empty segments dropped, `..`
+//!   removes the segment before it); a `..` that would climb above the package root is refused
+//!   ([`Unresolved::EscapesPackage`]), as is a package named `.` or `..`.
+//! - Relative and absolute paths and `file://` URIs may name any file: URDFs in `urdf/` folders
+//!   legitimately reach `../meshes/...`, and the file is the URDF author's choice as in every
+//!   URDF tool. What is opened is still bounded: only a regular file of at most
+//!   [`crate::input::MESH_MAX_BYTES`] resolves ([`Unresolved::NotReadable`] otherwise: `/dev/zero`,
+//!   `file:///dev/urandom`, a FIFO or a directory never resolve; judged from metadata, never
+//!   opened).
 
 use std::path::{Path, PathBuf};
 
@@ -29,9 +41,29 @@ pub fn ros_package_path() -> Vec<PathBuf> {
         .unwrap_or_default()
 }
 
+/// Why a mesh URI did not resolve ([`resolve_detailed`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum Unresolved {
+    /// No candidate path exists.
+    #[error("not found (searched --package-path, ROS_PACKAGE_PATH and the URDF's parent folders)")]
+    NotFound,
+    /// An empty URI, or a `package://` URI without a package or a path in it.
+    #[error("malformed URI (expected package://<package>/<path>, file://<path> or a file path)")]
+    Malformed,
+    /// `package://pkg/rest` whose `rest` climbs above the package root with `..`.
+    #[error(
+        "the path climbs out of package `{package}` with `..` (package:// paths must stay inside \
+         their package)"
+    )]
+    EscapesPackage { package: String },
+    /// A candidate exists but is not a regular file or is over the size cap.
+    #[error("{}: {reason}", .path.display())]
+    NotReadable { path: PathBuf, reason: String },
+}
+
 /// Resolves `uri` found in the URDF at `urdf_path`, searching `search_paths`, then
 /// `ROS_PACKAGE_PATH`, then the URDF's parent folders (see the module documentation).
-/// `None` when no existing file matches. Never panics.
+/// `None` when no regular file matches. Never panics.
 pub fn resolve(uri: &str, urdf_path: &Path, search_paths: &[PathBuf]) -> Option<PathBuf> {
     resolve_with(uri, urdf_path, search_paths, &ros_package_path())
 }
@@ -44,18 +76,60 @@ pub fn resolve_with(
     search_paths: &[PathBuf],
     ros_paths: &[PathBuf],
 ) -> Option<PathBuf> {
-    candidates(uri, urdf_path, search_paths, ros_paths)
-        .into_iter()
-        .find(|p| p.is_file())
+    resolve_detailed(uri, urdf_path, search_paths, ros_paths).ok()
+}
+
+/// [`resolve_with`], saying why when nothing resolves: the URI is malformed or escapes its
+/// package, no candidate exists, or the first existing candidate is not a regular file of at
+/// most [`crate::input::MESH_MAX_BYTES`] (nothing is opened to decide).
+pub fn resolve_detailed(
+    uri: &str,
+    urdf_path: &Path,
+    search_paths: &[PathBuf],
+    ros_paths: &[PathBuf],
+) -> Result<PathBuf, Unresolved> {
+    let candidates = checked_candidates(uri, urdf_path, search_paths, ros_paths)?;
+    let mut unreadable = None;
+    for path in candidates {
+        match crate::input::check(&path, crate::input::MESH_MAX_BYTES) {
+            Ok(_) => return Ok(path),
+            // The file exists but breaks a rule of `crate::input` (its metadata was read).
+            Err(e) if e.kind() == std::io::ErrorKind::InvalidInput => {
+                unreadable.get_or_insert(Unresolved::NotReadable {
+                    path,
+                    reason: e.to_string(),
+                });
+            }
+            // Missing, a file where a folder is expected, no permission: not this candidate.
+            Err(_) => {}
+        }
+    }
+    Err(unreadable.unwrap_or(Unresolved::NotFound))
+}
+
+/// What is wrong with `uri` from its form alone, without looking at any file: malformed, or a
+/// `package://` path climbing out of its package. `None` when the form is fine.
+pub fn uri_problem(uri: &str) -> Option<Unresolved> {
+    checked_candidates(uri, Path::new(""), &[], &[]).err()
 }
 
 /// Every path [`resolve_with`] would try, in order (existing or not). Useful to explain a miss.
+/// Empty for a malformed URI or a package path escaping its package.
 pub fn candidates(
     uri: &str,
     urdf_path: &Path,
     search_paths: &[PathBuf],
     ros_paths: &[PathBuf],
 ) -> Vec<PathBuf> {
+    checked_candidates(uri, urdf_path, search_paths, ros_paths).unwrap_or_default()
+}
+
+fn checked_candidates(
+    uri: &str,
+    urdf_path: &Path,
+    search_paths: &[PathBuf],
+    ros_paths: &[PathBuf],
+) -> Result<Vec<PathBuf>, Unresolved> {
     let uri = uri.trim();
     let urdf_dir = urdf_folder(urdf_path);
     let package_uri = uri
@@ -66,17 +140,27 @@ pub fn candidates(
         // read as `package://pkg/path`, as ROS and pybullet do.
         let rest = rest.trim_start_matches('/');
         let Some((package, rest)) = rest.split_once('/') else {
-            return Vec::new();
+            return Err(Unresolved::Malformed);
         };
-        let rest = rest.trim_start_matches('/');
-        if package.is_empty() || rest.is_empty() {
-            return Vec::new();
+        if package.is_empty() {
+            return Err(Unresolved::Malformed);
+        }
+        if package == "." || package == ".." {
+            return Err(Unresolved::EscapesPackage {
+                package: package.to_string(),
+            });
+        }
+        let rest = normalise_inside(rest).ok_or_else(|| Unresolved::EscapesPackage {
+            package: package.to_string(),
+        })?;
+        if rest.as_os_str().is_empty() {
+            return Err(Unresolved::Malformed);
         }
         let mut out = Vec::new();
         let mut try_dir = |dir: &Path| {
-            out.push(dir.join(package).join(rest));
+            out.push(dir.join(package).join(&rest));
             if dir.file_name().is_some_and(|n| n == package) {
-                out.push(dir.join(rest));
+                out.push(dir.join(&rest));
             }
         };
         for dir in search_paths.iter().chain(ros_paths) {
@@ -87,16 +171,32 @@ pub fn candidates(
                 try_dir(ancestor);
             }
         }
-        return out;
+        return Ok(out);
     }
     if let Some(rest) = uri.strip_prefix("file://") {
         let path = PathBuf::from(percent_decode(rest));
-        return vec![relative_to(&urdf_dir, path)];
+        return Ok(vec![relative_to(&urdf_dir, path)]);
     }
     if uri.is_empty() {
-        return Vec::new();
+        return Err(Unresolved::Malformed);
     }
-    vec![relative_to(&urdf_dir, PathBuf::from(uri))]
+    Ok(vec![relative_to(&urdf_dir, PathBuf::from(uri))])
+}
+
+/// `rest` (a `/`-separated path inside a package) with `.` and empty segments dropped and each
+/// `..` removing the segment before it; `None` when a `..` would climb above the start.
+fn normalise_inside(rest: &str) -> Option<PathBuf> {
+    let mut parts: Vec<&str> = Vec::new();
+    for part in rest.split('/') {
+        match part {
+            "" | "." => {}
+            ".." => {
+                parts.pop()?;
+            }
+            part => parts.push(part),
+        }
+    }
+    Some(parts.iter().collect())
 }
 
 fn relative_to(dir: &Option<PathBuf>, path: PathBuf) -> PathBuf {
@@ -146,6 +246,36 @@ mod tests {
     fn percent_decoding() {
         assert_eq!(percent_decode("/a%20b/c%2"), "/a b/c%2");
         assert_eq!(percent_decode("%41%zz"), "A%zz");
+    }
+
+    #[test]
+    fn package_paths_stay_inside_their_package() {
+        assert_eq!(normalise_inside("a/./b//c"), Some(PathBuf::from("a/b/c")));
+        assert_eq!(normalise_inside("a/../b"), Some(PathBuf::from("b")));
+        assert_eq!(normalise_inside("a/../../b"), None);
+        assert_eq!(normalise_inside(".."), None);
+        let urdf = Path::new("/nonexistent/robot.urdf");
+        for uri in [
+            "package://pkg/../x.stl",
+            "package://pkg/meshes/../../../../etc/passwd",
+            "package://../etc/passwd",
+            "model://./x.stl",
+        ] {
+            let e = resolve_detailed(uri, urdf, &[], &[]).unwrap_err();
+            assert!(matches!(e, Unresolved::EscapesPackage { .. }), "{uri}: {e}");
+            assert!(e.to_string().contains("climbs out of package"), "{e}");
+        }
+        let inside = candidates("package://pkg/a/../meshes/x.stl", urdf, &[], &[]);
+        assert!(inside.contains(&PathBuf::from("/nonexistent/pkg/meshes/x.stl")));
+    }
+
+    #[test]
+    fn special_files_never_resolve() {
+        let urdf = Path::new("/nonexistent/robot.urdf");
+        for uri in ["/dev/zero", "file:///dev/urandom", "/"] {
+            let e = resolve_detailed(uri, urdf, &[], &[]).unwrap_err();
+            assert!(e.to_string().contains("not a regular file"), "{uri}: {e}");
+        }
     }
 
     #[test]

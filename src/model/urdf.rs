@@ -38,11 +38,12 @@ use std::path::{Path, PathBuf};
 /// Every message starts with the file.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
-    #[error("{}: cannot read the file: {source}", .path.display())]
+    /// (The I/O error is part of the message, not a `source`, so that `{:#}` does not print
+    /// it twice.)
+    #[error("{}: cannot read the file: {error}", .path.display())]
     Read {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
     #[error("{}: not well-formed XML: {message}", .path.display())]
     Xml { path: PathBuf, message: String },
@@ -94,11 +95,12 @@ pub enum ModelError {
         .links.iter().map(|r| format!("`{r}`")).collect::<Vec<_>>().join(" -> ")
     )]
     Cycle { path: PathBuf, links: Vec<String> },
-    #[error("{}: {source}", .path.display())]
+    /// (The kinematics error is part of the message, not a `source`, so that `{:#}` does not
+    /// print it twice.)
+    #[error("{}: {error}", .path.display())]
     Configuration {
         path: PathBuf,
-        #[source]
-        source: KinematicsError,
+        error: KinematicsError,
     },
     #[error("{}: link `{link}` cannot be simulated: {rule}", .path.display())]
     NotSimulable {
@@ -129,9 +131,11 @@ pub fn load_at(
     package_paths: &[PathBuf],
     joint_positions: &HashMap<String, f64>,
 ) -> Result<Model, ModelError> {
-    let xml = std::fs::read_to_string(path).map_err(|source| ModelError::Read {
-        path: path.to_path_buf(),
-        source,
+    let xml = crate::input::read_text(path, crate::input::URDF_MAX_BYTES).map_err(|error| {
+        ModelError::Read {
+            path: path.to_path_buf(),
+            error,
+        }
     })?;
     load_str_at(&xml, path, package_paths, joint_positions)
 }
@@ -144,6 +148,10 @@ pub fn load_str_at(
     joint_positions: &HashMap<String, f64>,
 ) -> Result<Model, ModelError> {
     let file = || path.to_path_buf();
+    crate::input::check_xml_depth(xml).map_err(|message| ModelError::Xml {
+        path: file(),
+        message,
+    })?;
     let options = roxmltree::ParsingOptions {
         allow_dtd: true,
         ..Default::default()
@@ -174,7 +182,12 @@ pub fn load_str_at(
     let robot = urdf_rs::read_from_string(&cleaned).map_err(|e| ModelError::Parse {
         path: file(),
         location: locate_parse_problem(&doc),
-        message: e.to_string(),
+        // urdf-rs's messages may span lines (serde-xml-rs token dumps): one line here.
+        message: e
+            .to_string()
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" "),
     })?;
 
     if robot.links.is_empty() {
@@ -243,9 +256,9 @@ pub fn load_str_at(
             path: file(),
             links,
         },
-        source => ModelError::Configuration {
+        error => ModelError::Configuration {
             path: file(),
-            source,
+            error,
         },
     };
     let (root_index, _) = kinematics::tree_order(&names, &joints).map_err(tree_error)?;
@@ -451,13 +464,27 @@ fn geometry(
                     scale.x, scale.y, scale.z
                 ));
             }
-            let resolved = package::resolve(filename, urdf_path, package_paths);
-            if resolved.is_none() {
-                problems.push(format!(
-                    "{label}: mesh `{filename}` not found (searched --package-path, \
-                 ROS_PACKAGE_PATH and the URDF's parent folders)"
-                ));
-            }
+            let resolved = package::resolve_detailed(
+                filename,
+                urdf_path,
+                package_paths,
+                &package::ros_package_path(),
+            )
+            .or_else(|why| {
+                let sep = if why == package::Unresolved::NotFound {
+                    " "
+                } else {
+                    ": "
+                };
+                problems.push(format!("{label}: mesh `{filename}`{sep}{why}"));
+                // A file that exists but must not be read (a device, a FIFO, over the size
+                // cap) is kept, so that whoever reads it says why it cannot (`crate::input`).
+                match why {
+                    package::Unresolved::NotReadable { path, .. } => Ok(path),
+                    _ => Err(()),
+                }
+            })
+            .ok();
             Geometry::Mesh {
                 uri: filename.clone(),
                 path: resolved,
@@ -581,8 +608,27 @@ fn check_required(node: roxmltree::Node, tag: &str) -> Result<(), String> {
     }
 }
 
+/// The first of `tags` that appears more than once among `node`'s children (urdf-rs refuses
+/// a repeated field with "duplicate field", naming neither the element nor where it is).
+fn check_unique(node: roxmltree::Node, tags: &[&str]) -> Check {
+    tags.iter()
+        .find(|&&tag| node.children().filter(|c| c.has_tag_name(tag)).count() > 1)
+        .map(|tag| {
+            format!(
+                "<{}> has more than one <{tag}> (at most one is allowed)",
+                node.tag_name().name()
+            )
+        })
+}
+
 fn check_link(link: roxmltree::Node) -> Check {
+    if let Some(p) = check_unique(link, &["inertial"]) {
+        return Some(p);
+    }
     if let Some(inertial) = child(link, "inertial") {
+        if let Some(p) = check_unique(inertial, &["origin", "mass", "inertia"]) {
+            return Some(format!("inertial {p}"));
+        }
         if let Some(p) = check_origin(inertial) {
             return Some(format!("inertial {p}"));
         }
@@ -618,7 +664,8 @@ fn check_link(link: roxmltree::Node) -> Check {
                 .map(|n| format!(" `{n}`"))
                 .unwrap_or_default()
         );
-        let problem = check_origin(element)
+        let problem = check_unique(element, &["origin", "geometry", "material"])
+            .or_else(|| check_origin(element))
             .or_else(|| check_geometry(element).err())
             .or_else(|| {
                 child(element, "material")
@@ -680,6 +727,20 @@ fn check_joint(joint: roxmltree::Node, version_1_2: bool) -> Check {
             ));
         }
         Some(_) => {}
+    }
+    let single = [
+        "parent",
+        "child",
+        "origin",
+        "axis",
+        "limit",
+        "dynamics",
+        "mimic",
+        "safety_controller",
+        "calibration",
+    ];
+    if let Some(p) = check_unique(joint, &single) {
+        return Some(p);
     }
     for role in ["parent", "child"] {
         match child(joint, role) {

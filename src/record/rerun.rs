@@ -693,10 +693,17 @@ impl RerunSink {
             Geometry::Mesh { uri, path, scale } => {
                 let Some(path) = path else {
                     self.warn(format!(
-                        "{entity}: mesh {uri:?} was not found, left out of the Rerun recording"
+                        "{entity}: mesh {uri:?} was not found or is not a readable regular file (`tumble inspect` says which), left out of the Rerun recording"
                     ));
                     return Ok(());
                 };
+                if let Err(err) = crate::input::check(path, crate::input::MESH_MAX_BYTES) {
+                    self.warn(format!(
+                        "{entity}: cannot read mesh {}: {err}, left out of the Rerun recording",
+                        path.display()
+                    ));
+                    return Ok(());
+                }
                 let ext = path
                     .extension()
                     .and_then(|e| e.to_str())
@@ -708,7 +715,14 @@ impl RerunSink {
                     ));
                     return Ok(());
                 }
-                let asset = match rerun::Asset3D::from_file_path(path) {
+                // Bounded, regular files only (`crate::input`), then as `from_file_path` would.
+                let read = crate::input::read_bytes(path, crate::input::MESH_MAX_BYTES).map(|b| {
+                    rerun::Asset3D::from_file_contents(
+                        b,
+                        rerun::components::MediaType::guess_from_path(path),
+                    )
+                });
+                let asset = match read {
                     Ok(asset) => asset.with_albedo_factor(color(visual.rgba)),
                     Err(err) => {
                         self.warn(format!(

@@ -80,6 +80,14 @@ pub enum GeometryError {
          URDF's parent folders)"
     )]
     MeshNotFound { element: String, uri: String },
+    /// A mesh URI refused for its form alone (malformed, or a `package://` path climbing out
+    /// of its package: [`crate::model::package::uri_problem`]).
+    #[error("{element}: mesh `{uri}`: {reason}")]
+    MeshUri {
+        element: String,
+        uri: String,
+        reason: crate::model::package::Unresolved,
+    },
     #[error("{element}: mesh `{uri}` ({}): {reason}", .path.display())]
     Mesh {
         element: String,
@@ -170,6 +178,13 @@ pub fn geometry_mass_properties(
         }
         Geometry::Mesh { uri, path, scale } => {
             let Some(path) = path else {
+                if let Some(reason) = crate::model::package::uri_problem(uri) {
+                    return Err(GeometryError::MeshUri {
+                        element: element.to_string(),
+                        uri: uri.clone(),
+                        reason,
+                    });
+                }
                 return Err(GeometryError::MeshNotFound {
                     element: element.to_string(),
                     uri: uri.clone(),

@@ -61,12 +61,19 @@ impl MeshFormat {
 /// Reads an STL (binary or ASCII), OBJ or Collada DAE file, in metres (DAE `<unit>` applied;
 /// STL and OBJ carry no unit and are taken as metres, as URDF tools do), welded, not checked.
 pub fn load_mesh(path: &Path) -> Result<TriangleMesh, MeshError> {
+    // What the file is (regular, under the size cap) before what its name says.
+    crate::input::check(path, crate::input::MESH_MAX_BYTES).map_err(|e| MeshError::Read {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
     let format = MeshFormat::from_path(path).ok_or_else(|| MeshError::UnknownFormat {
         path: path.to_path_buf(),
     })?;
-    let bytes = std::fs::read(path).map_err(|e| MeshError::Read {
-        path: path.to_path_buf(),
-        message: e.to_string(),
+    let bytes = crate::input::read_bytes(path, crate::input::MESH_MAX_BYTES).map_err(|e| {
+        MeshError::Read {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        }
     })?;
     let mesh = match format {
         MeshFormat::Stl => stl::read_stl(&bytes),

@@ -65,10 +65,24 @@ pub struct DaeOptions {
 /// Deepest `<node>`/`<instance_node>` nesting followed (a guard against reference cycles).
 const MAX_NODE_DEPTH: usize = 64;
 
+/// Most `<node>`s visited while walking the visual scene, counting every visit through
+/// `<instance_node>` (a guard against instancing bombs: ten `<instance_node>`s of the node
+/// below on each of twelve levels are 10^12 visits in a 2 kB file); a bomb stops after about
+/// a second. Real robot meshes have orders of magnitude fewer nodes.
+const MAX_NODE_VISITS: usize = 1_000_000;
+
+/// Most vertices placed in all (a bound on memory: 20 million vertices are 480 MB, far beyond
+/// real robot meshes; the largest mesh file of example-robot-data 6.0.0 is a 29 MB DAE).
+const MAX_PLACED_VERTICES: usize = 20_000_000;
+
+/// Most triangles placed in all (a bound on memory and time, as [`MAX_PLACED_VERTICES`]).
+const MAX_PLACED_TRIANGLES: usize = 40_000_000;
+
 /// Parses a DAE file's bytes (see the module documentation), welded.
 pub fn read_dae(bytes: &[u8], options: &DaeOptions) -> Result<TriangleMesh, String> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let text = String::from_utf8_lossy(bytes);
+    crate::input::check_xml_depth(&text).map_err(|e| format!("XML: {e}"))?;
     let parsing = roxmltree::ParsingOptions {
         allow_dtd: true,
         ..roxmltree::ParsingOptions::default()
@@ -116,6 +130,7 @@ pub fn read_dae(bytes: &[u8], options: &DaeOptions) -> Result<TriangleMesh, Stri
         vertices: Vec::new(),
         triangles: Vec::new(),
         instances: 0,
+        visits: 0,
     };
     if let Some(scene) = visual_scene(root, &reader.ids) {
         for node in children(scene, "node") {
@@ -200,6 +215,12 @@ fn local_transform(node: Node) -> Result<Matrix4<f64>, String> {
         let name = element.tag_name().name();
         let values = || -> Result<Vec<f64>, String> {
             let v = floats(element)?;
+            if v.iter().any(|x| !x.is_finite()) {
+                return Err(format!(
+                    "{} <{name}> has a NaN or infinite number",
+                    label(node)
+                ));
+            }
             let expected = match name {
                 "matrix" => 16,
                 "rotate" => 4,
@@ -262,6 +283,8 @@ struct Reader<'a, 'i> {
     triangles: Vec<[u32; 3]>,
     /// Geometry instances placed by the visual scene.
     instances: usize,
+    /// `<node>` visits so far (bounded by [`MAX_NODE_VISITS`]).
+    visits: usize,
 }
 
 impl<'a, 'i> Reader<'a, 'i> {
@@ -275,6 +298,13 @@ impl<'a, 'i> Reader<'a, 'i> {
         if depth > MAX_NODE_DEPTH {
             return Err(format!(
                 "{}: nodes nested deeper than {MAX_NODE_DEPTH} (an <instance_node> cycle?)",
+                label(node)
+            ));
+        }
+        self.visits += 1;
+        if self.visits > MAX_NODE_VISITS {
+            return Err(format!(
+                "{}: more than {MAX_NODE_VISITS} <node> visits (an <instance_node> bomb?)",
                 label(node)
             ));
         }
@@ -328,12 +358,24 @@ impl<'a, 'i> Reader<'a, 'i> {
                 source_positions(&self.ids, &mut self.positions, positions_id).map_err(context)?;
             let offset = index_u32(self.vertices.len())?;
             let count = positions.len();
+            if self.vertices.len().saturating_add(count) > MAX_PLACED_VERTICES {
+                return Err(context(format!(
+                    "more than {MAX_PLACED_VERTICES} vertices placed in all (too many \
+                     instances of too large geometry)"
+                )));
+            }
             self.vertices
                 .extend(positions.iter().map(|p| linear * p + translation));
             index_u32(self.vertices.len())?;
             let polygons =
                 corner_lists(primitive, kind, stride, position_offset).map_err(context)?;
             for (polygon, strip) in polygons {
+                if self.triangles.len().saturating_add(polygon.len()) > MAX_PLACED_TRIANGLES {
+                    return Err(context(format!(
+                        "more than {MAX_PLACED_TRIANGLES} triangles placed in all (too many \
+                         instances of too large geometry)"
+                    )));
+                }
                 if let Some(&bad) = polygon.iter().find(|&&i| i >= count) {
                     return Err(context(format!(
                         "<{kind}> index {bad} past the {count} positions"
