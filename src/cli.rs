@@ -34,4 +34,6 @@ pub enum Command {
     Stability(StabilityArgs),
     /// Load every URDF under folders and tabulate which load and how healthy their inertial data are.
     Survey(SurveyArgs),
+    /// Generate a randomized trajectory dataset (Parquet) from a spec, in parallel, resumable, shardable; or merge shards.
+    Dataset(crate::commands::dataset::DatasetArgs),
 }

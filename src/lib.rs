@@ -6,6 +6,7 @@
 
 pub mod cli;
 pub mod commands;
+pub mod dataset;
 pub mod fsutil;
 pub mod interrupt;
 pub mod model;

@@ -21,6 +21,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => commands::bench::run(args).map(|()| 0),
         Command::Stability(args) => commands::stability::run(args).map(|()| 0),
         Command::Survey(args) => commands::survey::run(args).map(|()| 0),
+        Command::Dataset(args) => commands::dataset::run(args).map(|()| 0),
     };
     match result {
         Ok(code) => ExitCode::from(code),

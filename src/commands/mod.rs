@@ -2,6 +2,7 @@
 //! `main.rs` is the only place that turns results into exit codes.
 
 pub mod bench;
+pub mod dataset;
 pub mod inspect;
 pub mod simulate;
 pub mod stability;
