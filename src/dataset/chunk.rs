@@ -31,6 +31,10 @@ pub fn recording_name(run: u64, format: RecordFormat) -> String {
     format!("recordings/run-{run:06}.{}", format.extension())
 }
 
+/// Trajectory rows are handed to the Parquet writer in batches of at least this many rows
+/// (fewer, larger writes; the batch boundaries depend on the chunk's rows only).
+pub const BATCH_ROWS: usize = 16 * 1024;
+
 /// What a chunk did besides its files.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ChunkStats {
@@ -48,6 +52,8 @@ pub struct Context<'a> {
     /// Per model choice: its recording layout (frames, bodies) and body names.
     pub layouts: Vec<Arc<RecordingLayout>>,
     pub body_names: Vec<Vec<String>>,
+    /// [`DatasetSpec::model_choices`].
+    pub models: Vec<String>,
     pub dir: &'a Path,
 }
 
@@ -67,6 +73,7 @@ impl<'a> Context<'a> {
             cache,
             layouts,
             body_names,
+            models: spec.model_choices().to_vec(),
             dir,
         }
     }
@@ -89,17 +96,21 @@ pub fn run_chunk(
     let mut stats = ChunkStats::default();
     for run in runs.clone() {
         let params = draw(spec, run);
-        let row = simulate_run(ctx, &params, &rows, &mut recordings)?;
-        let batch = rows
-            .borrow_mut()
-            .take_batch(&ctx.body_names[params.model])?;
-        trajectories.write(&batch)?;
+        let rows_before = rows.borrow().len() as u64;
+        let mut row = simulate_run(ctx, &params, &rows, &mut recordings)?;
+        row.rows = rows.borrow().len() as u64 - rows_before;
+        if rows.borrow().len() >= BATCH_ROWS {
+            trajectories.write(&rows.borrow_mut().take_batch()?)?;
+        }
         stats.runs += 1;
         stats.rows += row.rows;
         stats.body_steps += row.steps_done * row.bodies;
         stats.diverged += u64::from(row.diverged.is_some());
         run_rows.push(row);
         after_run();
+    }
+    if !rows.borrow().is_empty() {
+        trajectories.write(&rows.borrow_mut().take_batch()?)?;
     }
     let mut files: Vec<FileInfo> = vec![trajectories.finish()?];
     files.push(write_file(ctx.dir, &runs_name(chunk), &runs_batch(&run_rows)?)?);
@@ -127,9 +138,17 @@ fn simulate_run(
     let scene = run_scene(spec, params);
     let world = ctx.cache.world(params);
     let layout = &ctx.layouts[params.model];
+    let name_ids = {
+        let mut rows = rows.borrow_mut();
+        ctx.body_names[params.model]
+            .iter()
+            .map(|name| rows.intern(name))
+            .collect()
+    };
     let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(RowsSink {
         run: params.run,
         layout: layout.clone(),
+        name_ids,
         rows: rows.clone(),
     })];
     let mut outputs: Vec<PathBuf> = Vec::new();
@@ -178,11 +197,11 @@ fn simulate_run(
     let ok = diverged.is_none();
     Ok(RunRow {
         params: params.clone(),
-        model: spec.model_choices()[params.model].clone(),
+        model: ctx.models[params.model].clone(),
         steps: settings.steps,
         log_every: settings.log_every,
         bodies: world.bodies.len() as u64,
-        rows: rows.borrow().len() as u64,
+        rows: 0, // set by the caller
         steps_done: summary.steps,
         energy_initial: summary.energy_initial,
         energy_final: ok.then_some(summary.energy_final),

@@ -104,7 +104,7 @@ pub fn generate(spec: &DatasetSpec, opts: &Options) -> anyhow::Result<Summary> {
     manifest.bodies = write_file(
         dir,
         "bodies.parquet",
-        &bodies_batch(&spec.model_choices(), &layouts)?,
+        &bodies_batch(spec.model_choices(), &layouts)?,
     )?;
     let owned: Vec<u64> = (0..spec.chunks())
         .filter(|&c| opts.shard.is_none_or(|s| s.owns(c)))
@@ -243,11 +243,11 @@ fn add_stats(a: ChunkStats, b: ChunkStats) -> ChunkStats {
 fn new_manifest(spec: &DatasetSpec, shard: Option<Shard>) -> anyhow::Result<Manifest> {
     let mut inputs = BTreeMap::new();
     for urdf in spec.model_choices() {
-        let path = spec.template.base_dir.join(&urdf);
+        let path = spec.template.base_dir.join(urdf);
         let (_, sha) = file_digest(&path).with_context(|| {
             format!("{}: model {urdf}", spec.path.display())
         })?;
-        inputs.insert(urdf, sha);
+        inputs.insert(urdf.clone(), sha);
     }
     Ok(Manifest {
         format: FORMAT.to_string(),

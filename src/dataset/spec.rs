@@ -128,6 +128,8 @@ pub struct DatasetSpec {
     /// `[[model]]` names the first `vary.model` choice when the template gives no `urdf`.
     pub template: Scene,
     pub vary: Vary,
+    /// [`DatasetSpec::model_choices`].
+    models: Vec<String>,
 }
 
 impl DatasetSpec {
@@ -211,7 +213,12 @@ impl DatasetSpec {
         }
         let mut record = dataset.record.clone();
         record.dedup();
+        let models = match &vary.model {
+            Some(choices) => choices.clone(),
+            None => vec![template.models[0].urdf.display().to_string()],
+        };
         Ok(Self {
+            models,
             path: path.to_path_buf(),
             text: text.to_string(),
             runs,
@@ -235,12 +242,9 @@ impl DatasetSpec {
         start..(start + self.runs_per_file).min(self.runs)
     }
 
-    /// The URDF paths a run may use, as written (the template's first when `model` is not varied).
-    pub fn model_choices(&self) -> Vec<String> {
-        match &self.vary.model {
-            Some(choices) => choices.clone(),
-            None => vec![self.template.models[0].urdf.display().to_string()],
-        }
+    /// The URDF paths a run may use, as written (the template's when `model` is not varied).
+    pub fn model_choices(&self) -> &[String] {
+        &self.models
     }
 }
 

@@ -73,9 +73,12 @@ pub fn trajectories_schema() -> SchemaRef {
         .clone()
 }
 
-/// Trajectory rows of one run, filled by [`RowsSink`] and drained into a record batch per run.
+/// Trajectory rows, filled by [`RowsSink`] and drained into record batches.
 #[derive(Debug, Default)]
 pub struct TrajectoryColumns {
+    /// Body names seen so far; `body` holds indices into it.
+    names: Vec<String>,
+    ids: HashMap<String, u32>,
     run: Vec<i64>,
     step: Vec<i64>,
     time_ns: Vec<i64>,
@@ -93,11 +96,22 @@ impl TrajectoryColumns {
         self.run.is_empty()
     }
 
-    fn push(&mut self, run: u64, frame: &Frame<'_>, body: usize, pose: &nalgebra::Isometry3<f64>, state: &BodyState) {
+    /// The index of body name `name` in this buffer's name table.
+    pub fn intern(&mut self, name: &str) -> u32 {
+        if let Some(&id) = self.ids.get(name) {
+            return id;
+        }
+        let id = self.names.len() as u32;
+        self.names.push(name.to_string());
+        self.ids.insert(name.to_string(), id);
+        id
+    }
+
+    fn push(&mut self, run: u64, frame: &Frame<'_>, body: u32, pose: &nalgebra::Isometry3<f64>, state: &BodyState) {
         self.run.push(run as i64);
         self.step.push(frame.step as i64);
         self.time_ns.push(frame.time_ns);
-        self.body.push(body as u32);
+        self.body.push(body);
         let t = pose.translation.vector;
         let q = pose.rotation.quaternion().coords;
         let (v, w) = (state.linvel_world, state.angvel_world);
@@ -109,12 +123,12 @@ impl TrajectoryColumns {
         }
     }
 
-    /// The buffered rows as a batch (`body_names[i]` names body `i`); the buffers are emptied.
-    pub fn take_batch(&mut self, body_names: &[String]) -> anyhow::Result<RecordBatch> {
+    /// The buffered rows as a batch; the buffers are emptied (the name table is kept).
+    pub fn take_batch(&mut self) -> anyhow::Result<RecordBatch> {
         let body: StringArray = self
             .body
             .iter()
-            .map(|&b| Some(body_names[b as usize].as_str()))
+            .map(|&b| Some(self.names[b as usize].as_str()))
             .collect();
         let time_secs: Float64Array = self.time_ns.iter().map(|&t| Some(t as f64 * 1e-9)).collect();
         let mut columns: Vec<ArrayRef> = vec![
@@ -138,15 +152,17 @@ impl TrajectoryColumns {
 pub struct RowsSink {
     pub run: u64,
     pub layout: Arc<RecordingLayout>,
+    /// Per body: its name's index in `rows` ([`TrajectoryColumns::intern`]).
+    pub name_ids: Vec<u32>,
     pub rows: Rc<RefCell<TrajectoryColumns>>,
 }
 
 impl Sink for RowsSink {
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
         let mut rows = self.rows.borrow_mut();
-        for (b, (layout, state)) in self.layout.bodies.iter().zip(frame.bodies).enumerate() {
+        for ((layout, state), &id) in self.layout.bodies.iter().zip(frame.bodies).zip(&self.name_ids) {
             let pose = frame.world_from_link[layout.frame] * layout.link_from_principal;
-            rows.push(self.run, frame, b, &pose, state);
+            rows.push(self.run, frame, id, &pose, state);
         }
         Ok(())
     }
