@@ -113,7 +113,11 @@ pub fn run_chunk(
         trajectories.write(&rows.borrow_mut().take_batch()?)?;
     }
     let mut files: Vec<FileInfo> = vec![trajectories.finish()?];
-    files.push(write_file(ctx.dir, &runs_name(chunk), &runs_batch(&run_rows)?)?);
+    files.push(write_file(
+        ctx.dir,
+        &runs_name(chunk),
+        &runs_batch(&run_rows)?,
+    )?);
     for name in &recordings {
         files.push(recording_info(ctx.dir, name)?);
     }
@@ -156,7 +160,9 @@ fn simulate_run(
         let mut rec_layout = (**layout).clone();
         rec_layout.name = format!("run-{:06}", params.run);
         rec_layout.metadata = scene.metadata();
-        rec_layout.metadata.insert("scene_file".into(), spec.path.display().to_string());
+        rec_layout
+            .metadata
+            .insert("scene_file".into(), spec.path.display().to_string());
         rec_layout
             .metadata
             .insert("dataset_run".into(), params.run.to_string());

@@ -152,7 +152,10 @@ pub fn parse_string_choice(key: &str, value: &toml::Value) -> anyhow::Result<Vec
 }
 
 /// `{ kind = arg }`: a table with exactly one entry.
-fn single_entry<'a>(key: &str, value: &'a toml::Value) -> anyhow::Result<(&'a str, &'a toml::Value)> {
+fn single_entry<'a>(
+    key: &str,
+    value: &'a toml::Value,
+) -> anyhow::Result<(&'a str, &'a toml::Value)> {
     let table = value.as_table().with_context(|| {
         format!(
             "{key}: expected a distribution table such as {{ uniform = [lo, hi] }} (one of: {KINDS}); \
@@ -240,12 +243,24 @@ mod tests {
             ("0.1", 1, "vary.k: expected a distribution table"),
             ("{ uniform = [2, 1] }", 1, "vary.k.uniform: lower bound 2"),
             ("{ log_uniform = [0, 1] }", 1, "must be positive"),
-            ("{ normal = { mean = 0, std = -1 } }", 1, "vary.k.normal.std must be >= 0"),
+            (
+                "{ normal = { mean = 0, std = -1 } }",
+                1,
+                "vary.k.normal.std must be >= 0",
+            ),
             ("{ normal = { mean = 0, sd = 1 } }", 1, "unknown key \"sd\""),
             ("{ gauss = [0, 1] }", 1, "unknown distribution \"gauss\""),
-            ("{ uniform = [[0, 0], [1, 1]] }", 3, "vary.k.uniform[0]: expected an array of 3"),
+            (
+                "{ uniform = [[0, 0], [1, 1]] }",
+                3,
+                "vary.k.uniform[0]: expected an array of 3",
+            ),
             ("{ choice = [] }", 1, "non-empty"),
-            ("{ uniform = [0, 1], choice = [1] }", 1, "exactly one distribution"),
+            (
+                "{ uniform = [0, 1], choice = [1] }",
+                1,
+                "exactly one distribution",
+            ),
         ] {
             let err = format!("{:#}", parse(text, dims).unwrap_err());
             assert!(err.contains(needle), "{text}: {err}");

@@ -111,7 +111,11 @@ pub fn generate(spec: &DatasetSpec, opts: &Options) -> anyhow::Result<Summary> {
         .collect();
     let done: std::collections::HashSet<u64> =
         manifest.chunks_done.iter().map(|c| c.chunk).collect();
-    let todo: Vec<u64> = owned.iter().copied().filter(|c| !done.contains(c)).collect();
+    let todo: Vec<u64> = owned
+        .iter()
+        .copied()
+        .filter(|c| !done.contains(c))
+        .collect();
     summary.runs_total = owned.iter().map(|&c| runs_in(spec, c)).sum();
     summary.chunks_skipped = (owned.len() - todo.len()) as u64;
     summary.runs_skipped = summary.runs_total - todo.iter().map(|&c| runs_in(spec, c)).sum::<u64>();
@@ -146,7 +150,10 @@ pub fn generate(spec: &DatasetSpec, opts: &Options) -> anyhow::Result<Summary> {
         if e.downcast_ref::<interrupt::Interrupted>().is_some() {
             interrupted.store(true, Ordering::SeqCst);
         } else {
-            failure.lock().unwrap_or_else(|p| p.into_inner()).get_or_insert(e);
+            failure
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .get_or_insert(e);
         }
     };
     pool.broadcast(|_| {
@@ -244,9 +251,8 @@ fn new_manifest(spec: &DatasetSpec, shard: Option<Shard>) -> anyhow::Result<Mani
     let mut inputs = BTreeMap::new();
     for urdf in spec.model_choices() {
         let path = spec.template.base_dir.join(urdf);
-        let (_, sha) = file_digest(&path).with_context(|| {
-            format!("{}: model {urdf}", spec.path.display())
-        })?;
+        let (_, sha) =
+            file_digest(&path).with_context(|| format!("{}: model {urdf}", spec.path.display()))?;
         inputs.insert(urdf.clone(), sha);
     }
     Ok(Manifest {

@@ -44,9 +44,8 @@ pub fn merge(inputs: &[PathBuf], out: &Path, force: bool) -> anyhow::Result<Merg
     let dirs: Vec<PathBuf> = inputs.iter().map(|p| folder(p)).collect();
     let mut manifests = Vec::with_capacity(dirs.len());
     for dir in &dirs {
-        let manifest = Manifest::load(dir)?.with_context(|| {
-            format!("{}: no {MANIFEST}: not a dataset folder", dir.display())
-        })?;
+        let manifest = Manifest::load(dir)?
+            .with_context(|| format!("{}: no {MANIFEST}: not a dataset folder", dir.display()))?;
         manifests.push(manifest);
     }
     let first = &manifests[0];
@@ -92,7 +91,9 @@ pub fn merge(inputs: &[PathBuf], out: &Path, force: bool) -> anyhow::Result<Merg
             owner.insert(c.chunk, i);
         }
     }
-    let missing: Vec<u64> = (0..first.chunks).filter(|c| !owner.contains_key(c)).collect();
+    let missing: Vec<u64> = (0..first.chunks)
+        .filter(|c| !owner.contains_key(c))
+        .collect();
     if !missing.is_empty() {
         let shards: Vec<_> = manifests.iter().filter_map(|m| m.shard).collect();
         let hint = match shards.first() {

@@ -129,8 +129,15 @@ impl PartWriter {
         let context = || format!("cannot finish {}", self.part.display());
         let mut sink = writer.into_inner().with_context(context)?;
         sink.flush().with_context(context)?;
-        let HashingWriter { inner, hasher, bytes } = sink;
-        let file = inner.into_inner().map_err(|e| e.into_error()).with_context(context)?;
+        let HashingWriter {
+            inner,
+            hasher,
+            bytes,
+        } = sink;
+        let file = inner
+            .into_inner()
+            .map_err(|e| e.into_error())
+            .with_context(context)?;
         file.sync_all().with_context(context)?;
         drop(file);
         std::fs::rename(&self.part, &self.path).with_context(|| {

@@ -134,26 +134,23 @@ pub struct ModelCache {
 impl ModelCache {
     /// Loads every model choice; an error names the spec and the choice.
     pub fn load(spec: &DatasetSpec) -> anyhow::Result<Self> {
-        let worlds = spec
-            .model_choices()
-            .iter()
-            .enumerate()
-            .map(|(i, urdf)| {
-                let mut scene = spec.template.clone();
-                let entry = &mut scene.models[0];
-                entry.urdf = urdf.into();
-                entry.position = [0.0; 3];
-                entry.rpy = [0.0; 3];
-                entry.linvel = [0.0; 3];
-                entry.angvel = [0.0; 3];
-                scene.build().map(Arc::new).with_context(|| {
-                    format!(
-                        "{}: model choice {i} ({urdf})",
-                        spec.path.display()
-                    )
+        let worlds =
+            spec.model_choices()
+                .iter()
+                .enumerate()
+                .map(|(i, urdf)| {
+                    let mut scene = spec.template.clone();
+                    let entry = &mut scene.models[0];
+                    entry.urdf = urdf.into();
+                    entry.position = [0.0; 3];
+                    entry.rpy = [0.0; 3];
+                    entry.linvel = [0.0; 3];
+                    entry.angvel = [0.0; 3];
+                    scene.build().map(Arc::new).with_context(|| {
+                        format!("{}: model choice {i} ({urdf})", spec.path.display())
+                    })
                 })
-            })
-            .collect::<anyhow::Result<_>>()?;
+                .collect::<anyhow::Result<_>>()?;
         Ok(Self { worlds })
     }
 

@@ -200,7 +200,9 @@ impl DatasetSpec {
         }
         let runs_per_file = positive(
             "runs_per_file",
-            dataset.runs_per_file.unwrap_or(DEFAULT_RUNS_PER_FILE as i64),
+            dataset
+                .runs_per_file
+                .unwrap_or(DEFAULT_RUNS_PER_FILE as i64),
         )?;
         let record_runs = match dataset.record_runs {
             Some(n) if n < 0 => bail!("{file}: dataset.record_runs must be >= 0 (got {n})"),
@@ -209,7 +211,9 @@ impl DatasetSpec {
             None => DEFAULT_RECORD_RUNS.min(runs),
         };
         if record_runs > 0 && dataset.record.is_empty() {
-            bail!("{file}: dataset.record_runs is set but dataset.record names no format (\"mcap\", \"rrd\")");
+            bail!(
+                "{file}: dataset.record_runs is set but dataset.record names no format (\"mcap\", \"rrd\")"
+            );
         }
         let mut record = dataset.record.clone();
         record.dedup();

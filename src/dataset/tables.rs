@@ -22,9 +22,7 @@
 //! moments, `link_from_body` ([`bodies_schema`]).
 
 use crate::record::{BodyState, Frame, RecordingLayout, Sink};
-use arrow_array::{
-    ArrayRef, Float64Array, Int64Array, RecordBatch, StringArray, UInt64Array,
-};
+use arrow_array::{ArrayRef, Float64Array, Int64Array, RecordBatch, StringArray, UInt64Array};
 use arrow_schema::{DataType, Field, Schema, SchemaRef};
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -107,7 +105,14 @@ impl TrajectoryColumns {
         id
     }
 
-    fn push(&mut self, run: u64, frame: &Frame<'_>, body: u32, pose: &nalgebra::Isometry3<f64>, state: &BodyState) {
+    fn push(
+        &mut self,
+        run: u64,
+        frame: &Frame<'_>,
+        body: u32,
+        pose: &nalgebra::Isometry3<f64>,
+        state: &BodyState,
+    ) {
         self.run.push(run as i64);
         self.step.push(frame.step as i64);
         self.time_ns.push(frame.time_ns);
@@ -130,7 +135,11 @@ impl TrajectoryColumns {
             .iter()
             .map(|&b| Some(self.names[b as usize].as_str()))
             .collect();
-        let time_secs: Float64Array = self.time_ns.iter().map(|&t| Some(t as f64 * 1e-9)).collect();
+        let time_secs: Float64Array = self
+            .time_ns
+            .iter()
+            .map(|&t| Some(t as f64 * 1e-9))
+            .collect();
         let mut columns: Vec<ArrayRef> = vec![
             Arc::new(Int64Array::from(std::mem::take(&mut self.run))),
             Arc::new(Int64Array::from(std::mem::take(&mut self.step))),
@@ -160,7 +169,13 @@ pub struct RowsSink {
 impl Sink for RowsSink {
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
         let mut rows = self.rows.borrow_mut();
-        for ((layout, state), &id) in self.layout.bodies.iter().zip(frame.bodies).zip(&self.name_ids) {
+        for ((layout, state), &id) in self
+            .layout
+            .bodies
+            .iter()
+            .zip(frame.bodies)
+            .zip(&self.name_ids)
+        {
             let pose = frame.world_from_link[layout.frame] * layout.link_from_principal;
             rows.push(self.run, frame, id, &pose, state);
         }
@@ -289,7 +304,16 @@ pub fn runs_batch(rows: &[RunRow]) -> anyhow::Result<RecordBatch> {
     columns.extend([
         i64s(&|r| r.bodies as i64),
         i64s(&|r| r.rows as i64),
-        strs(&|r| Some(if r.diverged.is_some() { "diverged" } else { "ok" }.to_string())),
+        strs(&|r| {
+            Some(
+                if r.diverged.is_some() {
+                    "diverged"
+                } else {
+                    "ok"
+                }
+                .to_string(),
+            )
+        }),
         i64s(&|r| r.steps_done as i64),
         f64s(&|r| Some(r.energy_initial)),
         f64s(&|r| r.energy_final),
@@ -337,7 +361,10 @@ pub fn bodies_schema() -> SchemaRef {
 }
 
 /// The bodies of every model choice (`models[i]` is choice `i`'s path, `layouts[i]` its layout).
-pub fn bodies_batch(models: &[String], layouts: &[&RecordingLayout]) -> anyhow::Result<RecordBatch> {
+pub fn bodies_batch(
+    models: &[String],
+    layouts: &[&RecordingLayout],
+) -> anyhow::Result<RecordBatch> {
     let mut model = Vec::new();
     let mut body = Vec::new();
     let mut index = Vec::new();
