@@ -89,7 +89,7 @@ pub fn run_chunk(
     let spec = ctx.spec;
     let runs = spec.chunk_runs(chunk);
     let mut trajectories =
-        PartWriter::create(ctx.dir, &trajectories_name(chunk), trajectories_schema())?;
+        PartWriter::create(ctx.dir, &trajectories_name(chunk), trajectories_schema(), true)?;
     let rows = Rc::new(RefCell::new(TrajectoryColumns::default()));
     let mut run_rows = Vec::with_capacity((runs.end - runs.start) as usize);
     let mut recordings: Vec<String> = Vec::new();

@@ -1,13 +1,16 @@
 //! Parquet part files, written so that the same rows always give the same bytes.
 //!
 //! Writer settings are fixed here (not parquet-rs defaults that could move between versions
-//! unnoticed): zstd level 1, dictionary encoding for the string columns only, column-chunk
+//! unnoticed): zstd level 1 for the trajectories (the small per-run tables are left
+//! uncompressed: a compression context per column would cost more than it saves), dictionary encoding for the string columns only, column-chunk
 //! statistics, row groups of [`ROW_GROUP_ROWS`] rows, parquet-rs's `created_by` (its version,
 //! no time). Nothing in a file depends on the clock, the thread or the machine.
 //!
 //! A file is written under a hidden name `.<name>.part` in its final folder (readers such as
 //! pyarrow skip names starting with `.`, so an interrupted write is never read as data),
-//! hashed (SHA-256) as it is written, synced, and renamed onto `<name>` when complete.
+//! hashed (SHA-256) as it is written, and renamed onto `<name>` when complete. It is not
+//! fsynced: the manifest's checksums, checked by `--resume` and `merge`, catch a file a crash
+//! or power cut left incomplete, and that chunk is recomputed.
 
 use anyhow::Context;
 use arrow_array::RecordBatch;
@@ -27,10 +30,15 @@ pub const ROW_GROUP_ROWS: usize = 128 * 1024;
 /// String columns that are dictionary-encoded (few distinct values).
 const DICTIONARY_COLUMNS: &[&str] = &["body", "model", "integrator", "status", "link"];
 
-/// The writer properties of every dataset file.
-pub fn writer_properties() -> anyhow::Result<WriterProperties> {
+/// The writer properties of every dataset file: zstd level 1 when `compressed`, else none.
+pub fn writer_properties(compressed: bool) -> anyhow::Result<WriterProperties> {
+    let compression = if compressed {
+        Compression::ZSTD(ZstdLevel::try_new(1)?)
+    } else {
+        Compression::UNCOMPRESSED
+    };
     let mut builder = WriterProperties::builder()
-        .set_compression(Compression::ZSTD(ZstdLevel::try_new(1)?))
+        .set_compression(compression)
         .set_dictionary_enabled(false)
         .set_statistics_enabled(EnabledStatistics::Chunk)
         .set_max_row_group_row_count(Some(ROW_GROUP_ROWS));
@@ -88,8 +96,14 @@ pub struct PartWriter {
 }
 
 impl PartWriter {
-    /// Starts `dir/name` (`name` relative, `/`-separated; its folder is created).
-    pub fn create(dir: &Path, name: &str, schema: SchemaRef) -> anyhow::Result<Self> {
+    /// Starts `dir/name` (`name` relative, `/`-separated; its folder is created), zstd-compressed
+    /// when `compressed`.
+    pub fn create(
+        dir: &Path,
+        name: &str,
+        schema: SchemaRef,
+        compressed: bool,
+    ) -> anyhow::Result<Self> {
         let path = dir.join(name);
         if let Some(parent) = path.parent() {
             std::fs::create_dir_all(parent)
@@ -103,7 +117,7 @@ impl PartWriter {
             hasher: Sha256::new(),
             bytes: 0,
         };
-        let writer = ArrowWriter::try_new(sink, schema, Some(writer_properties()?))
+        let writer = ArrowWriter::try_new(sink, schema, Some(writer_properties(compressed)?))
             .with_context(|| format!("cannot start {}", part.display()))?;
         Ok(Self {
             writer: Some(writer),
@@ -123,7 +137,7 @@ impl PartWriter {
         Ok(())
     }
 
-    /// Writes the footer, syncs, renames onto the final name; returns what the manifest lists.
+    /// Writes the footer, renames onto the final name; returns what the manifest lists.
     pub fn finish(mut self) -> anyhow::Result<FileInfo> {
         let writer = self.writer.take().context("file already finished")?;
         let context = || format!("cannot finish {}", self.part.display());
@@ -138,7 +152,9 @@ impl PartWriter {
             .into_inner()
             .map_err(|e| e.into_error())
             .with_context(context)?;
-        file.sync_all().with_context(context)?;
+        // No fsync per file: durability comes from the manifest's checksums instead, which
+        // `--resume` checks (a file lost to a crash or power cut is recomputed). An fsync per part
+        // file would serialize the workers on the file system.
         drop(file);
         std::fs::rename(&self.part, &self.path).with_context(|| {
             format!(
@@ -165,9 +181,9 @@ impl Drop for PartWriter {
     }
 }
 
-/// Writes one batch as the whole file `dir/name`.
+/// Writes one batch as the whole file `dir/name`, uncompressed (the small tables).
 pub fn write_file(dir: &Path, name: &str, batch: &RecordBatch) -> anyhow::Result<FileInfo> {
-    let mut w = PartWriter::create(dir, name, batch.schema())?;
+    let mut w = PartWriter::create(dir, name, batch.schema(), false)?;
     w.write(batch)?;
     w.finish()
 }
