@@ -88,8 +88,12 @@ pub fn run_chunk(
 ) -> anyhow::Result<(ChunkRecord, ChunkStats)> {
     let spec = ctx.spec;
     let runs = spec.chunk_runs(chunk);
-    let mut trajectories =
-        PartWriter::create(ctx.dir, &trajectories_name(chunk), trajectories_schema(), true)?;
+    let mut trajectories = PartWriter::create(
+        ctx.dir,
+        &trajectories_name(chunk),
+        trajectories_schema(),
+        true,
+    )?;
     let rows = Rc::new(RefCell::new(TrajectoryColumns::default()));
     let mut run_rows = Vec::with_capacity((runs.end - runs.start) as usize);
     let mut recordings: Vec<String> = Vec::new();

@@ -127,6 +127,8 @@ pub fn generate(spec: &DatasetSpec, opts: &Options) -> anyhow::Result<Summary> {
     let next = AtomicUsize::new(0);
     let stop = AtomicBool::new(false);
     let interrupted = AtomicBool::new(false);
+    // Chunks abandoned because a run inside them was interrupted.
+    let discarded = AtomicUsize::new(0);
     let failure: Mutex<Option<anyhow::Error>> = Mutex::new(None);
     struct Shared {
         manifest: Manifest,
@@ -149,6 +151,7 @@ pub fn generate(spec: &DatasetSpec, opts: &Options) -> anyhow::Result<Summary> {
         stop.store(true, Ordering::SeqCst);
         if e.downcast_ref::<interrupt::Interrupted>().is_some() {
             interrupted.store(true, Ordering::SeqCst);
+            discarded.fetch_add(1, Ordering::SeqCst);
         } else {
             failure
                 .lock()
@@ -221,8 +224,12 @@ pub fn generate(spec: &DatasetSpec, opts: &Options) -> anyhow::Result<Summary> {
                 summary.runs_total
             ),
             finished: format!(
-                "chunks in flight were finished; {} part files complete and listed in {}; \
-                 run the same command with --resume to finish",
+                "{}; {} chunks (part files) complete and listed in {}; run the same command with \
+                 --resume to finish",
+                match discarded.load(Ordering::SeqCst) {
+                    0 => "the chunks in flight were finished".to_string(),
+                    n => format!("{n} chunks in flight were discarded"),
+                },
                 manifest.chunks_done.len(),
                 dir.join(MANIFEST).display()
             ),
@@ -365,9 +372,14 @@ fn progress_bar(enabled: bool, total: u64, position: u64) -> ProgressBar {
     }
     let bar = ProgressBar::new(total);
     if let Ok(style) = ProgressStyle::with_template(
-        "{elapsed_precise} {wide_bar} {human_pos}/{human_len} runs  {per_sec}  ETA {eta}",
+        "{elapsed_precise} {wide_bar} {human_pos}/{human_len} runs  {rate}  ETA {eta}",
     ) {
-        bar.set_style(style);
+        bar.set_style(style.with_key(
+            "rate",
+            |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                write!(w, "{:.0} runs/s", state.per_sec()).ok();
+            },
+        ));
     }
     bar.set_position(position);
     bar.reset_eta();
