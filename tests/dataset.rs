@@ -259,6 +259,12 @@ fn shards_together_equal_the_unsharded_dataset_and_merge_joins_them() {
     .unwrap();
     assert_eq!((s.chunks, s.runs), (5, 14));
     assert_same_files(&merged, &full);
+    // An existing dataset in --out is not replaced without --force.
+    let shards = [tmp.path().join("shard1"), tmp.path().join("shard2")];
+    let e = format!("{:#}", merge(&shards, &merged, false).unwrap_err());
+    assert!(e.contains("pass --force"), "{e}");
+    merge(&shards, &merged, true).unwrap();
+    assert_same_files(&merged, &full);
 }
 
 /// `merge` refuses overlapping inputs, a missing shard (naming it), shards of a different

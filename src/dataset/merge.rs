@@ -128,7 +128,13 @@ pub fn merge(inputs: &[PathBuf], out: &Path, force: bool) -> anyhow::Result<Merg
     }
 
     // Write.
-    crate::fsutil::check_not_overwriting(&out.join(MANIFEST), force)?;
+    if !force && let Some(name) = OUTPUTS.iter().find(|n| out.join(n).exists()) {
+        bail!(
+            "{} exists; pass --force to replace the dataset in {} (or choose another --out)",
+            out.join(name).display(),
+            out.display()
+        );
+    }
     if force {
         for name in OUTPUTS {
             let path = out.join(name);
