@@ -41,4 +41,6 @@ pub enum Command {
     Diff(DiffArgs),
     /// Replay a tumble MCAP recording into a Rerun .rrd (same entities as a fresh run).
     Convert(ConvertArgs),
+    /// Generate a randomized trajectory dataset (Parquet) from a spec, in parallel, resumable, shardable; or merge shards.
+    Dataset(crate::commands::dataset::DatasetArgs),
 }

@@ -7,6 +7,7 @@
 pub mod budget;
 pub mod cli;
 pub mod commands;
+pub mod dataset;
 pub mod fsutil;
 pub mod input;
 pub mod interrupt;

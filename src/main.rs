@@ -25,6 +25,7 @@ fn main() -> ExitCode {
         Command::Info(args) => commands::info::run(args).map(|ok| if ok { 0 } else { 1 }),
         Command::Diff(args) => commands::diff::run(args).map(|same| if same { 0 } else { 1 }),
         Command::Convert(args) => commands::convert::run(args).map(|ok| if ok { 0 } else { 1 }),
+        Command::Dataset(args) => commands::dataset::run(args).map(|()| 0),
     };
     match result {
         Ok(code) => ExitCode::from(code),

@@ -3,6 +3,7 @@
 
 pub mod bench;
 pub mod convert;
+pub mod dataset;
 pub mod diff;
 pub mod info;
 pub mod inspect;

@@ -1,0 +1,137 @@
+//! `tumble dataset SPEC.toml --out DIR [--threads N] [--shard k/N] [--resume | --force]` and
+//! `tumble dataset merge SHARD_DIR... --out DIR`.
+
+use crate::dataset::{self, DatasetSpec, Options, Shard};
+use clap::Subcommand;
+use std::path::PathBuf;
+
+const AFTER_HELP: &str = "\
+Examples:
+  tumble dataset models/dataset.toml --out logs/dataset              all cores
+  tumble dataset models/dataset.toml --out logs/dataset --resume     finish an interrupted run
+  tumble dataset models/dataset.toml --out shard1 --shard 1/2        on machine 1 (and 2/2 on machine 2)
+  tumble dataset merge shard1 shard2 --out logs/dataset              join the shards
+
+The last line of a generation is a summary:
+  runs=<n> chunks=<n> rows=<n> threads=<n> wall_secs=<s> runs_per_sec=<r> body_steps_per_sec=<r>";
+
+/// `tumble dataset`: a spec and an output folder, or the `merge` subcommand.
+#[derive(clap::Args, Debug, Clone, Default)]
+#[command(
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true,
+    after_help = AFTER_HELP
+)]
+pub struct DatasetArgs {
+    #[command(subcommand)]
+    pub command: Option<DatasetCommand>,
+    /// The dataset spec (TOML): a [scene] template, [vary] distributions, [dataset] runs and
+    /// seed (see models/dataset.toml).
+    #[arg(required = true, value_name = "SPEC.toml")]
+    pub spec: Option<PathBuf>,
+    /// Output folder (manifest.json, bodies.parquet, trajectories/, runs/, recordings/).
+    #[arg(long, required = true, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Worker threads (default: all cores). The output does not depend on it.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=4096))]
+    pub threads: Option<u64>,
+    /// Compute only shard k of N: the chunks c with c mod N = k - 1. Join the N folders with
+    /// `tumble dataset merge`.
+    #[arg(long, value_name = "k/N")]
+    pub shard: Option<Shard>,
+    /// Complete the dataset in --out: check the files listed in its manifest (recomputing
+    /// corrupted ones) and compute the rest. Without a manifest there, start afresh.
+    #[arg(long, conflicts_with = "force")]
+    pub resume: bool,
+    /// Replace the dataset files in --out.
+    #[arg(long)]
+    pub force: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+#[derive(Subcommand, Debug, Clone)]
+pub enum DatasetCommand {
+    /// Check shard folders (same spec, seed, version; no overlap; every chunk present; every
+    /// checksum) and join them into one dataset.
+    Merge(MergeArgs),
+}
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct MergeArgs {
+    /// Shard folders (or their manifest.json).
+    #[arg(required = true, value_name = "SHARD_DIR")]
+    pub inputs: Vec<PathBuf>,
+    /// The joined dataset's folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Replace a dataset in --out.
+    #[arg(long)]
+    pub force: bool,
+}
+
+pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
+    if let Some(DatasetCommand::Merge(m)) = &args.command {
+        let s = dataset::merge(&m.inputs, &m.out, m.force)?;
+        println!(
+            "merged {} folders: {} chunks, {} runs, {} files ({:.1} MB) into {}",
+            s.inputs,
+            s.chunks,
+            s.runs,
+            s.files,
+            s.bytes as f64 / 1e6,
+            m.out.display()
+        );
+        return Ok(());
+    }
+    let (Some(spec_path), Some(out)) = (&args.spec, &args.out) else {
+        anyhow::bail!("usage: tumble dataset SPEC.toml --out DIR (see --help)");
+    };
+    let spec = DatasetSpec::load(spec_path)?;
+    // Ctrl-C / SIGTERM: finish the chunks in flight, write the manifest, exit 130 / 143.
+    crate::interrupt::install()?;
+    let opts = Options {
+        out: out.clone(),
+        threads: args.threads.map(|n| n as usize),
+        shard: args.shard,
+        resume: args.resume,
+        force: args.force,
+        progress: !args.quiet,
+        stop_after_chunks: None,
+    };
+    let s = dataset::generate(&spec, &opts)?;
+    if s.runs_skipped > 0 || s.chunks_redone > 0 {
+        println!(
+            "resumed: {} runs ({} chunks) were complete and checked; {} chunks recomputed",
+            s.runs_skipped, s.chunks_skipped, s.chunks_redone
+        );
+    }
+    if s.diverged > 0 {
+        eprintln!(
+            "warning: {} of {} runs were stopped by the divergence guard (runs table: status = \"diverged\")",
+            s.diverged, s.runs_done
+        );
+    }
+    println!(
+        "wrote {} runs ({} rows) to {}{}",
+        s.runs_done,
+        s.rows,
+        out.display(),
+        args.shard
+            .map(|k| format!(" (shard {k})"))
+            .unwrap_or_default()
+    );
+    let secs = s.wall_secs.max(1e-9);
+    println!(
+        "runs={} chunks={} rows={} threads={} wall_secs={:.3} runs_per_sec={:.1} body_steps_per_sec={:.4e}",
+        s.runs_done,
+        s.chunks_done,
+        s.rows,
+        s.threads,
+        s.wall_secs,
+        s.runs_done as f64 / secs,
+        s.body_steps as f64 / secs
+    );
+    Ok(())
+}

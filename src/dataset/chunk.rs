@@ -1,0 +1,223 @@
+//! One chunk: runs `[c · runs_per_file, (c + 1) · runs_per_file)` simulated in run order by one
+//! thread into `trajectories/part-c.parquet`, `runs/part-c.parquet` and the chunk's per-run
+//! recordings. The chunk is the atomic unit of the dataset: its files are complete, or
+//! discarded and recomputed.
+
+use super::manifest::ChunkRecord;
+use super::parquet::{FileInfo, PartWriter, recording_info, write_file};
+use super::sample::{ModelCache, RunParams, draw, run_scene};
+use super::spec::{DatasetSpec, RecordFormat};
+use super::tables::{RowsSink, RunRow, TrajectoryColumns, runs_batch, trajectories_schema};
+use crate::record::mcap::McapSink;
+use crate::record::rerun::{RerunOptions, RerunSink};
+use crate::record::{RecordingLayout, Sink};
+use std::cell::RefCell;
+use std::path::{Path, PathBuf};
+use std::rc::Rc;
+use std::sync::Arc;
+
+/// `trajectories/part-NNNNN.parquet`.
+pub fn trajectories_name(chunk: u64) -> String {
+    format!("trajectories/part-{chunk:05}.parquet")
+}
+
+/// `runs/part-NNNNN.parquet`.
+pub fn runs_name(chunk: u64) -> String {
+    format!("runs/part-{chunk:05}.parquet")
+}
+
+/// `recordings/run-NNNNNN.<ext>`.
+pub fn recording_name(run: u64, format: RecordFormat) -> String {
+    format!("recordings/run-{run:06}.{}", format.extension())
+}
+
+/// Trajectory rows are handed to the Parquet writer in batches of at least this many rows
+/// (fewer, larger writes; the batch boundaries depend on the chunk's rows only).
+pub const BATCH_ROWS: usize = 16 * 1024;
+
+/// What a chunk did besides its files.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ChunkStats {
+    pub runs: u64,
+    pub rows: u64,
+    /// Σ steps done × bodies.
+    pub body_steps: u64,
+    pub diverged: u64,
+}
+
+/// Everything the chunks of a dataset share (read-only, one per process).
+pub struct Context<'a> {
+    pub spec: &'a DatasetSpec,
+    pub cache: &'a ModelCache,
+    /// Per model choice: its recording layout (frames, bodies) and body names.
+    pub layouts: Vec<Arc<RecordingLayout>>,
+    pub body_names: Vec<Vec<String>>,
+    /// [`DatasetSpec::model_choices`].
+    pub models: Vec<String>,
+    pub dir: &'a Path,
+}
+
+impl<'a> Context<'a> {
+    pub fn new(spec: &'a DatasetSpec, cache: &'a ModelCache, dir: &'a Path) -> Self {
+        let layouts: Vec<Arc<RecordingLayout>> = cache
+            .worlds
+            .iter()
+            .map(|w| Arc::new(w.layout.clone()))
+            .collect();
+        let body_names = layouts
+            .iter()
+            .map(|l| l.bodies.iter().map(|b| b.name.clone()).collect())
+            .collect();
+        Self {
+            spec,
+            cache,
+            layouts,
+            body_names,
+            models: spec.model_choices().to_vec(),
+            dir,
+        }
+    }
+}
+
+/// Computes chunk `chunk` and writes its files. `after_run` is called after every run (progress).
+/// On error or interruption inside a run, the chunk's unfinished files are removed.
+pub fn run_chunk(
+    ctx: &Context<'_>,
+    chunk: u64,
+    after_run: &dyn Fn(),
+) -> anyhow::Result<(ChunkRecord, ChunkStats)> {
+    let spec = ctx.spec;
+    let runs = spec.chunk_runs(chunk);
+    let mut trajectories = PartWriter::create(
+        ctx.dir,
+        &trajectories_name(chunk),
+        trajectories_schema(),
+        true,
+    )?;
+    let rows = Rc::new(RefCell::new(TrajectoryColumns::default()));
+    let mut run_rows = Vec::with_capacity((runs.end - runs.start) as usize);
+    let mut recordings: Vec<String> = Vec::new();
+    let mut stats = ChunkStats::default();
+    for run in runs.clone() {
+        let params = draw(spec, run);
+        let rows_before = rows.borrow().len() as u64;
+        let mut row = simulate_run(ctx, &params, &rows, &mut recordings)?;
+        row.rows = rows.borrow().len() as u64 - rows_before;
+        if rows.borrow().len() >= BATCH_ROWS {
+            trajectories.write(&rows.borrow_mut().take_batch()?)?;
+        }
+        stats.runs += 1;
+        stats.rows += row.rows;
+        stats.body_steps += row.steps_done * row.bodies;
+        stats.diverged += u64::from(row.diverged.is_some());
+        run_rows.push(row);
+        after_run();
+    }
+    if !rows.borrow().is_empty() {
+        trajectories.write(&rows.borrow_mut().take_batch()?)?;
+    }
+    let mut files: Vec<FileInfo> = vec![trajectories.finish()?];
+    files.push(write_file(
+        ctx.dir,
+        &runs_name(chunk),
+        &runs_batch(&run_rows)?,
+    )?);
+    for name in &recordings {
+        files.push(recording_info(ctx.dir, name)?);
+    }
+    Ok((
+        ChunkRecord {
+            chunk,
+            runs: [runs.start, runs.end],
+            files,
+        },
+        stats,
+    ))
+}
+
+/// Simulates one run into `rows` (and its recordings, for the first `record_runs` runs).
+fn simulate_run(
+    ctx: &Context<'_>,
+    params: &RunParams,
+    rows: &Rc<RefCell<TrajectoryColumns>>,
+    recordings: &mut Vec<String>,
+) -> anyhow::Result<RunRow> {
+    let spec = ctx.spec;
+    let scene = run_scene(spec, params);
+    let world = ctx.cache.world(params);
+    let layout = &ctx.layouts[params.model];
+    let name_ids = {
+        let mut rows = rows.borrow_mut();
+        ctx.body_names[params.model]
+            .iter()
+            .map(|name| rows.intern(name))
+            .collect()
+    };
+    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(RowsSink {
+        run: params.run,
+        layout: layout.clone(),
+        name_ids,
+        rows: rows.clone(),
+    })];
+    let mut outputs: Vec<PathBuf> = Vec::new();
+    if params.run < spec.record_runs {
+        let mut rec_layout = (**layout).clone();
+        rec_layout.name = format!("run-{:06}", params.run);
+        rec_layout.metadata = scene.metadata();
+        rec_layout
+            .metadata
+            .insert("scene_file".into(), spec.path.display().to_string());
+        rec_layout
+            .metadata
+            .insert("dataset_run".into(), params.run.to_string());
+        rec_layout
+            .metadata
+            .insert("dataset_run_seed".into(), params.seed.to_string());
+        for &format in &spec.record {
+            let name = recording_name(params.run, format);
+            let path = ctx.dir.join(&name);
+            if let Some(parent) = path.parent() {
+                std::fs::create_dir_all(parent)?;
+            }
+            sinks.push(match format {
+                RecordFormat::Mcap => Box::new(McapSink::create(&path, &rec_layout)?),
+                RecordFormat::Rrd => Box::new(RerunSink::create(
+                    &path,
+                    &rec_layout,
+                    &RerunOptions::default(),
+                )?),
+            });
+            outputs.push(path);
+            recordings.push(name);
+        }
+    }
+    let mut integrator = params
+        .integrator
+        .build(params.dt_secs, &scene.variational_settings());
+    let settings = scene.run_settings();
+    let result = crate::run::run(&world, integrator.as_mut(), &settings, &mut sinks);
+    let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
+    let summary = crate::record::finish_all(sinks, result, &outputs)?;
+    let diverged = summary.stopped.map(|d| {
+        (
+            ctx.body_names[params.model][d.body].clone(),
+            d.cause.to_string(),
+        )
+    });
+    let ok = diverged.is_none();
+    Ok(RunRow {
+        params: params.clone(),
+        model: ctx.models[params.model].clone(),
+        steps: settings.steps,
+        log_every: settings.log_every,
+        bodies: world.bodies.len() as u64,
+        rows: 0, // set by the caller
+        steps_done: summary.steps,
+        energy_initial: summary.energy_initial,
+        energy_final: ok.then_some(summary.energy_final),
+        angmom_drift_rel: ok.then_some(summary.angmom_rel_change_max),
+        newton_iters_max: summary.stats.newton_iters_max,
+        substepped: u64::from(summary.stats.substepped),
+        diverged,
+    })
+}

@@ -1,0 +1,38 @@
+//! Trajectory datasets at scale: `tumble dataset SPEC.toml --out DIR` runs a scene template many
+//! times with randomized parameters and writes Parquet tables, a manifest and optional per-run
+//! recordings.
+//!
+//! Flow: [`spec`] parses the TOML (template, `[vary]` distributions, run count, master seed);
+//! run `i` draws its parameters from [`rng`] streams seeded by (seed, i) alone ([`sample`]);
+//! runs are grouped into chunks of `runs_per_file`, each simulated by one thread in run order
+//! ([`chunk`]) into Parquet part files ([`tables`], [`parquet`]); [`generate`] runs the chunks
+//! in parallel, resumes and stops cleanly, keeping [`manifest`] up to date; [`shard`] splits the
+//! chunks among machines and [`merge`] joins their folders.
+//!
+//! Folder layout:
+//!
+//! ```text
+//! DIR/manifest.json                      spec, tool version, seed, per-file size and SHA-256
+//! DIR/bodies.parquet                     mass properties of each model choice's bodies
+//! DIR/trajectories/part-NNNNN.parquet    one row per recorded step and body
+//! DIR/runs/part-NNNNN.parquet            one row per run: drawn parameters and outcome
+//! DIR/recordings/run-NNNNNN.{mcap,rrd}   optional, the first `record_runs` runs
+//! ```
+
+pub mod chunk;
+pub mod distribution;
+pub mod generate;
+pub mod manifest;
+pub mod merge;
+pub mod parquet;
+pub mod rng;
+pub mod sample;
+pub mod shard;
+pub mod spec;
+pub mod tables;
+
+pub use generate::{Options, Summary, generate};
+pub use manifest::Manifest;
+pub use merge::merge;
+pub use shard::Shard;
+pub use spec::DatasetSpec;

@@ -1,0 +1,398 @@
+//! The three Parquet tables of a dataset, as Arrow schemas and column buffers.
+//!
+//! **`trajectories/part-NNNNN.parquet`**: one row per recorded step (every `log_every`th, the
+//! first and the last) per body. The *body frame* is the body's principal frame: origin at its
+//! centre of mass, axes along its principal axes of inertia (`bodies.parquet` gives its pose in
+//! the link frame). World frame, SI units.
+//!
+//! | column | type | meaning |
+//! |---|---|---|
+//! | `run` | int64 | run index, 0-based |
+//! | `step` | int64 | integrator step (0 = initial state) |
+//! | `time` | int64 | simulation time, ns (`step · dt` in integer ns) |
+//! | `time_secs` | float64 | the same in s |
+//! | `body` | string | body name (its link's frame id; a rigid model's name) |
+//! | `position_x/_y/_z` | float64 | centre of mass, world, m |
+//! | `orientation_x/_y/_z/_w` | float64 | unit quaternion `world_from_body`, Hamilton, scalar last |
+//! | `linear_velocity_x/_y/_z` | float64 | velocity of the centre of mass, world, m/s |
+//! | `angular_velocity_x/_y/_z` | float64 | angular velocity, world, rad/s |
+//!
+//! **`runs/part-NNNNN.parquet`**: one row per run, every drawn value and the outcome
+//! ([`runs_schema`]). **`bodies.parquet`**: one row per model choice and body: mass, principal
+//! moments, `link_from_body` ([`bodies_schema`]).
+
+use crate::record::{BodyState, Frame, RecordingLayout, Sink};
+use arrow_array::{ArrayRef, Float64Array, Int64Array, RecordBatch, StringArray, UInt64Array};
+use arrow_schema::{DataType, Field, Schema, SchemaRef};
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::rc::Rc;
+use std::sync::{Arc, OnceLock};
+
+fn field(name: &str, data_type: DataType, nullable: bool, unit: &str) -> Field {
+    let f = Field::new(name, data_type, nullable);
+    if unit.is_empty() {
+        f
+    } else {
+        // One entry only: Arrow keeps field metadata in a HashMap, and a single entry is the only
+        // size whose encoding order cannot vary between processes.
+        f.with_metadata(HashMap::from([("unit".to_string(), unit.to_string())]))
+    }
+}
+
+fn f64s(prefix: &str, suffixes: &[&str], unit: &str, nullable: bool) -> Vec<Field> {
+    suffixes
+        .iter()
+        .map(|s| field(&format!("{prefix}_{s}"), DataType::Float64, nullable, unit))
+        .collect()
+}
+
+const XYZ: &[&str] = &["x", "y", "z"];
+const XYZW: &[&str] = &["x", "y", "z", "w"];
+
+/// Schema of `trajectories/part-NNNNN.parquet` (module doc).
+pub fn trajectories_schema() -> SchemaRef {
+    static SCHEMA: OnceLock<SchemaRef> = OnceLock::new();
+    SCHEMA
+        .get_or_init(|| {
+            let mut fields = vec![
+                field("run", DataType::Int64, false, ""),
+                field("step", DataType::Int64, false, ""),
+                field("time", DataType::Int64, false, "ns"),
+                field("time_secs", DataType::Float64, false, "s"),
+                field("body", DataType::Utf8, false, ""),
+            ];
+            fields.extend(f64s("position", XYZ, "m", false));
+            fields.extend(f64s("orientation", XYZW, "", false));
+            fields.extend(f64s("linear_velocity", XYZ, "m/s", false));
+            fields.extend(f64s("angular_velocity", XYZ, "rad/s", false));
+            Arc::new(Schema::new(fields))
+        })
+        .clone()
+}
+
+/// Trajectory rows, filled by [`RowsSink`] and drained into record batches.
+#[derive(Debug, Default)]
+pub struct TrajectoryColumns {
+    /// Body names seen so far; `body` holds indices into it.
+    names: Vec<String>,
+    ids: HashMap<String, u32>,
+    run: Vec<i64>,
+    step: Vec<i64>,
+    time_ns: Vec<i64>,
+    body: Vec<u32>,
+    /// position xyz, orientation xyzw, linear velocity xyz, angular velocity xyz.
+    values: [Vec<f64>; 13],
+}
+
+impl TrajectoryColumns {
+    pub fn len(&self) -> usize {
+        self.run.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.run.is_empty()
+    }
+
+    /// The index of body name `name` in this buffer's name table.
+    pub fn intern(&mut self, name: &str) -> u32 {
+        if let Some(&id) = self.ids.get(name) {
+            return id;
+        }
+        let id = self.names.len() as u32;
+        self.names.push(name.to_string());
+        self.ids.insert(name.to_string(), id);
+        id
+    }
+
+    fn push(
+        &mut self,
+        run: u64,
+        frame: &Frame<'_>,
+        body: u32,
+        pose: &nalgebra::Isometry3<f64>,
+        state: &BodyState,
+    ) {
+        self.run.push(run as i64);
+        self.step.push(frame.step as i64);
+        self.time_ns.push(frame.time_ns);
+        self.body.push(body);
+        let t = pose.translation.vector;
+        let q = pose.rotation.quaternion().coords;
+        let (v, w) = (state.linvel_world, state.angvel_world);
+        let row = [
+            t.x, t.y, t.z, q.x, q.y, q.z, q.w, v.x, v.y, v.z, w.x, w.y, w.z,
+        ];
+        for (column, value) in self.values.iter_mut().zip(row) {
+            column.push(value);
+        }
+    }
+
+    /// The buffered rows as a batch; the buffers are emptied (the name table is kept).
+    pub fn take_batch(&mut self) -> anyhow::Result<RecordBatch> {
+        let body: StringArray = self
+            .body
+            .iter()
+            .map(|&b| Some(self.names[b as usize].as_str()))
+            .collect();
+        let time_secs: Float64Array = self
+            .time_ns
+            .iter()
+            .map(|&t| Some(t as f64 * 1e-9))
+            .collect();
+        let mut columns: Vec<ArrayRef> = vec![
+            Arc::new(Int64Array::from(std::mem::take(&mut self.run))),
+            Arc::new(Int64Array::from(std::mem::take(&mut self.step))),
+            Arc::new(Int64Array::from(std::mem::take(&mut self.time_ns))),
+            Arc::new(time_secs),
+            Arc::new(body),
+        ];
+        self.body.clear();
+        for v in &mut self.values {
+            columns.push(Arc::new(Float64Array::from(std::mem::take(v))));
+        }
+        Ok(RecordBatch::try_new(trajectories_schema(), columns)?)
+    }
+}
+
+/// A [`Sink`] turning frames into trajectory rows: body `b`'s pose is
+/// `world_from_link[frame_b] · link_from_principal_b` (its principal frame, equal to the
+/// integrator's state to round-off).
+pub struct RowsSink {
+    pub run: u64,
+    pub layout: Arc<RecordingLayout>,
+    /// Per body: its name's index in `rows` ([`TrajectoryColumns::intern`]).
+    pub name_ids: Vec<u32>,
+    pub rows: Rc<RefCell<TrajectoryColumns>>,
+}
+
+impl Sink for RowsSink {
+    fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
+        let mut rows = self.rows.borrow_mut();
+        for ((layout, state), &id) in self
+            .layout
+            .bodies
+            .iter()
+            .zip(frame.bodies)
+            .zip(&self.name_ids)
+        {
+            let pose = frame.world_from_link[layout.frame] * layout.link_from_principal;
+            rows.push(self.run, frame, id, &pose, state);
+        }
+        Ok(())
+    }
+
+    fn finish(self: Box<Self>) -> anyhow::Result<()> {
+        Ok(())
+    }
+}
+
+/// Schema of `runs/part-NNNNN.parquet`: one row per run.
+///
+/// | column | type | meaning |
+/// |---|---|---|
+/// | `run`, `seed` | int64, uint64 | run index; the seed its values were drawn from |
+/// | `model` | string | URDF path as written in the spec |
+/// | `integrator`, `dt`, `duration`, `steps`, `log_every` | string, float64 (s), float64 (s), int64, int64 | |
+/// | `gravity_x/_y/_z` | float64 | m/s², world |
+/// | `root_position_x/_y/_z`, `root_orientation_x/_y/_z/_w` | float64 | initial pose of the model's root link frame, world (m; quaternion xyzw) |
+/// | `initial_linear_velocity_x/_y/_z`, `initial_angular_velocity_x/_y/_z` | float64 | every body's initial velocities, world (m/s, rad/s) |
+/// | `bodies`, `rows` | int64 | bodies simulated; trajectory rows written |
+/// | `status` | string | `ok`, or `diverged` (the run guard stopped it: rows end at the last good recorded step) |
+/// | `steps_done` | int64 | steps completed (`steps` when ok) |
+/// | `energy_initial`, `energy_final` | float64, J | total mechanical energy (final: null when diverged) |
+/// | `energy_drift_rel` | float64 | `(E_final − E_initial) / |E_initial|` (null when diverged) |
+/// | `angular_momentum_drift_rel` | float64 | largest `|L(T) − L(0)| / |L(0)|` of any body about its centre of mass (null when diverged) |
+/// | `newton_iters_max`, `substepped` | int64 | Newton iterations of the hardest solve; body-steps substepped |
+/// | `diverged_body`, `diverged_cause` | string | null when ok |
+pub fn runs_schema() -> SchemaRef {
+    static SCHEMA: OnceLock<SchemaRef> = OnceLock::new();
+    SCHEMA
+        .get_or_init(|| {
+            let mut fields = vec![
+                field("run", DataType::Int64, false, ""),
+                field("seed", DataType::UInt64, false, ""),
+                field("model", DataType::Utf8, false, ""),
+                field("integrator", DataType::Utf8, false, ""),
+                field("dt", DataType::Float64, false, "s"),
+                field("duration", DataType::Float64, false, "s"),
+                field("steps", DataType::Int64, false, ""),
+                field("log_every", DataType::Int64, false, ""),
+            ];
+            fields.extend(f64s("gravity", XYZ, "m/s^2", false));
+            fields.extend(f64s("root_position", XYZ, "m", false));
+            fields.extend(f64s("root_orientation", XYZW, "", false));
+            fields.extend(f64s("initial_linear_velocity", XYZ, "m/s", false));
+            fields.extend(f64s("initial_angular_velocity", XYZ, "rad/s", false));
+            fields.extend([
+                field("bodies", DataType::Int64, false, ""),
+                field("rows", DataType::Int64, false, ""),
+                field("status", DataType::Utf8, false, ""),
+                field("steps_done", DataType::Int64, false, ""),
+                field("energy_initial", DataType::Float64, false, "J"),
+                field("energy_final", DataType::Float64, true, "J"),
+                field("energy_drift_rel", DataType::Float64, true, ""),
+                field("angular_momentum_drift_rel", DataType::Float64, true, ""),
+                field("newton_iters_max", DataType::Int64, false, ""),
+                field("substepped", DataType::Int64, false, ""),
+                field("diverged_body", DataType::Utf8, true, ""),
+                field("diverged_cause", DataType::Utf8, true, ""),
+            ]);
+            Arc::new(Schema::new(fields))
+        })
+        .clone()
+}
+
+/// One row of the runs table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunRow {
+    pub params: super::sample::RunParams,
+    pub model: String,
+    pub steps: u64,
+    pub log_every: u64,
+    pub bodies: u64,
+    pub rows: u64,
+    pub steps_done: u64,
+    pub energy_initial: f64,
+    /// `None` when diverged.
+    pub energy_final: Option<f64>,
+    pub angmom_drift_rel: Option<f64>,
+    pub newton_iters_max: u32,
+    pub substepped: u64,
+    /// `(body name, cause)` when the guard stopped the run.
+    pub diverged: Option<(String, String)>,
+}
+
+/// The runs of one chunk as a batch.
+pub fn runs_batch(rows: &[RunRow]) -> anyhow::Result<RecordBatch> {
+    let i64s = |f: &dyn Fn(&RunRow) -> i64| -> ArrayRef {
+        Arc::new(rows.iter().map(f).collect::<Int64Array>())
+    };
+    let f64s = |f: &dyn Fn(&RunRow) -> Option<f64>| -> ArrayRef {
+        Arc::new(rows.iter().map(f).collect::<Float64Array>())
+    };
+    let strs = |f: &dyn Fn(&RunRow) -> Option<String>| -> ArrayRef {
+        Arc::new(rows.iter().map(f).collect::<StringArray>())
+    };
+    let mut columns: Vec<ArrayRef> = vec![
+        i64s(&|r| r.params.run as i64),
+        Arc::new(UInt64Array::from(
+            rows.iter().map(|r| r.params.seed).collect::<Vec<_>>(),
+        )),
+        strs(&|r| Some(r.model.clone())),
+        strs(&|r| Some(r.params.integrator.name().to_string())),
+        f64s(&|r| Some(r.params.dt_secs)),
+        f64s(&|r| Some(r.params.duration_secs)),
+        i64s(&|r| r.steps as i64),
+        i64s(&|r| r.log_every as i64),
+    ];
+    for k in 0..3 {
+        columns.push(f64s(&|r| Some(r.params.gravity_world[k])));
+    }
+    for k in 0..3 {
+        columns.push(f64s(&|r| Some(r.params.root_position_world[k])));
+    }
+    for k in 0..4 {
+        columns.push(f64s(&|r| Some(r.params.root_orientation_xyzw[k])));
+    }
+    for k in 0..3 {
+        columns.push(f64s(&|r| Some(r.params.linvel_world[k])));
+    }
+    for k in 0..3 {
+        columns.push(f64s(&|r| Some(r.params.angvel_world[k])));
+    }
+    columns.extend([
+        i64s(&|r| r.bodies as i64),
+        i64s(&|r| r.rows as i64),
+        strs(&|r| {
+            Some(
+                if r.diverged.is_some() {
+                    "diverged"
+                } else {
+                    "ok"
+                }
+                .to_string(),
+            )
+        }),
+        i64s(&|r| r.steps_done as i64),
+        f64s(&|r| Some(r.energy_initial)),
+        f64s(&|r| r.energy_final),
+        f64s(&|r| {
+            r.energy_final
+                .map(|e| (e - r.energy_initial) / r.energy_initial.abs().max(f64::MIN_POSITIVE))
+        }),
+        f64s(&|r| r.angmom_drift_rel),
+        i64s(&|r| i64::from(r.newton_iters_max)),
+        i64s(&|r| r.substepped as i64),
+        strs(&|r| r.diverged.as_ref().map(|d| d.0.clone())),
+        strs(&|r| r.diverged.as_ref().map(|d| d.1.clone())),
+    ]);
+    Ok(RecordBatch::try_new(runs_schema(), columns)?)
+}
+
+/// Schema of `bodies.parquet`: one row per model choice and body.
+///
+/// | column | type | meaning |
+/// |---|---|---|
+/// | `model` | string | URDF path as written in the spec (joins `runs.model`) |
+/// | `body` | string | body name (joins `trajectories.body`) |
+/// | `body_index` | int64 | its index in the run |
+/// | `link` | string | frame id of the link frame the body is referred to (a rigid model's root link) |
+/// | `mass` | float64 | kg |
+/// | `principal_moment_x/_y/_z` | float64 | kg m², about the centre of mass, along the body axes |
+/// | `link_from_body_position_x/_y/_z`, `link_from_body_orientation_x/_y/_z/_w` | float64 | pose of the body (principal) frame in the link frame (m; quaternion xyzw) |
+pub fn bodies_schema() -> SchemaRef {
+    static SCHEMA: OnceLock<SchemaRef> = OnceLock::new();
+    SCHEMA
+        .get_or_init(|| {
+            let mut fields = vec![
+                field("model", DataType::Utf8, false, ""),
+                field("body", DataType::Utf8, false, ""),
+                field("body_index", DataType::Int64, false, ""),
+                field("link", DataType::Utf8, false, ""),
+                field("mass", DataType::Float64, false, "kg"),
+            ];
+            fields.extend(f64s("principal_moment", XYZ, "kg m^2", false));
+            fields.extend(f64s("link_from_body_position", XYZ, "m", false));
+            fields.extend(f64s("link_from_body_orientation", XYZW, "", false));
+            Arc::new(Schema::new(fields))
+        })
+        .clone()
+}
+
+/// The bodies of every model choice (`models[i]` is choice `i`'s path, `layouts[i]` its layout).
+pub fn bodies_batch(
+    models: &[String],
+    layouts: &[&RecordingLayout],
+) -> anyhow::Result<RecordBatch> {
+    let mut model = Vec::new();
+    let mut body = Vec::new();
+    let mut index = Vec::new();
+    let mut link = Vec::new();
+    let mut values: [Vec<f64>; 11] = Default::default();
+    for (path, layout) in models.iter().zip(layouts) {
+        for (i, b) in layout.bodies.iter().enumerate() {
+            model.push(path.clone());
+            body.push(b.name.clone());
+            index.push(i as i64);
+            link.push(layout.frames[b.frame].frame_id.clone());
+            let t = b.link_from_principal.translation.vector;
+            let q = b.link_from_principal.rotation.quaternion().coords;
+            let m = b.principal_moments;
+            let row = [b.mass, m.x, m.y, m.z, t.x, t.y, t.z, q.x, q.y, q.z, q.w];
+            for (column, v) in values.iter_mut().zip(row) {
+                column.push(v);
+            }
+        }
+    }
+    let mut columns: Vec<ArrayRef> = vec![
+        Arc::new(StringArray::from(model)),
+        Arc::new(StringArray::from(body)),
+        Arc::new(Int64Array::from(index)),
+        Arc::new(StringArray::from(link)),
+    ];
+    for v in values {
+        columns.push(Arc::new(Float64Array::from(v)));
+    }
+    Ok(RecordBatch::try_new(bodies_schema(), columns)?)
+}
