@@ -44,6 +44,22 @@ pub const OUTPUTS: &[&str] = &[
     "recordings",
 ];
 
+/// `--force`: removes every dataset output ([`OUTPUTS`]) from `dir`, files and folders.
+pub fn remove_outputs(dir: &Path) -> anyhow::Result<()> {
+    for name in OUTPUTS {
+        let path = dir.join(name);
+        if path.is_dir() {
+            std::fs::remove_dir_all(&path)
+        } else if path.exists() {
+            std::fs::remove_file(&path)
+        } else {
+            Ok(())
+        }
+        .with_context(|| format!("--force: cannot remove {}", path.display()))?;
+    }
+    Ok(())
+}
+
 /// The manifest is rewritten at most this often while chunks complete (and always at the end).
 const MANIFEST_INTERVAL: Duration = Duration::from_millis(500);
 
@@ -289,17 +305,7 @@ fn prepare(
 ) -> anyhow::Result<Manifest> {
     let existing = Manifest::load(dir)?;
     if opts.force {
-        for name in OUTPUTS {
-            let path = dir.join(name);
-            if path.is_dir() {
-                std::fs::remove_dir_all(&path)
-            } else if path.exists() {
-                std::fs::remove_file(&path)
-            } else {
-                Ok(())
-            }
-            .with_context(|| format!("--force: cannot remove {}", path.display()))?;
-        }
+        remove_outputs(dir)?;
     } else if let Some(old) = &existing {
         let same = old.same_dataset(&fresh).and_then(|()| {
             if old.shard == fresh.shard {

@@ -136,17 +136,7 @@ pub fn merge(inputs: &[PathBuf], out: &Path, force: bool) -> anyhow::Result<Merg
         );
     }
     if force {
-        for name in OUTPUTS {
-            let path = out.join(name);
-            if path.is_dir() {
-                std::fs::remove_dir_all(&path)
-            } else if path.exists() {
-                std::fs::remove_file(&path)
-            } else {
-                Ok(())
-            }
-            .with_context(|| format!("--force: cannot remove {}", path.display()))?;
-        }
+        super::generate::remove_outputs(out)?;
     }
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let mut merged = first.clone();
