@@ -105,7 +105,7 @@ impl Estimate {
             over.push(format!(
                 "{} of computing ({:.3e} body-steps; limit {})",
                 human_secs(self.compute_secs),
-                self.bodies * self.steps,
+                self.compute_secs / (NS_PER_BODY_STEP * 1e-9),
                 human_secs(MAX_COMPUTE_SECS)
             ));
         }

@@ -983,3 +983,21 @@ fn pandas_reads_the_dataset() {
     // Unit quaternions to a few ulp: measured 2.2e-16.
     assert!(r["quat_norm_err_max"].as_f64().unwrap() < 1e-14, "{r}");
 }
+
+/// 1e15 runs are refused before any work, with the estimate (issue 8), and nothing is written.
+#[test]
+fn absurd_datasets_are_refused_up_front() {
+    let tmp = tempfile::tempdir().unwrap();
+    write_spec(
+        tmp.path(),
+        "huge.toml",
+        "runs = 1000000000000000\nseed = 1",
+        None,
+    );
+    let out = tumble(&["dataset", "huge.toml", "--out", "ds", "-q"], tmp.path());
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    // 1e15 runs of ~30 steps: ~1e17 rows, exbibytes of Parquet and millennia of computing.
+    assert!(err.contains("refusing") && err.contains("EiB"), "{err}");
+    assert!(!tmp.path().join("ds").exists());
+}

@@ -49,6 +49,10 @@ pub struct DatasetArgs {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Run even when the estimated output exceeds 64 GiB or the computing time 7 days (the
+    /// estimate is checked before anything runs).
+    #[arg(long)]
+    pub allow_huge: bool,
 }
 
 #[derive(Subcommand, Debug, Clone)]
@@ -99,6 +103,7 @@ pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
         force: args.force,
         progress: !args.quiet,
         stop_after_chunks: None,
+        allow_huge: args.allow_huge,
     };
     let s = dataset::generate(&spec, &opts)?;
     if s.runs_skipped > 0 || s.chunks_redone > 0 {

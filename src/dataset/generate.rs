@@ -77,6 +77,48 @@ pub struct Options {
     /// Stop as if interrupted once this many chunks completed in this call (tests of resume;
     /// unlike [`interrupt::request`] it affects this call only).
     pub stop_after_chunks: Option<u64>,
+    /// Lift the size and time limits of [`crate::budget`] (`--allow-huge`).
+    pub allow_huge: bool,
+}
+
+/// Parquet bytes per trajectory row, for the up-front estimate (measured about 60 with zstd;
+/// rounded up).
+const BYTES_PER_ROW: f64 = 100.0;
+
+/// Refuses an absurd dataset before any work ([`crate::budget`]): the cost of up to 256 runs
+/// drawn evenly across the run range, scaled to all runs.
+fn check_budget(spec: &DatasetSpec, cache: &ModelCache, allow_huge: bool) -> anyhow::Result<()> {
+    let sampled = spec.runs.clamp(1, 256);
+    let (mut body_steps, mut rows, mut bodies_max, mut steps_max) = (0.0, 0.0, 0.0f64, 0.0f64);
+    for k in 0..sampled {
+        let run = (k as u128 * spec.runs as u128 / sampled as u128) as u64;
+        let params = super::sample::draw(spec, run);
+        let bodies = cache.worlds[params.model].bodies.len() as f64;
+        let steps = params.steps() as f64;
+        body_steps += bodies * steps;
+        rows += bodies
+            * crate::budget::recorded_steps(steps, spec.template.sim.log_every.max(1) as f64);
+        bodies_max = bodies_max.max(bodies);
+        steps_max = steps_max.max(steps);
+    }
+    let scale = spec.runs as f64 / sampled as f64;
+    crate::budget::Estimate {
+        bodies: bodies_max,
+        steps: steps_max,
+        recorded_steps: rows * scale,
+        output_bytes: rows * scale * BYTES_PER_ROW,
+        memory_bytes: bodies_max * crate::budget::BYTES_PER_BODY,
+        compute_secs: body_steps * scale * crate::budget::NS_PER_BODY_STEP * 1e-9,
+    }
+    .check(allow_huge)
+    .with_context(|| {
+        format!(
+            "{}: {} runs (estimated from {sampled} of them; the figures below are per run for \
+             steps and bodies, for the whole dataset otherwise)",
+            spec.path.display(),
+            spec.runs
+        )
+    })
 }
 
 /// What a call did.
@@ -109,6 +151,7 @@ pub fn generate(spec: &DatasetSpec, opts: &Options) -> anyhow::Result<Summary> {
         bail!("--threads must be at least 1");
     }
     let cache = ModelCache::load(spec)?;
+    check_budget(spec, &cache, opts.allow_huge)?;
     let dir = opts.out.as_path();
     let fresh = new_manifest(spec, opts.shard)?;
     let mut summary = Summary {
