@@ -75,26 +75,14 @@ fn register() -> std::io::Result<()> {
     Ok(())
 }
 
-/// Has SIGINT or SIGTERM arrived (or [`request`] been called)?
+/// Has SIGINT or SIGTERM arrived?
 pub fn requested() -> bool {
     FLAG.load(Ordering::SeqCst)
 }
 
-/// The signal that arrived (2 or 15), or 0 for none / a [`request`] from code.
+/// The signal that arrived (2 or 15), or 0 for none.
 pub fn signal() -> i32 {
     SIGNAL.load(Ordering::SeqCst) as i32
-}
-
-/// Asks running loops to stop as if `signal` had arrived (tests; `0` for "no signal").
-pub fn request(signal: i32) {
-    SIGNAL.store(signal.max(0) as usize, Ordering::SeqCst);
-    FLAG.store(true, Ordering::SeqCst);
-}
-
-/// Clears a request (tests that run several interrupted loops in one process).
-pub fn clear() {
-    SIGNAL.store(0, Ordering::SeqCst);
-    FLAG.store(false, Ordering::SeqCst);
 }
 
 /// Work stopped early by SIGINT/SIGTERM after its files were finished. `main` exits with
@@ -102,7 +90,7 @@ pub fn clear() {
 #[derive(Debug, Clone, thiserror::Error)]
 #[error("{what} (stopped by {}; {finished})", signal_name(*signal))]
 pub struct Interrupted {
-    /// The signal number (0: asked by code).
+    /// The signal number (0: stopped by code, e.g. a test's chunk limit).
     pub signal: i32,
     /// What was stopped, e.g. "simulation stopped at step 1200 of 5000 (t = 1.2 s)".
     pub what: String,

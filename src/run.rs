@@ -19,8 +19,8 @@ pub struct RunSettings {
     /// `Some(max_substeps)`: substepping is on, so a Newton failure is final and stops the run.
     pub stop_on_newton_failure: Option<u32>,
     /// Stop after the current step when SIGINT/SIGTERM arrives ([`crate::interrupt`]): the
-    /// step is recorded and [`RunSummary::interrupted`] set. Off by default ([`Self::new`] and
-    /// `Scene::run_settings`); `simulate` turns it on.
+    /// step is recorded and [`RunSummary::interrupted`] set. Off in `Scene::run_settings` (a
+    /// library caller decides); `simulate` turns it on.
     pub stop_on_interrupt: bool,
 }
 

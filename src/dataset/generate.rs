@@ -75,7 +75,7 @@ pub struct Options {
     /// Draw a progress bar on stderr (only when it is a terminal).
     pub progress: bool,
     /// Stop as if interrupted once this many chunks completed in this call (tests of resume;
-    /// unlike [`interrupt::request`] it affects this call only).
+    /// it affects this call only, unlike a signal).
     pub stop_after_chunks: Option<u64>,
     /// Lift the size and time limits of [`crate::budget`] (`--allow-huge`).
     pub allow_huge: bool,

@@ -143,7 +143,11 @@ pub fn finish_all<T>(
     result: anyhow::Result<T>,
     outputs: &[&std::path::Path],
 ) -> anyhow::Result<T> {
-    let discard = |paths: &[&std::path::Path]| {
+    let discard = |completed: &[std::path::PathBuf]| {
+        let paths = outputs
+            .iter()
+            .copied()
+            .chain(completed.iter().map(|p| p.as_path()));
         for path in paths {
             std::fs::remove_file(crate::fsutil::part_path(path)).ok();
         }
@@ -152,7 +156,7 @@ pub fn finish_all<T>(
         Ok(value) => value,
         Err(e) => {
             drop(sinks);
-            discard(outputs);
+            discard(&[]);
             return Err(e);
         }
     };
@@ -163,10 +167,7 @@ pub fn finish_all<T>(
             None => sink.finish(),
         };
         if let Err(e) = outcome {
-            discard(outputs);
-            for path in &completed {
-                std::fs::remove_file(crate::fsutil::part_path(path)).ok();
-            }
+            discard(&completed);
             return Err(e);
         }
     }
