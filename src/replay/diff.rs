@@ -30,7 +30,7 @@
 //! timestamps (8 bytes per sample), the second walks both files in step holding two samples of
 //! each. Errors are accumulated as they are computed.
 
-use super::stream::{Item, McapStream, StreamEnd};
+use super::stream::{Item, McapStream, Message, StreamEnd};
 use crate::record::layout_json::{LAYOUT_KEY, from_json};
 use crate::record::mcap::METADATA_NAME;
 use crate::record::rerun::{RerunOptions, RerunSink};
@@ -300,16 +300,12 @@ impl Cursor {
     }
 
     fn read(&mut self) -> anyhow::Result<Option<Sample>> {
-        while let Some(item) = self.stream.next_item() {
-            let Item::Message {
-                topic,
-                log_time,
-                data,
-                ..
-            } = item
-            else {
-                continue;
-            };
+        while let Some(Message {
+            topic,
+            log_time,
+            data,
+        }) = self.stream.next_message()
+        {
             if *topic != *self.topic {
                 continue;
             }

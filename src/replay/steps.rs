@@ -6,13 +6,13 @@
 //! read; a step missing some (the file was cut between its messages) is dropped and counted in
 //! [`StepReader::incomplete_steps`].
 
-use super::stream::{Item, McapStream, StreamEnd};
+use super::stream::{Item, McapStream, Message, StreamEnd};
 use crate::record::layout_json::{LAYOUT_KEY, from_json};
 use crate::record::mcap::{BODIES_TOPIC, METADATA_NAME, TF_TOPIC, proto};
 use crate::record::{BodyState, RecordingLayout};
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
-use prost::Message;
+use prost::Message as _;
 use std::collections::HashMap;
 use std::fs::File;
 use std::io::BufReader;
@@ -215,20 +215,16 @@ impl StepReader {
     /// not decode, or names a frame or body the layout does not have, is an error.
     pub fn next_step(&mut self) -> anyhow::Result<Option<RecordedStep>> {
         loop {
-            let Some(item) = self.stream.next_item() else {
+            let Some(Message {
+                topic,
+                log_time,
+                data,
+            }) = self.stream.next_message()
+            else {
                 return Ok(match self.pending.take() {
                     Some(pending) => self.hand_out(pending),
                     None => None,
                 });
-            };
-            let Item::Message {
-                topic,
-                log_time,
-                data,
-                ..
-            } = item
-            else {
-                continue;
             };
             let (frames, bodies) = (self.layout.frames.len(), self.layout.bodies.len());
             let mut finished = None;

@@ -240,6 +240,35 @@ fn read_up_to(file: &mut File, buf: &mut [u8]) -> std::io::Result<usize> {
     Ok(filled)
 }
 
+/// A message of the stream (see [`Item::Message`]).
+#[derive(Debug)]
+pub struct Message {
+    pub topic: Arc<str>,
+    pub log_time: u64,
+    pub data: Vec<u8>,
+}
+
+impl<R: Read> McapStream<R> {
+    /// The next message, metadata records skipped; `None` as for [`Self::next_item`].
+    pub fn next_message(&mut self) -> Option<Message> {
+        loop {
+            if let Item::Message {
+                topic,
+                log_time,
+                data,
+                ..
+            } = self.next_item()?
+            {
+                return Some(Message {
+                    topic,
+                    log_time,
+                    data,
+                });
+            }
+        }
+    }
+}
+
 impl<R: Read> Iterator for McapStream<R> {
     type Item = Item;
     fn next(&mut self) -> Option<Item> {
