@@ -5,6 +5,8 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 echo "== cargo fmt --check"
 cargo fmt --check
+echo "== one build for the binary and the tests (scripts/check_features.sh)"
+bash scripts/check_features.sh
 echo "== cargo clippy (release profile, all targets, -D warnings)"
 cargo clippy --release --all-targets --locked -- -D warnings
 echo "== Python venv for interoperability tests (mcap, mcap-protobuf-support, rerun-sdk==0.36.3)"
