@@ -244,6 +244,20 @@ impl McapSink {
             .chunk_size(Some(CHUNK_BYTES))
             .create(BufWriter::new(file))
             .with_context(|| format!("cannot write {}", part.display()))?;
+        // The metadata record goes first. A metadata record cannot sit inside a chunk, so one
+        // written after the schemas and channels closes a chunk that holds them but no message:
+        // its chunk index lists no message indexes, and Foxglove's reader refuses such a chunk
+        // ("Chunks without message indexes are not currently supported"). Written before them,
+        // every chunk holds messages (tests/recordings.rs checks every chunk index).
+        let mut metadata = layout.metadata.clone();
+        metadata.insert(
+            super::layout_json::LAYOUT_KEY.into(),
+            super::layout_json::to_json(layout),
+        );
+        writer.write_metadata(&mcap::records::Metadata {
+            name: METADATA_NAME.into(),
+            metadata,
+        })?;
         let tf_schema =
             FrameTransforms::get_schema().context("foxglove.FrameTransforms has no schema")?;
         let tf_schema_id =
@@ -268,15 +282,6 @@ impl McapSink {
                 group,
             });
         }
-        let mut metadata = layout.metadata.clone();
-        metadata.insert(
-            super::layout_json::LAYOUT_KEY.into(),
-            super::layout_json::to_json(layout),
-        );
-        writer.write_metadata(&mcap::records::Metadata {
-            name: METADATA_NAME.into(),
-            metadata,
-        })?;
         Ok(Self {
             writer,
             path: path.to_path_buf(),
