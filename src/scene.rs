@@ -53,6 +53,10 @@ use serde::Deserialize;
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
+/// Prefix of the recording metadata keys holding URDF texts: `urdf/<the model's urdf value as
+/// the scene wrote it>` = the file's text, one entry per distinct file however many models use it.
+pub const URDF_METADATA_PREFIX: &str = "urdf/";
+
 /// `[x, y, z]`: exactly three numbers. (Through `toml`, serde's own `[f64; 3]` reads the first
 /// three elements of a longer array and silently drops the rest.)
 fn vec3<'de, D: serde::Deserializer<'de>>(deserializer: D) -> Result<[f64; 3], D::Error> {
@@ -489,6 +493,8 @@ impl Scene {
     pub fn build(&self) -> anyhow::Result<World> {
         let mut world = World::default();
         let mut frame_ids = HashSet::new();
+        // Each URDF's text, once per distinct `urdf` value, for the recordings' metadata.
+        let mut urdf_texts: BTreeMap<String, String> = BTreeMap::new();
         for (i, entry) in self.models.iter().enumerate() {
             let urdf_path = self.base_dir.join(&entry.urdf);
             let package_paths: Vec<PathBuf> = entry
@@ -506,6 +512,13 @@ impl Scene {
                 BodiesMode::Rigid => check_rigid_parts(&model),
             }
             .with_context(context)?;
+            let key = format!("{URDF_METADATA_PREFIX}{}", entry.urdf.display());
+            if let std::collections::btree_map::Entry::Vacant(slot) = urdf_texts.entry(key) {
+                slot.insert(
+                    crate::input::read_text(&urdf_path, crate::input::URDF_MAX_BYTES)
+                        .with_context(context)?,
+                );
+            }
             let before = world.layout.frames.len();
             match entry.bodies {
                 BodiesMode::Links => add_model(&mut world, &model, entry),
@@ -536,6 +549,7 @@ impl Scene {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "tumble".into());
         world.layout.metadata = self.metadata();
+        world.layout.metadata.extend(urdf_texts);
         Ok(world)
     }
 }

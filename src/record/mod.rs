@@ -7,6 +7,7 @@ pub mod layout_json;
 pub mod mcap;
 pub mod rerun;
 pub mod rrd_footer;
+pub mod scene_update;
 
 use crate::model::Visual;
 use nalgebra::{Isometry3, Vector3};

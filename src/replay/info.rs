@@ -64,7 +64,7 @@ pub struct RecordingInfo {
     pub metadata_keys: Vec<String>,
 }
 
-/// Metadata values too long to print: shown by key only.
+/// Metadata values too long to print: shown by key only (so are the `urdf/...` texts).
 const LONG_KEYS: [&str; 3] = ["scene", "settings_json", LAYOUT_KEY];
 
 /// Topics with one message per recorded step: every group's `/tf` and `/bodies` (a step is
@@ -207,7 +207,10 @@ pub fn info(path: &Path) -> anyhow::Result<RecordingInfo> {
         summary_agrees: stream.statistics().map(|s| s.message_count == messages),
         settings: metadata_all
             .iter()
-            .filter(|(k, _)| !LONG_KEYS.contains(&k.as_str()))
+            .filter(|(k, _)| {
+                !LONG_KEYS.contains(&k.as_str())
+                    && !k.starts_with(crate::scene::URDF_METADATA_PREFIX)
+            })
             .map(|(k, v)| (k.clone(), v.clone()))
             .collect(),
         metadata_keys: metadata_all.keys().cloned().collect(),
