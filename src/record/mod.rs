@@ -6,6 +6,7 @@
 pub mod layout_json;
 pub mod mcap;
 pub mod rerun;
+pub mod rerun_blueprint;
 pub mod rrd_footer;
 pub mod scene_update;
 
