@@ -26,6 +26,14 @@
 //!   ([`super::policy`]); its defects are reported when it is used, not at load time.
 //! - **The URDF's own values** stay in `Link::urdf_inertial` whatever an inertia policy later
 //!   puts in `Link::inertial`.
+//! - **Oddities urdfdom loads** (a misplaced XML declaration, `<plane>` geometry, identical
+//!   repeated elements, a `"1 1 1 1"` mesh scale, a stray element in `<geometry>`, a mimic of a
+//!   missing joint) load too, each with one [`LoadWarning`] in `Model::warnings`, unless
+//!   [`Strictness::Strict`] asks for the refusal ([`lenient`]; docs/urdf.md).
+
+mod lenient;
+
+pub use lenient::{LoadWarning, Oddity, Strictness};
 
 use super::kinematics::{self, Joint, JointKind, KinematicsError, Mimic};
 use super::package;
@@ -131,13 +139,24 @@ pub fn load_at(
     package_paths: &[PathBuf],
     joint_positions: &HashMap<String, f64>,
 ) -> Result<Model, ModelError> {
+    load_with(path, package_paths, joint_positions, Strictness::Lenient)
+}
+
+/// [`load_at`], choosing whether the oddities of [`lenient`] load (with warnings in
+/// `Model::warnings`) or are refused.
+pub fn load_with(
+    path: &Path,
+    package_paths: &[PathBuf],
+    joint_positions: &HashMap<String, f64>,
+    strictness: Strictness,
+) -> Result<Model, ModelError> {
     let xml = crate::input::read_text(path, crate::input::URDF_MAX_BYTES).map_err(|error| {
         ModelError::Read {
             path: path.to_path_buf(),
             error,
         }
     })?;
-    load_str_at(&xml, path, package_paths, joint_positions)
+    load_str_with(&xml, path, package_paths, joint_positions, strictness)
 }
 
 /// [`load_str`] at a joint configuration.
@@ -147,7 +166,32 @@ pub fn load_str_at(
     package_paths: &[PathBuf],
     joint_positions: &HashMap<String, f64>,
 ) -> Result<Model, ModelError> {
+    load_str_with(
+        xml,
+        path,
+        package_paths,
+        joint_positions,
+        Strictness::Lenient,
+    )
+}
+
+/// [`load_with`] from text already read.
+pub fn load_str_with(
+    xml: &str,
+    path: &Path,
+    package_paths: &[PathBuf],
+    joint_positions: &HashMap<String, f64>,
+    strictness: Strictness,
+) -> Result<Model, ModelError> {
     let file = || path.to_path_buf();
+    let lenient = strictness == Strictness::Lenient;
+    let mut warnings = Vec::new();
+    let xml = if lenient {
+        lenient::blank_misplaced_declarations(xml, path, &mut warnings)
+    } else {
+        xml.into()
+    };
+    let xml = xml.as_ref();
     crate::input::check_xml_depth(xml).map_err(|message| ModelError::Xml {
         path: file(),
         message,
@@ -178,10 +222,25 @@ pub fn load_str_at(
         .filter(|n| n.children().any(|c| c.has_tag_name("inertial")))
         .filter_map(|n| n.attribute("name"))
         .collect();
-    let cleaned = strip_empty_textures(xml, &doc);
+    let mut edits = empty_textures(&doc);
+    if lenient {
+        let (more, found) = lenient::document_edits(&doc, path);
+        edits.extend(more);
+        warnings.extend(found);
+    }
+    let cleaned = lenient::apply(xml, edits);
     let robot = urdf_rs::read_from_string(&cleaned).map_err(|e| ModelError::Parse {
         path: file(),
-        location: locate_parse_problem(&doc),
+        // Located in the text urdf-rs read (what the leniency fixed is no longer a problem).
+        location: match &cleaned {
+            std::borrow::Cow::Borrowed(_) => locate_parse_problem(&doc),
+            std::borrow::Cow::Owned(text) => {
+                match roxmltree::Document::parse_with_options(text, options) {
+                    Ok(edited) => locate_parse_problem(&edited),
+                    Err(_) => locate_parse_problem(&doc),
+                }
+            }
+        },
         // urdf-rs's messages may span lines (serde-xml-rs token dumps): one line here.
         message: e
             .to_string()
@@ -202,6 +261,7 @@ pub fn load_str_at(
             });
         }
     }
+    let all_joint_names: HashSet<&str> = robot.joints.iter().map(|j| j.name.as_str()).collect();
     let mut joint_names = HashSet::new();
     let mut joints = Vec::with_capacity(robot.joints.len());
     for j in &robot.joints {
@@ -229,11 +289,23 @@ pub fn load_str_at(
             child: find("child", &j.child.link)?,
             parent_from_joint: kinematics::isometry_from_pose(&j.origin),
             axis: Vector3::from(j.axis.xyz.0),
-            mimic: j.mimic.as_ref().map(|m| Mimic {
-                joint: m.joint.clone(),
-                multiplier: m.multiplier.unwrap_or(1.0),
-                offset: m.offset.unwrap_or(0.0),
-            }),
+            mimic: j
+                .mimic
+                .as_ref()
+                .filter(|m| {
+                    let keep = !lenient || all_joint_names.contains(m.joint.as_str());
+                    if !keep {
+                        warnings.push(lenient::mimic_of_missing_joint(
+                            &doc, path, &j.name, &m.joint,
+                        ));
+                    }
+                    keep
+                })
+                .map(|m| Mimic {
+                    joint: m.joint.clone(),
+                    multiplier: m.multiplier.unwrap_or(1.0),
+                    offset: m.offset.unwrap_or(0.0),
+                }),
         });
     }
     let names: Vec<String> = robot.links.iter().map(|l| l.name.clone()).collect();
@@ -319,6 +391,7 @@ pub fn load_str_at(
         path: file(),
         links,
         root: root_index,
+        warnings,
     })
 }
 
@@ -494,27 +567,16 @@ fn geometry(
     }
 }
 
-/// Cuts `<texture>` elements without a `filename` out of the text (urdf-rs requires the
-/// attribute; urdfdom does not). Returns the text unchanged when there are none.
-fn strip_empty_textures<'a>(xml: &'a str, doc: &roxmltree::Document) -> std::borrow::Cow<'a, str> {
-    let ranges: Vec<std::ops::Range<usize>> = doc
-        .descendants()
+/// Edits cutting `<texture>` elements without a `filename` out of the text (urdf-rs requires
+/// the attribute; urdfdom does not, so this is valid URDF and needs no warning).
+fn empty_textures(doc: &roxmltree::Document) -> Vec<lenient::Edit> {
+    doc.descendants()
         .filter(|n| n.has_tag_name("texture") && n.attribute("filename").is_none())
-        .map(|n| n.range())
-        .collect();
-    if ranges.is_empty() {
-        return xml.into();
-    }
-    let mut out = String::with_capacity(xml.len());
-    let mut last = 0;
-    for r in ranges {
-        if r.start >= last {
-            out.push_str(&xml[last..r.start]);
-            last = r.end;
-        }
-    }
-    out.push_str(&xml[last..]);
-    out.into()
+        .map(|n| lenient::Edit {
+            range: n.range(),
+            text: String::new(),
+        })
+        .collect()
 }
 
 /// After urdf-rs failed: find the first link or joint whose content urdf-rs cannot read,
