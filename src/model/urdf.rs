@@ -263,6 +263,7 @@ pub fn load_str_with(
     }
     let all_joint_names: HashSet<&str> = robot.joints.iter().map(|j| j.name.as_str()).collect();
     let mut joint_names = HashSet::new();
+    let mut missing_mimics = Vec::new();
     let mut joints = Vec::with_capacity(robot.joints.len());
     for j in &robot.joints {
         if !joint_names.insert(j.name.as_str()) {
@@ -295,9 +296,7 @@ pub fn load_str_with(
                 .filter(|m| {
                     let keep = !lenient || all_joint_names.contains(m.joint.as_str());
                     if !keep {
-                        warnings.push(lenient::mimic_of_missing_joint(
-                            &doc, path, &j.name, &m.joint,
-                        ));
+                        missing_mimics.push((j.name.as_str(), m.joint.as_str()));
                     }
                     keep
                 })
@@ -308,6 +307,11 @@ pub fn load_str_with(
                 }),
         });
     }
+    warnings.extend(lenient::mimics_of_missing_joints(
+        &doc,
+        path,
+        &missing_mimics,
+    ));
     let names: Vec<String> = robot.links.iter().map(|l| l.name.clone()).collect();
     let tree_error = |e: KinematicsError| match e {
         KinematicsError::SeveralParents {
@@ -671,16 +675,27 @@ fn check_required(node: roxmltree::Node, tag: &str) -> Result<(), String> {
 }
 
 /// The first of `tags` that appears more than once among `node`'s children (urdf-rs refuses
-/// a repeated field with "duplicate field", naming neither the element nor where it is).
+/// a repeated field with "duplicate field", naming neither the element nor where it is). Says
+/// when the copies differ (identical copies load leniently: [`lenient`]).
 fn check_unique(node: roxmltree::Node, tags: &[&str]) -> Check {
-    tags.iter()
-        .find(|&&tag| node.children().filter(|c| c.has_tag_name(tag)).count() > 1)
-        .map(|tag| {
+    tags.iter().find_map(|&tag| {
+        let copies: Vec<roxmltree::Node> =
+            node.children().filter(|c| c.has_tag_name(tag)).collect();
+        (copies.len() > 1).then(|| {
+            let differ = if copies[1..]
+                .iter()
+                .all(|c| lenient::same_content(copies[0], *c))
+            {
+                ""
+            } else {
+                "; the copies differ, so which one is meant is unclear"
+            };
             format!(
-                "<{}> has more than one <{tag}> (at most one is allowed)",
+                "<{}> has more than one <{tag}> (at most one is allowed{differ})",
                 node.tag_name().name()
             )
         })
+    })
 }
 
 fn check_link(link: roxmltree::Node) -> Check {
@@ -713,11 +728,20 @@ fn check_link(link: roxmltree::Node) -> Check {
             }
         }
     }
-    for (k, element) in link
+    // Numbered per kind (the first collision is #0 even after visuals), as in the link's
+    // problems and the load warnings.
+    let (mut visuals, mut collisions) = (0, 0);
+    for element in link
         .children()
         .filter(|c| c.has_tag_name("visual") || c.has_tag_name("collision"))
-        .enumerate()
     {
+        let counter = if element.has_tag_name("visual") {
+            &mut visuals
+        } else {
+            &mut collisions
+        };
+        let k = *counter;
+        *counter += 1;
         let label = format!(
             "<{}> #{k}{}",
             element.tag_name().name(),
@@ -760,7 +784,17 @@ fn check_geometry(element: roxmltree::Node) -> Result<(), String> {
             .or_else(|| check_vector(shape, "scale", 3, false)),
         other => Some(format!("unknown geometry <{other}>")),
     };
-    problem.map_or(Ok(()), Err)
+    if let Some(p) = problem {
+        return Err(p);
+    }
+    match geometry.children().filter(|c| c.is_element()).nth(1) {
+        Some(extra) => Err(format!(
+            "<geometry> holds <{}> after its <{}> (URDF allows one shape there)",
+            extra.tag_name().name(),
+            shape.tag_name().name()
+        )),
+        None => Ok(()),
+    }
 }
 
 fn check_material(material: roxmltree::Node) -> Check {

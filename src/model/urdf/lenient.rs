@@ -129,13 +129,33 @@ pub(super) fn apply(xml: &str, mut edits: Vec<Edit>) -> Cow<'_, str> {
     out.into()
 }
 
-/// 1-based line of byte `offset` in `xml`.
-fn line_at(xml: &str, offset: usize) -> usize {
-    xml.as_bytes()[..offset.min(xml.len())]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
+/// 1-based line numbers of byte offsets, from an index of the newlines built on first use (so that a
+/// file with many warnings costs `O(n log n)`, and one without none at all; roxmltree's
+/// `text_pos_at` scans from the start at every call).
+struct Lines<'t> {
+    text: &'t str,
+    newlines: Option<Vec<usize>>,
+}
+
+impl<'t> Lines<'t> {
+    fn new(text: &'t str) -> Self {
+        Self {
+            text,
+            newlines: None,
+        }
+    }
+
+    fn at(&mut self, offset: usize) -> usize {
+        let text = self.text;
+        let newlines = self.newlines.get_or_insert_with(|| {
+            text.bytes()
+                .enumerate()
+                .filter(|&(_, b)| b == b'\n')
+                .map(|(i, _)| i)
+                .collect()
+        });
+        newlines.partition_point(|&n| n < offset) + 1
+    }
 }
 
 /// Blanks out the XML declarations tinyxml2 accepts and XML does not: one after leading
@@ -179,6 +199,7 @@ pub(super) fn blank_misplaced_declarations<'a>(
         return xml.into();
     }
     let mut out = xml.to_string();
+    let mut lines = Lines::new(xml);
     for (range, was_first) in blanks {
         let blank: String = xml[range.clone()]
             .chars()
@@ -197,7 +218,7 @@ pub(super) fn blank_misplaced_declarations<'a>(
         warnings.push(LoadWarning {
             path: path.to_path_buf(),
             oddity: Oddity::XmlDeclaration,
-            element: format!("line {}", line_at(xml, range.start)),
+            element: format!("line {}", lines.at(range.start)),
             message: format!("{what}: ignored, as tinyxml2 (urdfdom's XML parser) ignores it"),
         });
     }
@@ -229,16 +250,19 @@ type Node<'a, 'i> = roxmltree::Node<'a, 'i>;
 /// What the document-level rules change: the edits to the text and their warnings.
 struct Pass<'p> {
     path: &'p Path,
+    lines: Lines<'p>,
     edits: Vec<Edit>,
     warnings: Vec<LoadWarning>,
 }
 
 impl Pass<'_> {
-    fn warn(&mut self, oddity: Oddity, element: String, message: String) {
+    /// A warning about the element `label`, which starts where `at` does.
+    fn warn(&mut self, oddity: Oddity, label: &str, at: Node, message: String) {
+        let line = self.lines.at(at.range().start);
         self.warnings.push(LoadWarning {
             path: self.path.to_path_buf(),
             oddity,
-            element,
+            element: format!("{label} (line {line})"),
             message,
         });
     }
@@ -253,16 +277,16 @@ impl Pass<'_> {
 
 /// The edits and warnings of the document-level rules (unknown geometry, extra elements in
 /// `<geometry>`, identical repeats, mesh scales), for the robot's links and joints.
-pub(super) fn document_edits(
-    doc: &roxmltree::Document,
+pub(super) fn document_edits<'t>(
+    doc: &roxmltree::Document<'t>,
     path: &Path,
 ) -> (Vec<Edit>, Vec<LoadWarning>) {
     let mut pass = Pass {
         path,
+        lines: Lines::new(doc.input_text()),
         edits: Vec::new(),
         warnings: Vec::new(),
     };
-    let line = |n: Node| doc.text_pos_at(n.range().start).row;
     for node in doc.root_element().children().filter(|n| n.is_element()) {
         let Some(name) = node.attribute("name") else {
             continue;
@@ -270,16 +294,10 @@ pub(super) fn document_edits(
         match node.tag_name().name() {
             "link" => {
                 let label = format!("link `{name}`");
-                repeated(&mut pass, node, &SINGLE_IN_LINK, &label, line(node));
+                repeated(&mut pass, node, &SINGLE_IN_LINK, &label, node);
                 if let Some(inertial) = first_child(node, "inertial") {
                     let label = format!("{label}: inertial");
-                    repeated(
-                        &mut pass,
-                        inertial,
-                        &SINGLE_IN_INERTIAL,
-                        &label,
-                        line(inertial),
-                    );
+                    repeated(&mut pass, inertial, &SINGLE_IN_INERTIAL, &label, inertial);
                 }
                 for kind in ["visual", "collision"] {
                     for (k, element) in node.children().filter(|c| c.has_tag_name(kind)).enumerate()
@@ -288,13 +306,13 @@ pub(super) fn document_edits(
                             Some(n) => format!("link `{name}`: {kind} `{n}`"),
                             None => format!("link `{name}`: {kind} #{k}"),
                         };
-                        shape_holder(&mut pass, element, kind, &label, line(element));
+                        shape_holder(&mut pass, element, kind, &label);
                     }
                 }
             }
             "joint" => {
                 let label = format!("joint `{name}`");
-                repeated(&mut pass, node, &SINGLE_IN_JOINT, &label, line(node));
+                repeated(&mut pass, node, &SINGLE_IN_JOINT, &label, node);
             }
             _ => {}
         }
@@ -307,7 +325,7 @@ fn first_child<'a, 'i>(node: Node<'a, 'i>, tag: &str) -> Option<Node<'a, 'i>> {
 }
 
 /// A `<visual>` or `<collision>`: its repeats, then its geometry.
-fn shape_holder(pass: &mut Pass, element: Node, kind: &str, label: &str, line: u32) {
+fn shape_holder(pass: &mut Pass, element: Node, kind: &str, label: &str) {
     let Some(geometry) = first_child(element, "geometry") else {
         return;
     };
@@ -320,7 +338,8 @@ fn shape_holder(pass: &mut Pass, element: Node, kind: &str, label: &str, line: u
         pass.remove(element);
         pass.warn(
             Oddity::UnknownGeometry,
-            format!("{label} (line {line})"),
+            label,
+            element,
             format!(
                 "<{tag}> is not a URDF geometry ({}): this {kind} is left out, as urdfdom leaves \
                  it out",
@@ -329,7 +348,7 @@ fn shape_holder(pass: &mut Pass, element: Node, kind: &str, label: &str, line: u
         );
         return;
     }
-    repeated(pass, element, &SINGLE_IN_SHAPE_HOLDER, label, line);
+    repeated(pass, element, &SINGLE_IN_SHAPE_HOLDER, label, element);
     for extra in children {
         let extra_tag = extra.tag_name().name();
         if SHAPES.contains(&extra_tag) {
@@ -338,7 +357,8 @@ fn shape_holder(pass: &mut Pass, element: Node, kind: &str, label: &str, line: u
         pass.remove(extra);
         pass.warn(
             Oddity::ExtraGeometryElement,
-            format!("{label} (line {line})"),
+            label,
+            element,
             format!(
                 "<geometry> holds <{extra_tag}> after its <{tag}> (URDF allows one shape there): \
                  <{extra_tag}> is ignored, as urdfdom reads only the first element of <geometry>"
@@ -346,12 +366,12 @@ fn shape_holder(pass: &mut Pass, element: Node, kind: &str, label: &str, line: u
         );
     }
     if tag == "mesh" {
-        mesh_scale(pass, shape, kind, label, line);
+        mesh_scale(pass, shape, kind, label, element);
     }
 }
 
 /// A `scale` of other than 3 numbers, all equal, becomes that number three times.
-fn mesh_scale(pass: &mut Pass, mesh: Node, kind: &str, label: &str, line: u32) {
+fn mesh_scale(pass: &mut Pass, mesh: Node, kind: &str, label: &str, element: Node) {
     let Some(attribute) = mesh.attributes().find(|a| a.name() == "scale") else {
         return;
     };
@@ -373,7 +393,8 @@ fn mesh_scale(pass: &mut Pass, mesh: Node, kind: &str, label: &str, line: u32) {
     });
     pass.warn(
         Oddity::MeshScale,
-        format!("{label} (line {line})"),
+        label,
+        element,
         format!(
             "mesh scale=\"{}\" has {} numbers, not 3; all are equal: read as the uniform scale \
              \"{uniform}\" (urdfdom refuses the scale and leaves this {kind} out, with the \
@@ -386,7 +407,7 @@ fn mesh_scale(pass: &mut Pass, mesh: Node, kind: &str, label: &str, line: u32) {
 
 /// Later copies of a child that `parent` may hold once are removed when every copy has the
 /// same content as the first; when one differs, nothing is done (the parser refuses it).
-fn repeated(pass: &mut Pass, parent: Node, tags: &[&str], label: &str, line: u32) {
+fn repeated(pass: &mut Pass, parent: Node, tags: &[&str], label: &str, at: Node) {
     for tag in tags {
         let copies: Vec<Node> = parent.children().filter(|c| c.has_tag_name(*tag)).collect();
         if copies.len() < 2 || !copies[1..].iter().all(|c| same_content(copies[0], *c)) {
@@ -397,7 +418,8 @@ fn repeated(pass: &mut Pass, parent: Node, tags: &[&str], label: &str, line: u32
         }
         pass.warn(
             Oddity::RepeatedElement,
-            format!("{label} (line {line})"),
+            label,
+            at,
             format!(
                 "<{tag}> appears {} times with the same content (URDF allows one): the first is \
                  used, as urdfdom uses the first",
@@ -409,7 +431,7 @@ fn repeated(pass: &mut Pass, parent: Node, tags: &[&str], label: &str, line: u32
 
 /// Same tag, same attributes (values compared as numbers when every word of both is one,
 /// else word by word), same child elements in the same order, same text (trimmed).
-fn same_content(a: Node, b: Node) -> bool {
+pub(super) fn same_content(a: Node, b: Node) -> bool {
     if a.tag_name() != b.tag_name() {
         return false;
     }
@@ -466,30 +488,42 @@ fn same_value(a: &str, b: &str) -> bool {
         })
 }
 
-/// The warning for a `<mimic>` of joint `mimicked`, which does not exist, in joint `joint`
-/// (the caller drops the mimic).
-pub(super) fn mimic_of_missing_joint(
+/// The warnings for `<mimic>`s of joints that do not exist, as (joint, mimicked) pairs (the
+/// caller drops those mimics).
+pub(super) fn mimics_of_missing_joints(
     doc: &roxmltree::Document,
     path: &Path,
-    joint: &str,
-    mimicked: &str,
-) -> LoadWarning {
-    let line = doc
+    missing: &[(&str, &str)],
+) -> Vec<LoadWarning> {
+    if missing.is_empty() {
+        return Vec::new();
+    }
+    let mut lines = Lines::new(doc.input_text());
+    let starts: std::collections::HashMap<&str, usize> = doc
         .root_element()
         .children()
-        .find(|n| n.has_tag_name("joint") && n.attribute("name") == Some(joint))
-        .map(|n| format!(" (line {})", doc.text_pos_at(n.range().start).row))
-        .unwrap_or_default();
-    LoadWarning {
-        path: path.to_path_buf(),
-        oddity: Oddity::MimicOfMissingJoint,
-        element: format!("joint `{joint}`{line}"),
-        message: format!(
-            "mimics `{mimicked}`, which does not exist: the mimic is ignored and the joint moves \
-             on its own (at 0 unless `joints` sets it), as urdfdom (which does not check mimic \
-             targets) and Pinocchio read it"
-        ),
-    }
+        .filter(|n| n.has_tag_name("joint"))
+        .filter_map(|n| Some((n.attribute("name")?, n.range().start)))
+        .collect();
+    missing
+        .iter()
+        .map(|&(joint, mimicked)| {
+            let line = starts
+                .get(joint)
+                .map(|&start| format!(" (line {})", lines.at(start)))
+                .unwrap_or_default();
+            LoadWarning {
+                path: path.to_path_buf(),
+                oddity: Oddity::MimicOfMissingJoint,
+                element: format!("joint `{joint}`{line}"),
+                message: format!(
+                    "mimics `{mimicked}`, which does not exist: the mimic is ignored and the \
+                     joint moves on its own (at 0 unless `joints` sets it), as urdfdom (which \
+                     does not check mimic targets) and Pinocchio read it"
+                ),
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]
