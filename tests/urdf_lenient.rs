@@ -441,6 +441,34 @@ fn a_mimic_of_a_missing_joint_is_dropped_and_the_joint_moves_on_its_own() {
 }
 
 #[test]
+fn warnings_come_in_file_order() {
+    // A mimic joint before the links, a collision before a visual: the rules run link by link
+    // and kind by kind, the warnings are sorted by the line their element starts on.
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!(
+        r#"<robot name="r">
+  <joint name="j" type="continuous"><parent link="a"/><child link="b"/><mimic joint="ghost"/></joint>
+  <link name="a">{INERTIAL}
+    <collision><geometry><plane/></geometry></collision>
+    <visual><geometry><box size="1 1 1"/><material name="m"/></geometry></visual>
+  </link>
+  <link name="b">{INERTIAL}</link>
+</robot>"#
+    );
+    let path = write(dir.path(), "order.urdf", &text);
+    let model = lenient(&path);
+    let got: Vec<(usize, Oddity)> = model.warnings.iter().map(|w| (w.line, w.oddity)).collect();
+    assert_eq!(
+        got,
+        [
+            (2, Oddity::MimicOfMissingJoint),
+            (4, Oddity::UnknownGeometry),
+            (5, Oddity::ExtraGeometryElement),
+        ]
+    );
+}
+
+#[test]
 fn a_file_urdf_defines_fully_has_no_warnings() {
     let model = lenient(&common::root().join("models/arm.urdf"));
     assert!(model.warnings.is_empty(), "{:#?}", model.warnings);

@@ -312,6 +312,8 @@ pub fn load_str_with(
         path,
         &missing_mimics,
     ));
+    // In file order (stable: the warnings of one element keep the order of the rules).
+    warnings.sort_by_key(|w| w.line);
     let names: Vec<String> = robot.links.iter().map(|l| l.name.clone()).collect();
     let tree_error = |e: KinematicsError| match e {
         KinematicsError::SeveralParents {

@@ -85,6 +85,8 @@ pub struct LoadWarning {
     pub oddity: Oddity,
     /// Where: `link `chassis`: visual #0 (line 16)`, `joint `j` (line 40)`, `line 2`.
     pub element: String,
+    /// The 1-based line the element starts on (0 when unknown).
+    pub line: usize,
     /// What was found and what was done, naming urdfdom's behaviour.
     pub message: String,
 }
@@ -215,10 +217,12 @@ pub(super) fn blank_misplaced_declarations<'a>(
         } else {
             "a second XML declaration (XML allows one)"
         };
+        let line = lines.at(range.start);
         warnings.push(LoadWarning {
             path: path.to_path_buf(),
             oddity: Oddity::XmlDeclaration,
-            element: format!("line {}", lines.at(range.start)),
+            element: format!("line {line}"),
+            line,
             message: format!("{what}: ignored, as tinyxml2 (urdfdom's XML parser) ignores it"),
         });
     }
@@ -263,6 +267,7 @@ impl Pass<'_> {
             path: self.path.to_path_buf(),
             oddity,
             element: format!("{label} (line {line})"),
+            line,
             message,
         });
     }
@@ -508,14 +513,17 @@ pub(super) fn mimics_of_missing_joints(
     missing
         .iter()
         .map(|&(joint, mimicked)| {
-            let line = starts
-                .get(joint)
-                .map(|&start| format!(" (line {})", lines.at(start)))
-                .unwrap_or_default();
+            let line = starts.get(joint).map_or(0, |&start| lines.at(start));
+            let at = if line > 0 {
+                format!(" (line {line})")
+            } else {
+                String::new()
+            };
             LoadWarning {
                 path: path.to_path_buf(),
                 oddity: Oddity::MimicOfMissingJoint,
-                element: format!("joint `{joint}`{line}"),
+                element: format!("joint `{joint}`{at}"),
+                line,
                 message: format!(
                     "mimics `{mimicked}`, which does not exist: the mimic is ignored and the \
                      joint moves on its own (at 0 unless `joints` sets it), as urdfdom (which \
