@@ -30,6 +30,7 @@
 //! density = 1000.0              # kg/m^3 for geometry-derived mass properties (default: [mass])
 //! geometry = "collision"        # "collision" (visual as fallback) | "visual" (default: [mass])
 //! links = { base = { inertia = "geometry", density = 2700.0 } }   # per-link overrides
+//! strict = false                # refuse the URDF oddities urdfdom loads (docs/urdf.md) instead of loading them with a warning (default false; --strict sets it on every model)
 //!
 //! [mass]                        # scene-wide defaults of the mass settings (flags --inertia, --density, --geometry override them)
 //! inertia = "urdf"              # (default "urdf")
@@ -142,6 +143,10 @@ pub struct ModelEntry {
     /// Per-link mass settings (refine the model's).
     #[serde(default)]
     pub links: BTreeMap<String, MassSettings>,
+    /// Refuse the URDF oddities urdfdom loads instead of loading them with a warning
+    /// ([`urdf::Strictness`], docs/urdf.md). Written into recordings' settings only when set.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub strict: bool,
 }
 
 /// `bodies = "links" | "rigid"`.
@@ -173,6 +178,7 @@ impl ModelEntry {
             density: None,
             geometry: None,
             links: BTreeMap::new(),
+            strict: false,
         }
     }
 }
@@ -299,6 +305,13 @@ impl Scene {
         }
         self.mass = self.mass.refined(&o.mass);
         self.validate()
+    }
+
+    /// `--strict`: every model refuses the URDF oddities urdfdom loads ([`ModelEntry::strict`]).
+    pub fn set_strict(&mut self) {
+        for model in &mut self.models {
+            model.strict = true;
+        }
     }
 
     /// Checks every value; errors name the file and the key.
@@ -495,6 +508,8 @@ impl Scene {
         let mut frame_ids = HashSet::new();
         // Each URDF's text, once per distinct `urdf` value, for the recordings' metadata.
         let mut urdf_texts: BTreeMap<String, String> = BTreeMap::new();
+        // A URDF used by many models warns once.
+        let mut seen_warnings: HashSet<String> = HashSet::new();
         for (i, entry) in self.models.iter().enumerate() {
             let urdf_path = self.base_dir.join(&entry.urdf);
             let package_paths: Vec<PathBuf> = entry
@@ -504,8 +519,18 @@ impl Scene {
                 .collect();
             let context = || format!("{}: model[{i}]", self.source.display());
             let joints: HashMap<String, f64> = entry.joints.clone().into_iter().collect();
-            let mut model =
-                urdf::load_at(&urdf_path, &package_paths, &joints).with_context(context)?;
+            let mut model = urdf::load_with(
+                &urdf_path,
+                &package_paths,
+                &joints,
+                urdf::Strictness::from_strict(entry.strict),
+            )
+            .with_context(context)?;
+            for warning in model.warnings.drain(..) {
+                if seen_warnings.insert(warning.to_string()) {
+                    world.warnings.push(warning);
+                }
+            }
             policy::apply(&mut model, &self.mass_settings(entry)).with_context(context)?;
             match entry.bodies {
                 BodiesMode::Links => model.check_simulable(entry.allow_non_physical_inertia),
@@ -570,6 +595,9 @@ pub struct World {
     /// Per recorded frame (same order as `layout.frames`): the body it moves with and the
     /// constant pose of the link in that body's principal frame.
     pub attachments: Vec<Attachment>,
+    /// The URDF oddities the models loaded with (docs/urdf.md), each once however many models
+    /// share the file; the command prints them.
+    pub warnings: Vec<urdf::LoadWarning>,
 }
 
 /// A link frame riding on a body.

@@ -95,6 +95,11 @@ pub struct SimulateArgs {
     /// per-link keys of a scene still refine them).
     #[command(flatten)]
     pub mass: super::MassArgs,
+    /// Refuse the URDF oddities urdfdom loads (a misplaced XML declaration, unknown geometry,
+    /// repeated elements, a 4-number mesh scale, a mimic of a missing joint) instead of loading
+    /// them with a warning; sets strict = true on every [[model]] (docs/urdf.md).
+    #[arg(long)]
+    pub strict: bool,
 }
 
 fn parse_jacobian(s: &str) -> Result<Jacobian, String> {
@@ -166,6 +171,9 @@ pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
         }
         Scene::load(&input)?
     };
+    if args.strict {
+        scene.set_strict();
+    }
     scene.apply(&SimOverrides {
         dt: args.dt,
         duration: args.duration,
@@ -321,6 +329,9 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     check_not_overwriting(&mcap, args.force)?;
     check_not_overwriting(&rrd, args.force)?;
     let world = scene.build()?;
+    for warning in &world.warnings {
+        eprintln!("warning: {warning}");
+    }
     Estimate::run(
         world.bodies.len() as f64,
         world.layout.frames.len() as f64,

@@ -174,6 +174,7 @@ impl ModelCache {
             layout: Default::default(),
             bodies,
             attachments: base.attachments.clone(),
+            warnings: Vec::new(),
         }
     }
 }

@@ -24,6 +24,10 @@ pub struct Model {
     pub links: Vec<Link>,
     /// Index of the root link (the one that is no joint's child). Model frame = root link frame.
     pub root: usize,
+    /// The oddities the loader accepted, one per oddity, in file order (by the line their
+    /// element starts on; see
+    /// [`urdf::Strictness`]); empty for a file URDF defines fully.
+    pub warnings: Vec<urdf::LoadWarning>,
 }
 
 /// Where a link's mass properties came from.
