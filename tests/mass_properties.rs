@@ -162,3 +162,42 @@ fn the_triangle_tolerance_scales_with_the_inertia() {
         }
     }
 }
+
+/// At exactly the tolerance a body passes: the rules are `|I − Iᵀ|max ≤ tol · |I|max` and
+/// `I1 + I2 ≥ I3 − tol · tr(I)` (documented on `MassProperties::validate`), so `>=` for `>` in
+/// the first or `<=` for `<` in the second would refuse it.
+#[test]
+fn a_body_at_exactly_the_tolerance_passes() {
+    let mut mp = with_product(0, 2);
+    let limit = SYMMETRY_RELATIVE_TOLERANCE * mp.inertia.amax();
+    mp.inertia[(0, 1)] = limit;
+    assert_eq!((mp.inertia - mp.inertia.transpose()).amax(), limit);
+    assert_eq!(mp.validate(), Vec::<String>::new());
+    mp.inertia[(0, 1)] = limit * (1.0 + f64::EPSILON);
+    assert_eq!(mp.validate().len(), 1, "{:?}", mp.validate());
+
+    // Moments (1, 2, c) with 1 + 2 = c − tol · (3 + c) exactly in f64: c found by stepping one
+    // ulp at a time from the real solution c = 3 (1 + tol) / (1 − tol).
+    let gap = |c: f64| (1.0 + 2.0) - (c - TRIANGLE_RELATIVE_TOLERANCE * (3.0 + c));
+    let mut c = 3.0 * (1.0 + TRIANGLE_RELATIVE_TOLERANCE) / (1.0 - TRIANGLE_RELATIVE_TOLERANCE);
+    let mut steps = 0;
+    while gap(c) != 0.0 {
+        c = if gap(c) < 0.0 {
+            c.next_down()
+        } else {
+            c.next_up()
+        };
+        steps += 1;
+        assert!(steps < 1000, "no exact boundary near {c}");
+    }
+    let at = |c: f64| {
+        MassProperties::new(
+            1.0,
+            Vector3::zeros(),
+            Matrix3::from_diagonal(&Vector3::new(1.0, 2.0, c)),
+        )
+    };
+    assert!(!at(c).breaks_triangle_inequality(), "c = {c}");
+    // One ulp more moment and it breaks the rule.
+    assert!(gap(c.next_up()) < 0.0 && at(c.next_up()).breaks_triangle_inequality());
+}
