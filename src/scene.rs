@@ -44,7 +44,7 @@
 use crate::model::kinematics::rotation_from_rpy;
 use crate::model::policy::{self, GeometrySource, InertiaPolicy, MassSettings, ModelMassSettings};
 use crate::model::{MassProperties, Model, urdf};
-use crate::record::{BodyLayout, FrameLayout, RecordingLayout};
+use crate::record::{BodyLayout, FrameLayout, RecordingLayout, RobotDescription};
 use crate::sim::BodyInit;
 use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
 use anyhow::{Context, bail};
@@ -520,6 +520,12 @@ impl Scene {
                     urdf_path.display()
                 );
             }
+            world.layout.robot_descriptions.push(robot_description(
+                &urdf_path,
+                &package_paths,
+                entry,
+                &model,
+            ));
             for f in &world.layout.frames[before..] {
                 if !frame_ids.insert(f.frame_id.clone()) {
                     bail!(
@@ -537,6 +543,31 @@ impl Scene {
             .unwrap_or_else(|| "tumble".into());
         world.layout.metadata = self.metadata();
         Ok(world)
+    }
+}
+
+/// The model's URDF rewritten for `/robot_description` ([`crate::model::description`]): read
+/// again from `urdf_path` (the loader keeps no text), links named by their frame ids.
+fn robot_description(
+    urdf_path: &Path,
+    package_paths: &[PathBuf],
+    entry: &ModelEntry,
+    model: &Model,
+) -> RobotDescription {
+    let urdf = crate::input::read_text(urdf_path, crate::input::URDF_MAX_BYTES)
+        .map_err(|e| e.to_string())
+        .and_then(|xml| {
+            crate::model::description::for_frame_ids(
+                &xml,
+                urdf_path,
+                package_paths,
+                entry.name.as_deref(),
+            )
+        });
+    RobotDescription {
+        model: entry.name.clone().unwrap_or_else(|| model.name.clone()),
+        urdf_path: urdf_path.to_path_buf(),
+        urdf,
     }
 }
 
