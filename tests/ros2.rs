@@ -396,3 +396,91 @@ fn simulate_ros2_refuses_to_overwrite_without_force() {
     assert!(out.status.success(), "{}", common::text(&out.stderr));
     assert_ne!(std::fs::read(&ros2).unwrap(), b"keep");
 }
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// tumble's CDR encoders write the bytes rosbags' own serializer writes for the same messages:
+/// `sensor_msgs/msg/JointState` (what `/joint_states` will carry; names of odd lengths so that
+/// every padding case occurs, empty and full arrays) and `tf2_msgs/msg/TFMessage` (empty, one
+/// and several transforms, non-ASCII and empty frame ids).
+#[test]
+fn cdr_encoders_write_the_bytes_of_rosbags_serializer() {
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+    use tumble::record::ros2_msgs::{Stamp, joint_state, tf_message};
+    let joint_cases: Vec<(Stamp, Vec<String>, Vec<f64>, Vec<f64>, Vec<f64>)> = vec![
+        (Stamp { sec: 0, nanosec: 0 }, vec![], vec![], vec![], vec![]),
+        (
+            Stamp { sec: 2, nanosec: 5 },
+            vec!["j".into()],
+            vec![0.5],
+            vec![],
+            vec![],
+        ),
+        (
+            Stamp {
+                sec: 7,
+                nanosec: 999_999_999,
+            },
+            vec!["arm/shoulder".into(), "a/b".into(), "elbow_3".into()],
+            vec![0.1, -2.5, 3.0e-300],
+            vec![1.0, f64::MAX, -0.0],
+            vec![],
+        ),
+    ];
+    let poses = [
+        Isometry3::from_parts(
+            Translation3::new(1.0, -2.0, 0.125),
+            UnitQuaternion::from_euler_angles(0.1, 0.2, 0.3),
+        ),
+        Isometry3::identity(),
+        Isometry3::from_parts(
+            Translation3::new(1e-9, 3e8, -7.0),
+            UnitQuaternion::from_euler_angles(-3.0, 1.5, 2.0),
+        ),
+    ];
+    let tf_cases: Vec<(Stamp, Vec<&str>)> = vec![
+        (Stamp { sec: 1, nanosec: 2 }, vec![]),
+        (Stamp { sec: 3, nanosec: 0 }, vec!["box"]),
+        (
+            Stamp {
+                sec: 0,
+                nanosec: 40,
+            },
+            vec!["ur5/base_link", "", "bras/épaule"],
+        ),
+    ];
+    let spec = serde_json::json!({
+        "joint_states": joint_cases.iter().map(|(s, n, p, v, e)| serde_json::json!({
+            "sec": s.sec, "nanosec": s.nanosec, "frame_id": "", "name": n,
+            "position": p, "velocity": v, "effort": e,
+        })).collect::<Vec<_>>(),
+        "tf": tf_cases.iter().map(|(s, children)| serde_json::json!({
+            "sec": s.sec, "nanosec": s.nanosec, "parent": "world",
+            "transforms": children.iter().zip(&poses).map(|(c, p)| {
+                let t = p.translation.vector;
+                let q = p.rotation.quaternion().coords;
+                serde_json::json!([c, t.x, t.y, t.z, q.x, q.y, q.z, q.w])
+            }).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+    });
+    let dir = tempfile::tempdir().unwrap();
+    let spec_path = dir.path().join("spec.json");
+    std::fs::write(&spec_path, spec.to_string()).unwrap();
+    let reference = common::run_py("cdr_reference.py", &[&spec_path]);
+    let mut buf = Vec::new();
+    for (k, (s, n, p, v, e)) in joint_cases.iter().enumerate() {
+        joint_state(&mut buf, *s, n, p, v, e).unwrap();
+        assert_eq!(
+            hex(&buf),
+            reference["joint_states"][k],
+            "JointState case {k}"
+        );
+    }
+    for (k, (s, children)) in tf_cases.iter().enumerate() {
+        let transforms = children.iter().copied().zip(poses.iter());
+        tf_message(&mut buf, *s, "world", transforms).unwrap();
+        assert_eq!(hex(&buf), reference["tf"][k], "TFMessage case {k}");
+    }
+}

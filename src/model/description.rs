@@ -141,9 +141,10 @@ mod tests {
         assert_eq!(out, expected);
     }
 
-    /// Without a prefix and with no mesh resolving, the text comes back unchanged.
+    /// Without a prefix and with no mesh resolving (an unresolved mesh keeps its URI), the text
+    /// comes back unchanged.
     #[test]
-    fn without_prefix_and_resolvable_meshes_nothing_changes() {
+    fn without_prefix_and_with_unresolvable_meshes_nothing_changes() {
         let out = for_frame_ids(URDF, Path::new("/nonexistent/r.urdf"), &[], None).unwrap();
         assert_eq!(out, URDF);
     }

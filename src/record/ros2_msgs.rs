@@ -261,10 +261,11 @@ pub fn body_states(
 mod tests {
     use super::*;
 
-    /// Byte layout worked out by hand from the CDR rules: header, stamp (i32 + u32 = offset 8),
-    /// empty frame_id (u32 1 + NUL = offset 13), name count padded to 16, "j" (4 + 2 = 22),
-    /// position count padded to 24, the f64 at 28 padded to 32, then the empty velocity and
-    /// effort counts.
+    /// Byte layout worked out by hand from the CDR rules, offsets counted after the 4-byte
+    /// header: stamp 0..8, frame_id "" (length 1 + NUL) 8..13, pad to 16, name count 16..20,
+    /// "j" (length 2, 'j', NUL) 20..26, pad to 28, position count 28..32, the f64 at 32 (already
+    /// 8-aligned) 32..40, then the empty velocity and effort counts. (rosbags' serializer writes
+    /// the same bytes; tests/ros2.rs checks longer messages against it.)
     #[test]
     fn joint_state_bytes_follow_the_cdr_alignment_rules() {
         let mut buf = Vec::new();
@@ -277,9 +278,8 @@ mod tests {
         expected.extend_from_slice(&[0, 0, 0]); // pad to 16
         expected.extend_from_slice(&[1, 0, 0, 0]); // one name
         expected.extend_from_slice(&[2, 0, 0, 0, b'j', 0]); // "j"
-        expected.extend_from_slice(&[0, 0]); // pad to 24
+        expected.extend_from_slice(&[0, 0]); // pad to 28
         expected.extend_from_slice(&[1, 0, 0, 0]); // one position
-        expected.extend_from_slice(&[0, 0, 0, 0]); // pad to 32
         expected.extend_from_slice(&0.5f64.to_le_bytes());
         expected.extend_from_slice(&[0, 0, 0, 0, 0, 0, 0, 0]); // no velocity, no effort
         assert_eq!(buf, expected);
