@@ -397,6 +397,15 @@ fn simulate_ros2_refuses_to_overwrite_without_force() {
     assert_ne!(std::fs::read(&ros2).unwrap(), b"keep");
 }
 
+/// A JointState: stamp, names, positions, velocities, efforts.
+type JointCase = (
+    tumble::record::ros2_msgs::Stamp,
+    Vec<String>,
+    Vec<f64>,
+    Vec<f64>,
+    Vec<f64>,
+);
+
 fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
@@ -409,7 +418,7 @@ fn hex(bytes: &[u8]) -> String {
 fn cdr_encoders_write_the_bytes_of_rosbags_serializer() {
     use nalgebra::{Isometry3, Translation3, UnitQuaternion};
     use tumble::record::ros2_msgs::{Stamp, joint_state, tf_message};
-    let joint_cases: Vec<(Stamp, Vec<String>, Vec<f64>, Vec<f64>, Vec<f64>)> = vec![
+    let joint_cases: Vec<JointCase> = vec![
         (Stamp { sec: 0, nanosec: 0 }, vec![], vec![], vec![], vec![]),
         (
             Stamp { sec: 2, nanosec: 5 },
