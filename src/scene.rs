@@ -53,6 +53,10 @@ use serde::Deserialize;
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
+/// Prefix of the recording metadata keys holding URDF texts: `urdf/<the model's urdf value as
+/// the scene wrote it>` = the file's text, one entry per distinct file however many models use it.
+pub const URDF_METADATA_PREFIX: &str = "urdf/";
+
 /// `[x, y, z]`: exactly three numbers. (Through `toml`, serde's own `[f64; 3]` reads the first
 /// three elements of a longer array and silently drops the rest.)
 fn vec3<'de, D: serde::Deserializer<'de>>(deserializer: D) -> Result<[f64; 3], D::Error> {
@@ -489,6 +493,8 @@ impl Scene {
     pub fn build(&self) -> anyhow::Result<World> {
         let mut world = World::default();
         let mut frame_ids = HashSet::new();
+        // Each URDF's text, once per distinct `urdf` value, for the recordings' metadata.
+        let mut urdf_texts: BTreeMap<String, String> = BTreeMap::new();
         for (i, entry) in self.models.iter().enumerate() {
             let urdf_path = self.base_dir.join(&entry.urdf);
             let package_paths: Vec<PathBuf> = entry
@@ -506,6 +512,14 @@ impl Scene {
                 BodiesMode::Rigid => check_rigid_parts(&model),
             }
             .with_context(context)?;
+            let key = format!("{URDF_METADATA_PREFIX}{}", entry.urdf.display());
+            if let std::collections::btree_map::Entry::Vacant(slot) = urdf_texts.entry(key.clone())
+            {
+                slot.insert(
+                    crate::input::read_text(&urdf_path, crate::input::URDF_MAX_BYTES)
+                        .with_context(context)?,
+                );
+            }
             let before = world.layout.frames.len();
             match entry.bodies {
                 BodiesMode::Links => add_model(&mut world, &model, entry),
@@ -521,6 +535,7 @@ impl Scene {
                 );
             }
             world.layout.robot_descriptions.push(robot_description(
+                &urdf_texts[&key],
                 &urdf_path,
                 &package_paths,
                 entry,
@@ -542,28 +557,26 @@ impl Scene {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_else(|| "tumble".into());
         world.layout.metadata = self.metadata();
+        world.layout.metadata.extend(urdf_texts);
         Ok(world)
     }
 }
 
-/// The model's URDF rewritten for `/robot_description` ([`crate::model::description`]): read
-/// again from `urdf_path` (the loader keeps no text), links named by their frame ids.
+/// The model's URDF text `xml` (read from `urdf_path`) rewritten for `/robot_description`
+/// ([`crate::model::description`]): links named by their frame ids, meshes as file:// URIs.
 fn robot_description(
+    xml: &str,
     urdf_path: &Path,
     package_paths: &[PathBuf],
     entry: &ModelEntry,
     model: &Model,
 ) -> RobotDescription {
-    let urdf = crate::input::read_text(urdf_path, crate::input::URDF_MAX_BYTES)
-        .map_err(|e| e.to_string())
-        .and_then(|xml| {
-            crate::model::description::for_frame_ids(
-                &xml,
-                urdf_path,
-                package_paths,
-                entry.name.as_deref(),
-            )
-        });
+    let urdf = crate::model::description::for_frame_ids(
+        xml,
+        urdf_path,
+        package_paths,
+        entry.name.as_deref(),
+    );
     RobotDescription {
         model: entry.name.clone().unwrap_or_else(|| model.name.clone()),
         urdf_path: urdf_path.to_path_buf(),

@@ -71,7 +71,7 @@ fn mcap_and_rrd_read_back_by_independent_readers() {
         .collect();
     assert_eq!(topics["/tf"], "foxglove.FrameTransforms");
     assert_eq!(topics["/bodies"], "tumble.BodyStates");
-    let mut count = 0;
+    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
     for message in mcap::MessageStream::new(&bytes).unwrap() {
         let message = message.unwrap();
         assert_eq!(message.log_time, message.publish_time);
@@ -80,9 +80,15 @@ fn mcap_and_rrd_read_back_by_independent_readers() {
             0,
             "times are whole multiples of 5 * 2 ms"
         );
-        count += 1;
+        *counts.entry(message.channel.topic.clone()).or_default() += 1;
     }
-    assert_eq!(count, 2 * 51);
+    // One /tf and one /bodies message per recorded step; the geometry once, at t = 0.
+    let expected_counts: BTreeMap<String, usize> =
+        [("/tf", 51), ("/bodies", 51), ("/scene", 1), ("/inertia", 1)]
+            .into_iter()
+            .map(|(t, n)| (t.to_string(), n))
+            .collect();
+    assert_eq!(counts, expected_counts);
     let metadata = mcap::read::LinearReader::new(&bytes)
         .unwrap()
         .filter_map(|r| match r.unwrap() {

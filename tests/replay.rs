@@ -55,7 +55,11 @@ fn steps_read_back_equal_the_recorded_frames() {
         .map(|f| f.frame_id.clone())
         .collect();
     assert_eq!(layout_ids, ids);
-    assert_eq!(reader.layout().metadata, scene.metadata());
+    // The scene's settings and the URDF texts (`urdf/<path>`), as the build put them in the layout.
+    assert_eq!(
+        reader.layout().metadata,
+        scene.build().unwrap().layout.metadata
+    );
     let mut n = 0;
     while let Some(step) = reader.next_step().unwrap() {
         let (time_ns, poses) = &frames[n];
@@ -84,9 +88,10 @@ fn info_describes_a_complete_recording() {
     assert_eq!(info["integrator"], "variational");
     assert_eq!(f(&info["dt"]), 0.002);
     assert_eq!(info["tool_version"], tumble::VERSION);
-    // arm.toml: duration 3 s, log_every 10 -> 1500 steps, 151 recorded, on /tf and /bodies.
+    // arm.toml: duration 3 s, log_every 10 -> 1500 steps, 151 recorded, on /tf and /bodies;
+    // plus one /scene and one /inertia message at t = 0.
     assert_eq!(f(&info["duration"]), 3.0);
-    assert_eq!(info["messages"], 302);
+    assert_eq!(info["messages"], 304);
     let bodies: Vec<&str> = info["bodies"]
         .as_array()
         .unwrap()

@@ -4,7 +4,7 @@
 use crate::budget::{Estimate, human_bytes, peak_memory_bytes};
 use crate::fsutil::check_not_overwriting;
 use crate::record::Sink;
-use crate::record::mcap::McapSink;
+use crate::record::mcap::{McapOptions, McapSink};
 use crate::record::rerun::{RerunOptions, RerunSink};
 use crate::record::ros2::Ros2Sink;
 use crate::run::{Diverged, RunSummary};
@@ -85,7 +85,8 @@ pub struct SimulateArgs {
     /// /robot_description, /bodies in CDR (docs/ros2.md).
     #[arg(long)]
     pub ros2: bool,
-    /// Leave the inertia ellipsoids out of the .rrd.
+    /// Leave the inertia ellipsoids out of both files (the .rrd's ellipsoid entities and the
+    /// MCAP's /inertia topic).
     #[arg(long)]
     pub no_ellipsoids: bool,
     /// Replace STEM.mcap and STEM.rrd (and STEM.ros2.mcap) if they exist (without it, an existing output is an error).
@@ -114,6 +115,20 @@ fn parse_potential(s: &str) -> Result<Potential, String> {
         "symmetric" => Ok(Potential::Symmetric),
         "end-point" => Ok(Potential::EndPoint),
         _ => Err(format!("expected symmetric or end-point, got {s:?}")),
+    }
+}
+
+/// The Foxglove layout shipped with tumble, relative to the repository root.
+pub const FOXGLOVE_LAYOUT: &str = "docs/foxglove/tumble-layout.json";
+
+/// Where the Foxglove layout is: `./docs/foxglove/tumble-layout.json` if present, else the copy
+/// in the source tree the binary was built from.
+pub fn foxglove_layout_path() -> PathBuf {
+    let local = PathBuf::from(FOXGLOVE_LAYOUT);
+    if local.is_file() {
+        local
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(FOXGLOVE_LAYOUT)
     }
 }
 
@@ -238,8 +253,18 @@ pub fn simulate_world(
     }
     let mcap = with_extension(stem, "mcap");
     let rrd = with_extension(stem, "rrd");
+    let mcap_sink = McapSink::create_with(
+        &mcap,
+        &world.layout,
+        &McapOptions {
+            ellipsoids: rerun_options.ellipsoids,
+        },
+    )?;
+    for warning in mcap_sink.warnings() {
+        eprintln!("warning: {warning}");
+    }
     let mut sinks: Vec<Box<dyn Sink>> = vec![
-        Box::new(McapSink::create(&mcap, &world.layout)?),
+        Box::new(mcap_sink),
         Box::new(RerunSink::create(&rrd, &world.layout, rerun_options)?),
     ];
     let ros2 = ros2.then(|| with_extension(stem, crate::record::ros2::EXTENSION));
@@ -392,8 +417,9 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         out.rrd.display()
     );
     println!(
-        "  Foxglove: open {} (3D panel, frame \"world\"; plots from /bodies)",
-        out.mcap.display()
+        "  Foxglove: open {}, then import the layout {} (Layouts > Import): a 3D panel on \"world\" showing /scene, energy and momentum plots",
+        out.mcap.display(),
+        foxglove_layout_path().display()
     );
     if let Some(ros2) = &out.ros2 {
         println!(

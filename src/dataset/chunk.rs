@@ -164,7 +164,13 @@ fn simulate_run(
     if params.run < spec.record_runs {
         let mut rec_layout = (**layout).clone();
         rec_layout.name = format!("run-{:06}", params.run);
+        // The scene's settings, and the URDF texts the build put in the layout.
+        let urdfs: Vec<(String, String)> = std::mem::take(&mut rec_layout.metadata)
+            .into_iter()
+            .filter(|(k, _)| k.starts_with(crate::scene::URDF_METADATA_PREFIX))
+            .collect();
         rec_layout.metadata = scene.metadata();
+        rec_layout.metadata.extend(urdfs);
         rec_layout
             .metadata
             .insert("scene_file".into(), spec.path.display().to_string());

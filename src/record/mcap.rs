@@ -20,11 +20,14 @@
 //! written by `finish()`, which is always called explicitly. The file is written under
 //! `<path>.part` and renamed onto `path` only once it is complete.
 
+use super::scene_update::{MeshCache, geometry_update, inertia_update};
 use super::{Frame, RecordingLayout, Sink};
 use crate::fsutil::part_path;
 use anyhow::Context;
 use foxglove::Encode;
-use foxglove::messages::{FrameTransform, FrameTransforms, Quaternion, Timestamp, Vector3};
+use foxglove::messages::{
+    FrameTransform, FrameTransforms, Quaternion, SceneUpdate, Timestamp, Vector3,
+};
 use prost::Message;
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -40,6 +43,10 @@ pub const CHUNK_BYTES: u64 = 64 * 1024;
 pub const TF_TOPIC: &str = "/tf";
 /// Topic of the per-body velocities, energies and momenta.
 pub const BODIES_TOPIC: &str = "/bodies";
+/// Topic of the geometry (`foxglove.SceneUpdate`, one message at the first recorded step).
+pub const SCENE_TOPIC: &str = "/scene";
+/// Topic of the inertia ellipsoids (`foxglove.SceneUpdate`, one message at the first step).
+pub const INERTIA_TOPIC: &str = "/inertia";
 /// Name of the MCAP metadata record holding the scene and settings.
 pub const METADATA_NAME: &str = "tumble";
 /// Schema name of the `/bodies` messages.
@@ -199,11 +206,24 @@ pub fn body_states_descriptor() -> Vec<u8> {
     .encode_to_vec()
 }
 
-/// The two channels of one topic group.
+/// The channels of one topic group.
 struct ChannelGroup {
     tf_channel: u16,
     bodies_channel: u16,
     group: super::TopicGroup,
+}
+
+/// What to write besides the trajectories.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct McapOptions {
+    /// Write the `/inertia` topic (equivalent inertia ellipsoids).
+    pub ellipsoids: bool,
+}
+
+impl Default for McapOptions {
+    fn default() -> Self {
+        Self { ellipsoids: true }
+    }
 }
 
 /// Writes an MCAP file; see the module documentation for its layout.
@@ -216,6 +236,9 @@ pub struct McapSink {
     frame_ids: Vec<String>,
     body_names: Vec<String>,
     buf: Vec<u8>,
+    /// The `/scene` and `/inertia` messages of each group, written with the first frame.
+    scene_updates: Vec<(u16, SceneUpdate)>,
+    warnings: Vec<String>,
 }
 
 fn vec3(v: &nalgebra::Vector3<f64>) -> proto::Vector3 {
@@ -233,8 +256,18 @@ fn foxglove_time(time_ns: i64) -> Timestamp {
 }
 
 impl McapSink {
-    /// Creates `<path>.part`, writes the schemas, channels and metadata.
+    /// [`Self::create_with`] with the default options.
     pub fn create(path: &Path, layout: &RecordingLayout) -> anyhow::Result<Self> {
+        Self::create_with(path, layout, &McapOptions::default())
+    }
+
+    /// Creates `<path>.part`, writes the metadata, schemas and channels, and builds the
+    /// geometry messages (meshes read here; unreadable ones listed in [`Self::warnings`]).
+    pub fn create_with(
+        path: &Path,
+        layout: &RecordingLayout,
+        options: &McapOptions,
+    ) -> anyhow::Result<Self> {
         let part = part_path(path);
         let file =
             File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
@@ -264,7 +297,18 @@ impl McapSink {
             writer.add_schema(&tf_schema.name, &tf_schema.encoding, &tf_schema.data)?;
         let bodies_schema_id =
             writer.add_schema(BODY_STATES_SCHEMA, "protobuf", &body_states_descriptor())?;
+        let scene_schema =
+            SceneUpdate::get_schema().context("foxglove.SceneUpdate has no schema")?;
+        let scene_schema_id = writer.add_schema(
+            &scene_schema.name,
+            &scene_schema.encoding,
+            &scene_schema.data,
+        )?;
         let mut groups = Vec::new();
+        let mut scene_updates = Vec::new();
+        let mut meshes = MeshCache::default();
+        let mut warnings = Vec::new();
+        let t0 = foxglove_time(0);
         for group in layout.groups() {
             let tf_topic = format!("{}{TF_TOPIC}", group.prefix);
             let bodies_topic = format!("{}{BODIES_TOPIC}", group.prefix);
@@ -276,6 +320,20 @@ impl McapSink {
                 "protobuf",
                 &BTreeMap::new(),
             )?;
+            let no_metadata = BTreeMap::new();
+            let scene_topic = format!("{}{SCENE_TOPIC}", group.prefix);
+            let scene_channel =
+                writer.add_channel(scene_schema_id, &scene_topic, "protobuf", &no_metadata)?;
+            let frames = &layout.frames[group.frames.clone()];
+            let update = geometry_update(frames, t0, &mut meshes, &mut warnings);
+            scene_updates.push((scene_channel, update));
+            if options.ellipsoids {
+                let topic = format!("{}{INERTIA_TOPIC}", group.prefix);
+                let channel =
+                    writer.add_channel(scene_schema_id, &topic, "protobuf", &no_metadata)?;
+                let bodies = &layout.bodies[group.bodies.clone()];
+                scene_updates.push((channel, inertia_update(&layout.frames, bodies, t0)));
+            }
             groups.push(ChannelGroup {
                 tf_channel,
                 bodies_channel,
@@ -291,7 +349,14 @@ impl McapSink {
             frame_ids: layout.frames.iter().map(|f| f.frame_id.clone()).collect(),
             body_names: layout.bodies.iter().map(|b| b.name.clone()).collect(),
             buf: Vec::new(),
+            scene_updates,
+            warnings,
         })
+    }
+
+    /// Meshes left out of the `/scene` topic (unresolved or unreadable files), one line each.
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
     }
 
     fn write_message(&mut self, channel_id: u16, time_ns: u64) -> anyhow::Result<()> {
@@ -310,6 +375,12 @@ impl Sink for McapSink {
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
         let time_ns = u64::try_from(frame.time_ns).context("negative simulation time")?;
         let stamp = foxglove_time(frame.time_ns);
+        // The geometry, once, at the first recorded step (stamped t = 0 like its entities).
+        for (channel, update) in std::mem::take(&mut self.scene_updates) {
+            self.buf.clear();
+            Message::encode(&update, &mut self.buf)?;
+            self.write_message(channel, time_ns)?;
+        }
         for g in 0..self.groups.len() {
             let (tf_channel, bodies_channel) =
                 (self.groups[g].tf_channel, self.groups[g].bodies_channel);

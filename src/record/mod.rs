@@ -11,6 +11,7 @@ pub mod rerun;
 pub mod ros2;
 pub mod ros2_msgs;
 pub mod rrd_footer;
+pub mod scene_update;
 
 use crate::model::Visual;
 use nalgebra::{Isometry3, Vector3};

@@ -2,7 +2,7 @@
 
 use super::stream::{Item, McapStream, StreamEnd};
 use crate::record::layout_json::{LAYOUT_KEY, from_json};
-use crate::record::mcap::METADATA_NAME;
+use crate::record::mcap::{BODIES_TOPIC, METADATA_NAME, TF_TOPIC};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -44,7 +44,8 @@ pub struct RecordingInfo {
     /// Steps the run was asked for, and every how many steps it recorded.
     pub steps: Option<u64>,
     pub log_every: Option<u64>,
-    /// Recorded span of the messages, s (last minus first log time).
+    /// Recorded span, s: of the complete recorded steps (see `complete_steps`), else of all
+    /// messages (last minus first log time).
     pub duration: f64,
     /// Frame ids (from the layout, else from the first `/tf` message).
     pub frames: Vec<String>,
@@ -63,8 +64,38 @@ pub struct RecordingInfo {
     pub metadata_keys: Vec<String>,
 }
 
-/// Metadata values too long to print: shown by key only.
+/// Metadata values too long to print: shown by key only (so are the `urdf/...` texts).
 const LONG_KEYS: [&str; 3] = ["scene", "settings_json", LAYOUT_KEY];
+
+/// Topics with one message per recorded step: every group's `/tf` and `/bodies` (a step is
+/// complete, and replayable by [`super::steps::StepReader`], when all of them hold it).
+fn is_step_topic(topic: &str) -> bool {
+    topic.ends_with(TF_TOPIC) || topic.ends_with(BODIES_TOPIC)
+}
+
+/// Recorded steps whose messages were all read, and their time span (ns): the `/bodies`
+/// message count (the last message of a step; minimum over groups), and the span from the
+/// latest first time to the earliest last time of the step topics. A file cut between a step's
+/// `/tf` and its `/bodies` message (a killed run) then reports the same steps and span as
+/// `tumble convert`, which drops that partial step.
+fn complete_steps(
+    topics: &BTreeMap<String, TopicInfo>,
+    step_times: &BTreeMap<String, (u64, u64)>,
+) -> (u64, Option<(i64, i64)>) {
+    let steps = topics
+        .values()
+        .filter(|t| t.topic.ends_with(BODIES_TOPIC))
+        .map(|t| t.messages)
+        .min()
+        .unwrap_or(0);
+    let start = step_times.values().map(|t| t.0).max();
+    let end = step_times.values().map(|t| t.1).min();
+    let span = match (start, end) {
+        (Some(a), Some(b)) if a <= b => Some((a as i64, b as i64)),
+        _ => None,
+    };
+    (steps, span)
+}
 
 /// Reads `path` once, front to back.
 pub fn info(path: &Path) -> anyhow::Result<RecordingInfo> {
@@ -77,6 +108,8 @@ pub fn info(path: &Path) -> anyhow::Result<RecordingInfo> {
     let mut tf_frames: Vec<String> = Vec::new();
     let mut messages = 0u64;
     let (mut first, mut last) = (u64::MAX, 0u64);
+    // First and last log time of every step-carrying topic (`/tf`, `/bodies` of every group).
+    let mut step_times: BTreeMap<String, (u64, u64)> = BTreeMap::new();
     while let Some(item) = stream.next_item() {
         match item {
             Item::Metadata(m) if m.name == METADATA_NAME => metadata = Some(m.metadata),
@@ -101,6 +134,10 @@ pub fn info(path: &Path) -> anyhow::Result<RecordingInfo> {
                     });
                 entry.messages += 1;
                 entry.time_end = log_time as f64 / 1e9;
+                if is_step_topic(&topic) {
+                    let times = step_times.entry(topic.to_string()).or_insert((log_time, 0));
+                    times.1 = log_time;
+                }
                 if tf_frames.is_empty()
                     && &*schema == "foxglove.FrameTransforms"
                     && let Ok(frames) = super::steps::decode_transforms(&data)
@@ -138,17 +175,12 @@ pub fn info(path: &Path) -> anyhow::Result<RecordingInfo> {
         None => (tf_frames, Vec::new()),
     };
     let get = |key: &str| metadata_all.get(key).cloned();
-    let recovered_steps = topics
-        .values()
-        .filter(|t| t.topic.ends_with("/bodies"))
-        .map(|t| t.messages)
-        .min()
-        .unwrap_or(0);
+    let (recovered_steps, step_span_ns) = complete_steps(&topics, &step_times);
     let truncation = super::convert::truncation_warning(
         path,
         &end,
         recovered_steps,
-        (messages > 0).then_some((first as i64, last as i64)),
+        step_span_ns.or((messages > 0).then_some((first as i64, last as i64))),
         super::convert::expected_recorded_steps(&metadata_all),
     );
     Ok(RecordingInfo {
@@ -161,10 +193,10 @@ pub fn info(path: &Path) -> anyhow::Result<RecordingInfo> {
         dt: get("dt").and_then(|v| v.parse().ok()),
         steps: get("steps").and_then(|v| v.parse().ok()),
         log_every: get("log_every").and_then(|v| v.parse().ok()),
-        duration: if messages > 0 {
-            (last - first) as f64 / 1e9
-        } else {
-            0.0
+        duration: match step_span_ns {
+            Some((a, b)) => (b - a) as f64 / 1e9,
+            None if messages > 0 => (last - first) as f64 / 1e9,
+            None => 0.0,
         },
         frames,
         bodies,
@@ -175,7 +207,10 @@ pub fn info(path: &Path) -> anyhow::Result<RecordingInfo> {
         summary_agrees: stream.statistics().map(|s| s.message_count == messages),
         settings: metadata_all
             .iter()
-            .filter(|(k, _)| !LONG_KEYS.contains(&k.as_str()))
+            .filter(|(k, _)| {
+                !LONG_KEYS.contains(&k.as_str())
+                    && !k.starts_with(crate::scene::URDF_METADATA_PREFIX)
+            })
             .map(|(k, v)| (k.clone(), v.clone()))
             .collect(),
         metadata_keys: metadata_all.keys().cloned().collect(),

@@ -1,0 +1,259 @@
+//! The geometry of a recording as Foxglove `SceneUpdate` messages (the `/scene` and `/inertia`
+//! topics of [`super::mcap`]).
+//!
+//! Foxglove's 3D panel draws a `foxglove.SceneUpdate` entity in the frame its `frame_id` names,
+//! and with `frame_locked = true` the entity follows that frame as `/tf` moves it, so one message
+//! at t = 0 places the geometry for the whole file (seeking backfills it). Here:
+//!
+//! | topic      | entity `id`        | `frame_id`         | primitives                                    |
+//! |------------|--------------------|--------------------|-----------------------------------------------|
+//! | `/scene`   | the link frame id  | the link frame id  | one per URDF `<visual>`, placed at its `<origin>` in the link frame |
+//! | `/inertia` | `inertia/<body>`   | the body's link frame | one sphere primitive: the body's equivalent uniform ellipsoid ([`BodyLayout::inertia_ellipsoid_radii`]) in its principal frame, translucent |
+//!
+//! URDF geometry → primitives: `<box>` → `CubePrimitive` (size = the box's sides), `<sphere>` →
+//! `SpherePrimitive` (size = diameter), `<cylinder>` → `CylinderPrimitive` (Foxglove's cylinder
+//! axis is z, as URDF's), `<capsule>` → a cylinder and two spheres, `<mesh>` →
+//! `TriangleListPrimitive` with the file's vertices scaled by the mesh `scale` (mirrored meshes
+//! re-wound) and an index list. Meshes go in as triangle lists, not `ModelPrimitive` files:
+//! Foxglove shows STL/OBJ model data rotated +90° about x under its default "mesh up axis", a
+//! triangle list has no such ambiguity. Collada files are read with their `<unit>` and
+//! `<up_axis>` applied ([`crate::model::geometry::mesh_io`]). Colours are the URDF material's,
+//! else light grey. A mesh that cannot be read is left out with a warning; each distinct file is
+//! read once per recording ([`MeshCache`]).
+
+use super::{BodyLayout, FrameLayout};
+use crate::model::geometry::mesh::TriangleMesh;
+use crate::model::geometry::mesh_io::load_mesh;
+use crate::model::{Geometry, Visual};
+use foxglove::messages::{
+    Color, CubePrimitive, CylinderPrimitive, Point3, Pose, Quaternion, SceneEntity, SceneUpdate,
+    SpherePrimitive, Timestamp, TriangleListPrimitive, Vector3,
+};
+use nalgebra::{Isometry3, Translation3};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Colour of geometry whose URDF gives no material.
+pub const DEFAULT_COLOR: [f64; 4] = [0.8, 0.8, 0.8, 1.0];
+/// Colour of the inertia ellipsoids: translucent orange, so the geometry shows through.
+pub const INERTIA_COLOR: [f64; 4] = [1.0, 0.55, 0.1, 0.35];
+
+/// Meshes read so far, by resolved path (a mesh shared by many links or model copies is read
+/// once). Failures are kept too, so a missing file is reported once.
+#[derive(Default)]
+pub struct MeshCache {
+    meshes: HashMap<PathBuf, Result<Arc<TriangleMesh>, String>>,
+}
+
+impl MeshCache {
+    /// The mesh at `path`, read on first use.
+    pub fn get(&mut self, path: &Path) -> Result<Arc<TriangleMesh>, String> {
+        self.meshes
+            .entry(path.to_path_buf())
+            .or_insert_with(|| load_mesh(path).map(Arc::new).map_err(|e| e.to_string()))
+            .clone()
+    }
+}
+
+fn color(rgba: [f64; 4]) -> Option<Color> {
+    Some(Color {
+        r: rgba[0],
+        g: rgba[1],
+        b: rgba[2],
+        a: rgba[3],
+    })
+}
+
+fn pose(p: &Isometry3<f64>) -> Option<Pose> {
+    let t = p.translation.vector;
+    let q = p.rotation.quaternion().coords;
+    Some(Pose {
+        position: Some(Vector3 {
+            x: t.x,
+            y: t.y,
+            z: t.z,
+        }),
+        orientation: Some(Quaternion {
+            x: q.x,
+            y: q.y,
+            z: q.z,
+            w: q.w,
+        }),
+    })
+}
+
+fn vector3(v: &nalgebra::Vector3<f64>) -> Option<Vector3> {
+    Some(Vector3 {
+        x: v.x,
+        y: v.y,
+        z: v.z,
+    })
+}
+
+fn sphere(
+    link_from: &Isometry3<f64>,
+    diameter: nalgebra::Vector3<f64>,
+    rgba: [f64; 4],
+) -> SpherePrimitive {
+    SpherePrimitive {
+        pose: pose(link_from),
+        size: vector3(&diameter),
+        color: color(rgba),
+    }
+}
+
+/// Adds the primitives of one visual to `entity`; a mesh that cannot be read gives a warning.
+fn add_visual(
+    entity: &mut SceneEntity,
+    visual: &Visual,
+    frame_id: &str,
+    meshes: &mut MeshCache,
+    warnings: &mut Vec<String>,
+) {
+    let rgba = visual.rgba.map_or(DEFAULT_COLOR, |c| c.map(f64::from));
+    let link_from_visual = &visual.link_from_visual;
+    match &visual.geometry {
+        Geometry::Box { size } => entity.cubes.push(CubePrimitive {
+            pose: pose(link_from_visual),
+            size: vector3(size),
+            color: color(rgba),
+        }),
+        Geometry::Sphere { radius } => entity.spheres.push(sphere(
+            link_from_visual,
+            nalgebra::Vector3::repeat(2.0 * radius),
+            rgba,
+        )),
+        Geometry::Cylinder { radius, length } => {
+            entity
+                .cylinders
+                .push(cylinder(link_from_visual, *radius, *length, rgba))
+        }
+        Geometry::Capsule { radius, length } => {
+            entity
+                .cylinders
+                .push(cylinder(link_from_visual, *radius, *length, rgba));
+            for end in [-0.5, 0.5] {
+                let cap = link_from_visual * Translation3::new(0.0, 0.0, end * length);
+                entity
+                    .spheres
+                    .push(sphere(&cap, nalgebra::Vector3::repeat(2.0 * radius), rgba));
+            }
+        }
+        Geometry::Mesh { uri, path, scale } => {
+            let Some(path) = path else {
+                warnings.push(format!(
+                    "{frame_id}: mesh {uri:?} not found: left out of the /scene topic"
+                ));
+                return;
+            };
+            match meshes.get(path) {
+                Ok(mesh) => entity.triangles.push(triangle_list(
+                    &mesh.scaled(scale),
+                    link_from_visual,
+                    rgba,
+                )),
+                Err(e) => warnings.push(format!("{frame_id}: {e}: left out of the /scene topic")),
+            }
+        }
+    }
+}
+
+fn cylinder(
+    link_from: &Isometry3<f64>,
+    radius: f64,
+    length: f64,
+    rgba: [f64; 4],
+) -> CylinderPrimitive {
+    CylinderPrimitive {
+        pose: pose(link_from),
+        size: vector3(&nalgebra::Vector3::new(2.0 * radius, 2.0 * radius, length)),
+        bottom_scale: 1.0,
+        top_scale: 1.0,
+        color: color(rgba),
+    }
+}
+
+/// A mesh as an indexed triangle list in the visual frame (counter-clockwise from outside).
+pub fn triangle_list(
+    mesh: &TriangleMesh,
+    link_from_visual: &Isometry3<f64>,
+    rgba: [f64; 4],
+) -> TriangleListPrimitive {
+    TriangleListPrimitive {
+        pose: pose(link_from_visual),
+        points: mesh
+            .vertices
+            .iter()
+            .map(|v| Point3 {
+                x: v.x,
+                y: v.y,
+                z: v.z,
+            })
+            .collect(),
+        color: color(rgba),
+        colors: Vec::new(),
+        indices: mesh.triangles.iter().flatten().copied().collect(),
+    }
+}
+
+fn entity(id: String, frame_id: &str, timestamp: Timestamp) -> SceneEntity {
+    SceneEntity {
+        timestamp: Some(timestamp),
+        frame_id: frame_id.to_string(),
+        id,
+        lifetime: None,
+        frame_locked: true,
+        ..Default::default()
+    }
+}
+
+/// The `/scene` message: one entity per link frame that has visual geometry.
+pub fn geometry_update(
+    frames: &[FrameLayout],
+    timestamp: Timestamp,
+    meshes: &mut MeshCache,
+    warnings: &mut Vec<String>,
+) -> SceneUpdate {
+    let entities = frames
+        .iter()
+        .filter(|f| !f.visuals.is_empty())
+        .map(|f| {
+            let mut e = entity(f.frame_id.clone(), &f.frame_id, timestamp);
+            for visual in &f.visuals {
+                add_visual(&mut e, visual, &f.frame_id, meshes, warnings);
+            }
+            e
+        })
+        .collect();
+    SceneUpdate {
+        deletions: Vec::new(),
+        entities,
+    }
+}
+
+/// The `/inertia` message: one entity per body, its equivalent uniform ellipsoid.
+/// `frames` is the whole layout's frame list (bodies refer to it by index).
+pub fn inertia_update(
+    frames: &[FrameLayout],
+    bodies: &[BodyLayout],
+    timestamp: Timestamp,
+) -> SceneUpdate {
+    let entities = bodies
+        .iter()
+        .map(|b| {
+            let frame_id = &frames[b.frame].frame_id;
+            let mut e = entity(format!("inertia/{}", b.name), frame_id, timestamp);
+            e.spheres.push(sphere(
+                &b.link_from_principal,
+                2.0 * b.inertia_ellipsoid_radii(),
+                INERTIA_COLOR,
+            ));
+            e
+        })
+        .collect();
+    SceneUpdate {
+        deletions: Vec::new(),
+        entities,
+    }
+}
