@@ -493,3 +493,39 @@ fn cdr_encoders_write_the_bytes_of_rosbags_serializer() {
         assert_eq!(hex(&buf), reference["tf"][k], "TFMessage case {k}");
     }
 }
+
+/// `convert` and `diff` given the ROS 2 file instead of the protobuf one: exit 2 and a message
+/// naming the file and pointing to STEM.mcap (before: a protobuf decoding error), no output file.
+#[test]
+fn convert_and_diff_refuse_a_ros2_recording_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = common::root().join("models/box.urdf");
+    let out = common::tumble(
+        &[
+            "simulate",
+            urdf.to_str().unwrap(),
+            "--out",
+            "run",
+            "--ros2",
+            "--duration",
+            "0.01",
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", common::text(&out.stderr));
+    for args in [
+        vec!["convert", "run.ros2.mcap", "--rrd", "c.rrd"],
+        vec!["diff", "run.ros2.mcap", "run.mcap"],
+    ] {
+        let out = common::tumble(&args, dir.path());
+        let stderr = common::text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains("run.ros2.mcap: a ROS 2 recording") && stderr.contains("STEM.mcap"),
+            "{args:?}: {stderr}"
+        );
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+    assert!(!dir.path().join("c.rrd").exists());
+    assert!(!dir.path().join("c.rrd.part").exists());
+}
