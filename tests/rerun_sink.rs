@@ -141,6 +141,7 @@ fn layout(mesh_dir: &Path) -> RecordingLayout {
         bodies,
         metadata,
         topic_groups: Vec::new(),
+        robot_descriptions: Vec::new(),
     }
 }
 
