@@ -93,7 +93,7 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub force: bool,
     /// Run even when the estimated recordings exceed 64 GiB or the computing time 7 days (the
-    /// estimate is checked before anything runs; see README "Reliability").
+    /// estimate is checked before anything runs; see docs/reliability.md).
     #[arg(long)]
     pub allow_huge: bool,
     /// --inertia, --density, --geometry: replace the scene's [mass] values ([[model]] and
@@ -227,7 +227,7 @@ pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
     };
     Some(format!(
         "warning: dt = {} s is too large for body {:?}{others}: it turns at up to |Ω| = {:.4e} rad/s, \
-         h|Ω| = {:.3} rad per step, over the {} limit of {} rad for its inertia ratio {:.3e} (README \"Limits\"; {}). \
+         h|Ω| = {:.3} rad per step, over the {} limit of {} rad for its inertia ratio {:.3e} (docs/limits.md; {}). \
          Largest safe step: dt <= {:.3e} s",
         scene.sim.dt,
         world.layout.bodies[w.body].name,
