@@ -129,23 +129,24 @@ pub const FOXGLOVE_LAYOUT: &str = "docs/foxglove/tumble-layout.json";
 /// Where the Foxglove layout is: `./docs/foxglove/tumble-layout.json` if present, else the copy
 /// in the source tree the binary was built from.
 pub fn foxglove_layout_path() -> PathBuf {
-    let local = PathBuf::from(FOXGLOVE_LAYOUT);
+    repository_file(FOXGLOVE_LAYOUT)
+}
+
+/// `relative` in the working directory if it is there, else in the source tree the binary was
+/// built from.
+fn repository_file(relative: &str) -> PathBuf {
+    let local = PathBuf::from(relative);
     if local.is_file() {
         local
     } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(FOXGLOVE_LAYOUT)
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(relative)
     }
 }
 
 /// Where the default scene is: `./models/default.toml` if present, else the copy in the
 /// source tree the binary was built from.
 pub fn default_scene_path() -> PathBuf {
-    let local = PathBuf::from(DEFAULT_SCENE);
-    if local.is_file() {
-        local
-    } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_SCENE)
-    }
+    repository_file(DEFAULT_SCENE)
 }
 
 /// Reads the scene the arguments name and applies the overrides.
