@@ -45,7 +45,7 @@
 use crate::model::kinematics::rotation_from_rpy;
 use crate::model::policy::{self, GeometrySource, InertiaPolicy, MassSettings, ModelMassSettings};
 use crate::model::{MassProperties, Model, urdf};
-use crate::record::{BodyLayout, FrameLayout, RecordingLayout};
+use crate::record::{BodyLayout, FrameLayout, RecordingLayout, RobotDescription};
 use crate::sim::BodyInit;
 use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
 use anyhow::{Context, bail};
@@ -538,7 +538,8 @@ impl Scene {
             }
             .with_context(context)?;
             let key = format!("{URDF_METADATA_PREFIX}{}", entry.urdf.display());
-            if let std::collections::btree_map::Entry::Vacant(slot) = urdf_texts.entry(key) {
+            if let std::collections::btree_map::Entry::Vacant(slot) = urdf_texts.entry(key.clone())
+            {
                 slot.insert(
                     crate::input::read_text(&urdf_path, crate::input::URDF_MAX_BYTES)
                         .with_context(context)?,
@@ -558,6 +559,13 @@ impl Scene {
                     urdf_path.display()
                 );
             }
+            world.layout.robot_descriptions.push(robot_description(
+                &urdf_texts[&key],
+                &urdf_path,
+                &package_paths,
+                entry,
+                &model,
+            ));
             for f in &world.layout.frames[before..] {
                 if !frame_ids.insert(f.frame_id.clone()) {
                     bail!(
@@ -576,6 +584,28 @@ impl Scene {
         world.layout.metadata = self.metadata();
         world.layout.metadata.extend(urdf_texts);
         Ok(world)
+    }
+}
+
+/// The model's URDF text `xml` (read from `urdf_path`) rewritten for `/robot_description`
+/// ([`crate::model::description`]): links named by their frame ids, meshes as file:// URIs.
+fn robot_description(
+    xml: &str,
+    urdf_path: &Path,
+    package_paths: &[PathBuf],
+    entry: &ModelEntry,
+    model: &Model,
+) -> RobotDescription {
+    let urdf = crate::model::description::for_frame_ids(
+        xml,
+        urdf_path,
+        package_paths,
+        entry.name.as_deref(),
+    );
+    RobotDescription {
+        model: entry.name.clone().unwrap_or_else(|| model.name.clone()),
+        urdf_path: urdf_path.to_path_buf(),
+        urdf,
     }
 }
 

@@ -1,6 +1,7 @@
 //! What a body is: URDF models, their links' mass properties and their visual and collision
 //! geometry.
 
+pub mod description;
 pub mod geometry;
 pub mod kinematics;
 pub mod mass_properties;

@@ -289,5 +289,6 @@ pub fn from_json(text: &str) -> anyhow::Result<RecordingLayout> {
         bodies,
         metadata: Default::default(),
         topic_groups,
+        robot_descriptions: Vec::new(),
     })
 }

@@ -47,7 +47,8 @@
 //! plus an `InstancePoses3D` for the visual origin) as Rerun 0.36's own URDF importer, so a URDF
 //! dropped into the viewer lines up with the recording. Differences from the importer: URDF
 //! capsules are centred on their origin (the importer leaves `Capsules3D`'s one end at the
-//! origin); DAE meshes and meshes whose file was not found are skipped with a warning (see
+//! origin); DAE meshes (which Rerun cannot read) are read by tumble and sent as `Mesh3D`
+//! (unit and node transforms applied, up axis ignored, as for mass properties); meshes whose file was not found are skipped with a warning (see
 //! [`RerunSink::warnings`]); a glTF file is embedded alone (external buffers are not).
 //! Colours come from the URDF material (linear RGBA), white when there is none, as in the importer.
 //!
@@ -81,8 +82,10 @@ use super::rerun_blueprint::{
     PlotView, SceneBounds, blueprint_chunks, blueprint_messages, default_plot_views,
 };
 use super::rrd_footer::{FooterHold, FooterWriter};
+use super::scene_update::MeshCache;
 use super::{BodyLayout, Frame, FrameLayout, RecordingLayout, Sink};
 use crate::fsutil::part_path;
+use crate::model::geometry::mesh::TriangleMesh;
 use crate::model::{Geometry, Visual};
 use anyhow::{Context, Result, anyhow, bail};
 use nalgebra::Isometry3;
@@ -438,6 +441,8 @@ pub struct RerunSink {
     footer_hold: FooterHold,
     /// Entities of [`RerunSink::write_series`] whose series names were sent.
     series_named: BTreeSet<EntityPath>,
+    /// Collada meshes read so far (each file once).
+    meshes: MeshCache,
     /// The recording's store, from which the blueprint store's id derives.
     store_info: rerun::external::re_log_types::StoreInfo,
     /// Per frame: how far its geometry reaches from the frame origin, m (for [`SceneBounds`]).
@@ -450,6 +455,34 @@ pub struct RerunSink {
     energy0: Option<f64>,
     angmom0: Vec<nalgebra::Vector3<f64>>,
     done: bool,
+}
+
+/// A triangle mesh as a Rerun `Mesh3D` (f32 positions, per-vertex normals averaged from the
+/// area-weighted face normals, so the viewer shades it).
+fn mesh3d(mesh: &TriangleMesh) -> rerun::Mesh3D {
+    let mut normals = vec![nalgebra::Vector3::<f64>::zeros(); mesh.vertices.len()];
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+        let n = (b - a).cross(&(c - a));
+        for &i in t {
+            normals[i as usize] += n;
+        }
+    }
+    rerun::Mesh3D::new(mesh.vertices.iter().map(f32x3))
+        .with_vertex_normals(normals.iter().map(|n| {
+            let len = n.norm();
+            // A vertex only on degenerate triangles has no normal: any unit vector will do.
+            f32x3(&if len > 0.0 {
+                n / len
+            } else {
+                nalgebra::Vector3::z()
+            })
+        }))
+        .with_triangle_indices(
+            mesh.triangles
+                .iter()
+                .map(|t| rerun::TriangleIndices::from(*t)),
+        )
 }
 
 /// `x`, or 1 when it is zero (the reference of a relative change that has none).
@@ -530,6 +563,7 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         warnings: Vec::new(),
         footer_hold,
         series_named: BTreeSet::new(),
+        meshes: MeshCache::default(),
         store_info: rerun::external::re_log_types::StoreInfo::new(
             rerun::external::re_log_types::StoreId::recording("tumble", "tumble"),
             rerun::external::re_log_types::StoreSource::Unknown,
@@ -805,6 +839,28 @@ impl RerunSink {
                     .and_then(|e| e.to_str())
                     .unwrap_or("")
                     .to_ascii_lowercase();
+                if ext == "dae" {
+                    // Rerun reads no Collada: tumble's own reader gives the triangles (its
+                    // `<unit>` and node transforms applied, `<up_axis>` ignored as RViz does), sent
+                    // as a `Mesh3D`.
+                    let mesh = match self.meshes.get(path) {
+                        Ok(mesh) => mesh,
+                        Err(err) => {
+                            self.warn(format!("{entity}: {err}, left out of the Rerun recording"));
+                            return Ok(());
+                        }
+                    };
+                    let mesh3d = mesh3d(&mesh).with_albedo_factor(color(visual.rgba));
+                    let chunk = static_chunk(
+                        entity,
+                        &[
+                            &frame_id,
+                            &instance_pose(origin, Some(f32x3(scale))),
+                            &mesh3d,
+                        ],
+                    )?;
+                    return self.send(chunk);
+                }
                 if !matches!(ext.as_str(), "stl" | "obj" | "glb" | "gltf") {
                     self.warn(format!(
                         "{entity}: mesh {uri:?} has a format Rerun cannot show (.{ext}), left out of the Rerun recording"

@@ -187,6 +187,7 @@ fn scan(path: &Path, topic: &str) -> anyhow::Result<Scan> {
                     );
                 }
                 if times.is_empty() {
+                    super::steps::refuse_ros2(&stream, path)?;
                     frames = super::steps::decode_transforms(&data)
                         .with_context(|| format!("{}", path.display()))?
                         .into_iter()
