@@ -296,3 +296,13 @@ fn each_non_finite_state_variable_is_named() {
         })
     );
 }
+
+/// A body far away and fast, but finite, is not a divergence: the guard's finiteness test sums
+/// the pose and velocity (a product there would overflow at 1e200 m · 1e200 m/s and stop the run).
+#[test]
+fn a_huge_but_finite_translation_is_not_a_divergence() {
+    let (mut bodies, guard) = batch(2);
+    bodies.com_world[1] = Vector3::new(1e200, 0.0, 0.0);
+    bodies.linvel_world[1] = Vector3::new(0.0, 1e200, 0.0);
+    assert_eq!(guard.check(&bodies, &no_failure(), 1), None);
+}
