@@ -56,7 +56,10 @@ fn steps_read_back_equal_the_recorded_frames() {
         .collect();
     assert_eq!(layout_ids, ids);
     // The scene's settings and the URDF texts (`urdf/<path>`), as the build put them in the layout.
-    assert_eq!(reader.layout().metadata, scene.build().unwrap().layout.metadata);
+    assert_eq!(
+        reader.layout().metadata,
+        scene.build().unwrap().layout.metadata
+    );
     let mut n = 0;
     while let Some(step) = reader.next_step().unwrap() {
         let (time_ns, poses) = &frames[n];
