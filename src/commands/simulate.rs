@@ -259,9 +259,11 @@ pub fn simulate_world(
         Box::new(mcap_sink),
         Box::new(RerunSink::create(&rrd, &world.layout, rerun_options)?),
     ];
-    let mut integrator = scene
-        .integrator()
-        .build(scene.sim.dt, &scene.variational_settings());
+    let mut integrator = world.integrator(
+        scene.integrator(),
+        scene.sim.dt,
+        &scene.variational_settings(),
+    )?;
     let settings = crate::run::RunSettings {
         stop_on_interrupt: true,
         ..scene.run_settings()

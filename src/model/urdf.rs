@@ -234,6 +234,12 @@ pub fn load_str_at(
                 multiplier: m.multiplier.unwrap_or(1.0),
                 offset: m.offset.unwrap_or(0.0),
             }),
+            limits: matches!(
+                j.joint_type,
+                urdf_rs::JointType::Revolute | urdf_rs::JointType::Prismatic
+            )
+            .then_some([j.limit.lower, j.limit.upper])
+            .filter(|[lo, hi]| hi > lo),
         });
     }
     let names: Vec<String> = robot.links.iter().map(|l| l.name.clone()).collect();
@@ -319,6 +325,7 @@ pub fn load_str_at(
         path: file(),
         links,
         root: root_index,
+        joints,
     })
 }
 

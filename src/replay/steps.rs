@@ -9,7 +9,7 @@
 use super::stream::{Item, McapStream, Message, StreamEnd};
 use crate::record::layout_json::{LAYOUT_KEY, from_json};
 use crate::record::mcap::{BODIES_TOPIC, METADATA_NAME, TF_TOPIC, proto};
-use crate::record::{BodyState, RecordingLayout};
+use crate::record::{BodyState, JointState, MechanismState, RecordingLayout};
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use prost::Message as _;
@@ -27,6 +27,10 @@ pub struct RecordedStep {
     pub world_from_link: Vec<Isometry3<f64>>,
     /// In the order of the layout's bodies.
     pub bodies: Vec<BodyState>,
+    /// In the order of the layout's joints (articulated models).
+    pub joints: Vec<JointState>,
+    /// In the order of the layout's mechanisms.
+    pub mechanisms: Vec<MechanismState>,
 }
 
 /// Decodes a `/tf` message into `(child_frame_id, world_from_child)` pairs.
@@ -87,6 +91,8 @@ impl Pending {
             time_ns: i64::try_from(self.time_ns).ok()?,
             world_from_link: self.poses.into_iter().collect::<Option<Vec<_>>>()?,
             bodies: self.bodies.into_iter().collect::<Option<Vec<_>>>()?,
+            joints: Vec::new(),
+            mechanisms: Vec::new(),
         })
     }
 }

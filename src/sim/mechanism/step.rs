@@ -15,8 +15,9 @@
 //! solved by [`super::tree`] in time linear in the joints; then `δξ` from the line above.
 //! Quadratic convergence: 2-3 iterations per step from the warm start.
 //!
-//! Stopping rule (a NaN never passes): every `|f_i|_∞ <= tol · max(|M_i⁺|_∞, |J_i ξ_i/h|_∞)`
-//! (the free step's own relative rule), every gap row `<= tol · L + 8 ε |c|_∞` (m; `L` the
+//! Stopping rule (a NaN never passes): every `|f_i|_∞ <= tol · max(|M_i⁺|_∞, |M_i|_∞,
+//! |τ_i|_∞, |J_i ξ_i/h|_∞)` (the free step's own relative rule, and the largest torque impulse
+//! `τ_i` added to `M_i`: impulses that cancel leave round-off of their own size), every gap row `<= tol · L + 8 ε |c|_∞` (m; `L` the
 //! mechanism's [`super::Mechanism::length_scale`], the second term the round-off of positions
 //! far from the origin), every dot and mimic row `<= tol` (rad; m for a prismatic mimic, times
 //! `L`). Then the solved root is checked against the spurious one with a reversed axis
@@ -93,6 +94,9 @@ pub struct Workspace {
     g: Vec<RowValues>,
     g_extra: Vec<f64>,
     mplus: Vec<Vector3<f64>>,
+    /// Per body: the largest torque impulse added to `M` (its round-off sets the floor of the
+    /// free-step residual's tolerance).
+    impulse_scale: Vec<f64>,
     vplus: Vec<Vector3<f64>>,
     xi: Vec<Vector3<f64>>,
     lambda: Vec<RowValues>,
@@ -144,6 +148,7 @@ impl Workspace {
             g: vec![RowValues::zeros(); nj],
             g_extra: vec![0.0; nm],
             mplus: vec![Vector3::zeros(); n],
+            impulse_scale: vec![0.0; n],
             vplus: vec![Vector3::zeros(); n],
             xi: vec![Vector3::zeros(); n],
             lambda: vec![RowValues::zeros(); nj],
@@ -343,25 +348,32 @@ impl Workspace {
         let first = model.first_body;
         for i in 0..model.body_count {
             self.mplus[i] = bodies.angmom_body[first + i];
+            self.impulse_scale[i] = 0.0;
             self.vplus[i] = Vector3::zeros();
         }
         for (j, joint) in model.joints.iter().enumerate() {
             let (gp, gc) = &self.gl[j];
             let l = &self.lambda[j];
             let ic = gc.transpose() * l;
+            let torque = ic.fixed_rows::<3>(3);
             self.vplus[joint.child] += ic.fixed_rows::<3>(0);
-            self.mplus[joint.child] += ic.fixed_rows::<3>(3);
+            self.mplus[joint.child] += torque;
+            self.impulse_scale[joint.child] = self.impulse_scale[joint.child].max(torque.amax());
             if let Some(p) = joint.parent {
                 let ip = gp.transpose() * l;
+                let torque = ip.fixed_rows::<3>(3);
                 self.vplus[p] += ip.fixed_rows::<3>(0);
-                self.mplus[p] += ip.fixed_rows::<3>(3);
+                self.mplus[p] += torque;
+                self.impulse_scale[p] = self.impulse_scale[p].max(torque.amax());
             }
         }
         for (m, row) in self.extra_left.iter().enumerate() {
             for (i, r) in row.bodies.iter().flatten() {
                 let imp = r.transpose() * self.mu[m];
+                let torque = imp.fixed_rows::<3>(3);
                 self.vplus[*i] += imp.fixed_rows::<3>(0);
-                self.mplus[*i] += imp.fixed_rows::<3>(3);
+                self.mplus[*i] += torque;
+                self.impulse_scale[*i] = self.impulse_scale[*i].max(torque.amax());
             }
         }
         for i in 0..model.body_count {
@@ -390,8 +402,11 @@ impl Workspace {
             let j = &bodies.inertia_body[gi];
             let eval = RotationEval::new(j, &self.mplus[i], h, &self.xi[i]);
             let f = eval.residual();
+            // Relative to the momentum, its terms (the torque impulses may cancel), and `J ξ/h`.
             let scale = self.mplus[i]
                 .amax()
+                .max(bodies.angmom_body[gi].amax())
+                .max(self.impulse_scale[i])
                 .max((j.component_mul(&self.xi[i]) / h).amax());
             ratio = ratio.max(relative(f.amax(), tol * scale));
             self.f[i] = f;
