@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Creates (once) the Python virtual environment used by the interoperability tests and prints its python path.
-# Readers nobody on this team wrote: the `mcap` reader with protobuf decoding, and rerun-sdk 0.36.3.
+# Readers nobody on this team wrote: the `mcap` reader with protobuf and ROS 2 (CDR) decoding, rosbags,
+# and rerun-sdk 0.36.3.
 # Idempotent and safe to call from several test processes at once (flock).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

@@ -30,6 +30,7 @@
 //! density = 1000.0              # kg/m^3 for geometry-derived mass properties (default: [mass])
 //! geometry = "collision"        # "collision" (visual as fallback) | "visual" (default: [mass])
 //! links = { base = { inertia = "geometry", density = 2700.0 } }   # per-link overrides
+//! strict = false                # refuse the URDF oddities urdfdom loads (docs/urdf.md) instead of loading them with a warning (default false; --strict sets it on every model)
 //!
 //! [mass]                        # scene-wide defaults of the mass settings (flags --inertia, --density, --geometry override them)
 //! inertia = "urdf"              # (default "urdf")
@@ -44,7 +45,7 @@
 use crate::model::kinematics::rotation_from_rpy;
 use crate::model::policy::{self, GeometrySource, InertiaPolicy, MassSettings, ModelMassSettings};
 use crate::model::{MassProperties, Model, urdf};
-use crate::record::{BodyLayout, FrameLayout, RecordingLayout};
+use crate::record::{BodyLayout, FrameLayout, RecordingLayout, RobotDescription};
 use crate::sim::BodyInit;
 use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
 use crate::sim::mechanism::{Articulated, Mechanism};
@@ -154,6 +155,10 @@ pub struct ModelEntry {
     /// Per-link mass settings (refine the model's).
     #[serde(default)]
     pub links: BTreeMap<String, MassSettings>,
+    /// Refuse the URDF oddities urdfdom loads instead of loading them with a warning
+    /// ([`urdf::Strictness`], docs/urdf.md). Written into recordings' settings only when set.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub strict: bool,
 }
 
 /// `bodies = "links" | "rigid"`.
@@ -202,6 +207,7 @@ impl ModelEntry {
             density: None,
             geometry: None,
             links: BTreeMap::new(),
+            strict: false,
         }
     }
 }
@@ -328,6 +334,13 @@ impl Scene {
         }
         self.mass = self.mass.refined(&o.mass);
         self.validate()
+    }
+
+    /// `--strict`: every model refuses the URDF oddities urdfdom loads ([`ModelEntry::strict`]).
+    pub fn set_strict(&mut self) {
+        for model in &mut self.models {
+            model.strict = true;
+        }
     }
 
     /// Checks every value; errors name the file and the key.
@@ -561,6 +574,8 @@ impl Scene {
         let mut frame_ids = HashSet::new();
         // Each URDF's text, once per distinct `urdf` value, for the recordings' metadata.
         let mut urdf_texts: BTreeMap<String, String> = BTreeMap::new();
+        // A URDF used by many models warns once.
+        let mut seen_warnings: HashSet<String> = HashSet::new();
         for (i, entry) in self.models.iter().enumerate() {
             let urdf_path = self.base_dir.join(&entry.urdf);
             let package_paths: Vec<PathBuf> = entry
@@ -570,8 +585,18 @@ impl Scene {
                 .collect();
             let context = || format!("{}: model[{i}]", self.source.display());
             let joints: HashMap<String, f64> = entry.joints.clone().into_iter().collect();
-            let mut model =
-                urdf::load_at(&urdf_path, &package_paths, &joints).with_context(context)?;
+            let mut model = urdf::load_with(
+                &urdf_path,
+                &package_paths,
+                &joints,
+                urdf::Strictness::from_strict(entry.strict),
+            )
+            .with_context(context)?;
+            for warning in model.warnings.drain(..) {
+                if seen_warnings.insert(warning.to_string()) {
+                    world.warnings.push(warning);
+                }
+            }
             policy::apply(&mut model, &self.mass_settings(entry)).with_context(context)?;
             match entry.bodies {
                 BodiesMode::Links => model.check_simulable(entry.allow_non_physical_inertia),
@@ -579,7 +604,8 @@ impl Scene {
             }
             .with_context(context)?;
             let key = format!("{URDF_METADATA_PREFIX}{}", entry.urdf.display());
-            if let std::collections::btree_map::Entry::Vacant(slot) = urdf_texts.entry(key) {
+            if let std::collections::btree_map::Entry::Vacant(slot) = urdf_texts.entry(key.clone())
+            {
                 slot.insert(
                     crate::input::read_text(&urdf_path, crate::input::URDF_MAX_BYTES)
                         .with_context(context)?,
@@ -603,6 +629,13 @@ impl Scene {
                     urdf_path.display()
                 );
             }
+            world.layout.robot_descriptions.push(robot_description(
+                &urdf_texts[&key],
+                &urdf_path,
+                &package_paths,
+                entry,
+                &model,
+            ));
             for f in &world.layout.frames[before..] {
                 if !frame_ids.insert(f.frame_id.clone()) {
                     bail!(
@@ -621,6 +654,28 @@ impl Scene {
         world.layout.metadata = self.metadata();
         world.layout.metadata.extend(urdf_texts);
         Ok(world)
+    }
+}
+
+/// The model's URDF text `xml` (read from `urdf_path`) rewritten for `/robot_description`
+/// ([`crate::model::description`]): links named by their frame ids, meshes as file:// URIs.
+fn robot_description(
+    xml: &str,
+    urdf_path: &Path,
+    package_paths: &[PathBuf],
+    entry: &ModelEntry,
+    model: &Model,
+) -> RobotDescription {
+    let urdf = crate::model::description::for_frame_ids(
+        xml,
+        urdf_path,
+        package_paths,
+        entry.name.as_deref(),
+    );
+    RobotDescription {
+        model: entry.name.clone().unwrap_or_else(|| model.name.clone()),
+        urdf_path: urdf_path.to_path_buf(),
+        urdf,
     }
 }
 
@@ -647,8 +702,11 @@ pub struct World {
     /// not from a body (their [`Attachment`] is a placeholder).
     pub interior_frames: Vec<InteriorFrame>,
     /// What the build decided that the user should know (e.g. joints locked because no mass
-    /// hangs from them), one line each.
-    pub warnings: Vec<String>,
+    /// hangs from them), one line each; the command prints them.
+    pub notes: Vec<String>,
+    /// The URDF oddities the models loaded with (docs/urdf.md), each once however many models
+    /// share the file; the command prints them.
+    pub warnings: Vec<urdf::LoadWarning>,
 }
 
 /// A massless link frame inside a compound joint.

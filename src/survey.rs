@@ -9,6 +9,9 @@
 //! geometry first) is applied to a copy: `repaired` counts the links whose missing or invalid
 //! values it replaced by geometry-derived ones, `still_invalid` the links with a non-zero mass
 //! that still break a rule afterwards (no usable geometry).
+//!
+//! Files load leniently unless `strict` (see [`urdf::Strictness`]): each oddity the loader
+//! accepted is one line of the file's `warnings`.
 
 use crate::model::policy::{self, InertiaPolicy, MassSettings, ModelMassSettings};
 use crate::model::{InertiaSource, MassProperties, Model, urdf};
@@ -70,6 +73,8 @@ pub struct FileReport {
     pub path: PathBuf,
     /// The one-line error when the file did not load.
     pub error: Option<String>,
+    /// One line per oddity the loader accepted (`FILE: ELEMENT: MESSAGE`; docs/urdf.md).
+    pub warnings: Vec<String>,
     /// Links per class (empty when the file did not load).
     pub links: BTreeMap<LinkClass, usize>,
     /// Links breaking the triangle inequality (a subset of `invalid`).
@@ -87,6 +92,10 @@ pub struct Summary {
     pub files: usize,
     pub loaded: usize,
     pub failed: usize,
+    /// Warnings over the loaded files.
+    pub warnings: usize,
+    /// Loaded files with at least one warning.
+    pub files_with_warnings: usize,
     pub links: usize,
     pub by_class: BTreeMap<LinkClass, usize>,
     pub triangle_violations: usize,
@@ -121,13 +130,23 @@ pub fn urdf_files(root: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// Loads one file and classifies its links.
+/// Loads one file (leniently) and classifies its links.
 pub fn survey_file(path: &Path, package_paths: &[PathBuf]) -> FileReport {
-    match urdf::load(path, package_paths) {
+    survey_file_with(path, package_paths, urdf::Strictness::Lenient)
+}
+
+/// [`survey_file`], choosing whether oddities load with warnings or fail the file.
+pub fn survey_file_with(
+    path: &Path,
+    package_paths: &[PathBuf],
+    strictness: urdf::Strictness,
+) -> FileReport {
+    match urdf::load_with(path, package_paths, &Default::default(), strictness) {
         Ok(model) => classify(path, &model),
         Err(e) => FileReport {
             path: path.to_path_buf(),
             error: Some(e.to_string()),
+            warnings: Vec::new(),
             links: BTreeMap::new(),
             triangle_violations: 0,
             repaired: 0,
@@ -176,6 +195,7 @@ fn classify(path: &Path, model: &Model) -> FileReport {
     FileReport {
         path: path.to_path_buf(),
         error: None,
+        warnings: model.warnings.iter().map(ToString::to_string).collect(),
         links,
         triangle_violations,
         repaired,
@@ -196,6 +216,8 @@ pub fn summarize(root: &Path, files: &[FileReport]) -> Summary {
             continue;
         }
         s.loaded += 1;
+        s.warnings += f.warnings.len();
+        s.files_with_warnings += usize::from(!f.warnings.is_empty());
         for (&class, &n) in &f.links {
             *s.by_class.entry(class).or_insert(0) += n;
             s.links += n;

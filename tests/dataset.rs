@@ -180,15 +180,15 @@ fn rows(batches: &[RecordBatch]) -> Vec<String> {
     out
 }
 
-/// 1 and 2 threads write the same bytes: every Parquet file, every MCAP and RRD recording and
-/// the manifest (whose checksums cover them all).
+/// 1 and 2 threads write the same bytes: every Parquet file, every MCAP, RRD and ROS 2 MCAP
+/// recording and the manifest (whose checksums cover them all).
 #[test]
 fn one_and_two_threads_write_identical_bytes() {
     let tmp = tempfile::tempdir().unwrap();
     let spec_path = write_spec(
         tmp.path(),
         "s.toml",
-        "runs = 24\nseed = 5\nruns_per_file = 4\nrecord = [\"mcap\", \"rrd\"]\nrecord_runs = 2",
+        "runs = 24\nseed = 5\nruns_per_file = 4\nrecord = [\"mcap\", \"rrd\", \"ros2\"]\nrecord_runs = 2",
         None,
     );
     let spec = DatasetSpec::load(&spec_path).unwrap();
@@ -211,6 +211,7 @@ fn one_and_two_threads_write_identical_bytes() {
     );
     assert!(a.join("recordings/run-000001.mcap").is_file());
     assert!(a.join("recordings/run-000001.rrd").is_file());
+    assert!(a.join("recordings/run-000001.ros2.mcap").is_file());
 }
 
 /// Shards 1/2 and 2/2 hold disjoint chunks whose union is the unsharded dataset byte for byte,

@@ -595,6 +595,7 @@ fn inspect_run_and_text() {
         package_paths: vec![],
         mass: Default::default(),
         compare: false,
+        strict: false,
     };
     assert!(!inspect::run(&zero).unwrap());
     let missing = InspectArgs {
@@ -603,6 +604,7 @@ fn inspect_run_and_text() {
         package_paths: vec![],
         mass: Default::default(),
         compare: false,
+        strict: false,
     };
     let err = inspect::run(&missing).unwrap_err();
     assert!(format!("{err:#}").contains("/nonexistent.urdf"));

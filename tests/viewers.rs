@@ -68,11 +68,13 @@ fn every_mcap_tumble_writes_has_message_indexes_in_every_chunk() {
             "long",
             "--duration",
             "2",
+            "--ros2",
         ],
         d,
     );
     assert!(out.status.success(), "{}", text(&out.stderr));
     files.push(d.join("long.mcap"));
+    files.push(d.join("long.ros2.mcap"));
 
     // trade: the side-by-side recording (one topic group per integrator).
     let out = tumble(
@@ -99,7 +101,7 @@ fn every_mcap_tumble_writes_has_message_indexes_in_every_chunk() {
     std::fs::write(
         &spec,
         format!(
-            "[dataset]\nruns = 2\nseed = 1\nrecord = [\"mcap\"]\nrecord_runs = 2\n\n\
+            "[dataset]\nruns = 2\nseed = 1\nrecord = [\"mcap\", \"ros2\"]\nrecord_runs = 2\n\n\
              [scene.sim]\nduration = 0.05\n\n[[scene.model]]\nurdf = \"{}\"\n",
             common::root().join("models/arm.urdf").display()
         ),
@@ -112,7 +114,7 @@ fn every_mcap_tumble_writes_has_message_indexes_in_every_chunk() {
         .filter(|p| p.extension().is_some_and(|e| e == "mcap"))
         .collect();
     dataset_files.sort();
-    assert_eq!(dataset_files.len(), 2, "{dataset_files:?}");
+    assert_eq!(dataset_files.len(), 4, "{dataset_files:?}"); // 2 runs x (.mcap, .ros2.mcap)
     files.extend(dataset_files);
 
     let args: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
@@ -125,6 +127,8 @@ fn every_mcap_tumble_writes_has_message_indexes_in_every_chunk() {
     // fix every file's first chunk held only schemas and channels (0 message indexes).
     assert_eq!(chunks[0], 1, "{chunks:?}");
     assert!(chunks[1] >= 10, "{chunks:?}");
+    // long.ros2.mcap: measured 34 chunks (CDR strings repeat every frame id in every message).
+    assert!(chunks[2] >= 10, "{chunks:?}");
 }
 
 fn walk(dir: &Path) -> Vec<PathBuf> {
@@ -442,5 +446,327 @@ fn grouped_recordings_have_a_scene_per_group() {
             .collect();
         assert!(!ids.is_empty());
         assert_eq!(ids, frames, "{prefix}");
+    }
+}
+
+/// The Rerun recording opens with tumble's blueprint (read back by rerun-sdk 0.36.3): the 3D view
+/// gets two thirds of the width, beside a column of three time series over the whole run
+/// (relative energy change, largest relative angular momentum change, energies), the side panels
+/// collapsed, the time panel on `sim_time`, and the eye placed so every link frame of the run is
+/// in view. The change series equal what the MCAP's `/bodies` give, computed here.
+#[test]
+fn rerun_recording_opens_with_the_scene_framed_and_conservation_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = common::root().join("models/default.toml");
+    let out = tumble(
+        &[
+            "simulate",
+            scene.to_str().unwrap(),
+            "--out",
+            "run",
+            "--duration",
+            "2",
+        ],
+        d,
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let bp = run_py("read_blueprint.py", &[&d.join("run.rrd")]);
+    let (recs, bps) = (&bp["recordings"], &bp["blueprints"]);
+    assert_eq!(recs.as_array().unwrap().len(), 1);
+    assert_eq!(bps.as_array().unwrap().len(), 1);
+    assert_eq!(bps[0]["application_id"], recs[0]["application_id"]);
+    assert_eq!(
+        bps[0]["recording_id"].as_str().unwrap(),
+        format!("{}-blueprint", recs[0]["recording_id"].as_str().unwrap())
+    );
+    let e = bp["entities"].as_object().unwrap();
+    let get = |path: &str, component: &str| -> serde_json::Value {
+        e.get(path)
+            .and_then(|c| c.get(component))
+            .cloned()
+            .unwrap_or_else(|| panic!("{path} {component} missing: {bp}"))
+    };
+    // The root container: horizontal (kind 2), [3D view, column], shares 2 : 1.
+    let root_bytes: Vec<u8> = get("/viewport", "ViewportBlueprint:root_container")[0]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| b.as_u64().unwrap() as u8)
+        .collect();
+    let root_hex: String = root_bytes.iter().map(|b| format!("{b:02x}")).collect();
+    let root = e
+        .keys()
+        .find(|k| k.starts_with("/container/") && k.replace('-', "").ends_with(&root_hex))
+        .unwrap_or_else(|| panic!("root container {root_hex} not logged"))
+        .clone();
+    assert_eq!(
+        get(&root, "ContainerBlueprint:container_kind"),
+        serde_json::json!([2])
+    );
+    assert_eq!(
+        get(&root, "ContainerBlueprint:col_shares"),
+        serde_json::json!([2.0, 1.0])
+    );
+    let contents = get(&root, "ContainerBlueprint:contents");
+    let (view3d, column) = (
+        format!("/{}", contents[0].as_str().unwrap()),
+        format!("/{}", contents[1].as_str().unwrap()),
+    );
+    assert_eq!(
+        get(&view3d, "ViewBlueprint:class_identifier"),
+        serde_json::json!(["3D"])
+    );
+    let query = get(&format!("{view3d}/ViewContents"), "ViewContents:query");
+    assert!(
+        query.as_array().unwrap().contains(&"- /plots/**".into()),
+        "{query}"
+    );
+    assert_eq!(
+        get(&column, "ContainerBlueprint:container_kind"),
+        serde_json::json!([3])
+    );
+    let plots: Vec<String> = get(&column, "ContainerBlueprint:contents")
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| format!("/{}", v.as_str().unwrap()))
+        .collect();
+    let plot_queries: Vec<serde_json::Value> = plots
+        .iter()
+        .map(|p| {
+            assert_eq!(
+                get(p, "ViewBlueprint:class_identifier"),
+                serde_json::json!(["TimeSeries"])
+            );
+            // Whole run: both ends of the time axis unbounded (null = infinite).
+            assert_eq!(
+                get(&format!("{p}/TimeAxis"), "TimeAxis:view_range"),
+                serde_json::json!([{"start": null, "end": null}])
+            );
+            get(&format!("{p}/ViewContents"), "ViewContents:query")
+        })
+        .collect();
+    assert_eq!(
+        plot_queries,
+        [
+            serde_json::json!(["+ /plots/scene/energy_change"]),
+            serde_json::json!(["+ /plots/scene/angular_momentum_change"]),
+            serde_json::json!(["+ /plots/scene/energy"]),
+        ]
+    );
+    for panel in ["/blueprint_panel", "/selection_panel"] {
+        assert_eq!(
+            get(panel, "PanelBlueprint:state"),
+            serde_json::json!([2]),
+            "{panel} collapsed"
+        );
+    }
+    assert_eq!(
+        get("/time_panel", "TimePanelBlueprint:timeline"),
+        serde_json::json!(["sim_time"])
+    );
+
+    // Framing: every recorded frame origin lies within 25° of the view axis (a 50° field of
+    // view holds them all), in front of the eye. Measured: at most 13.6° for the default scene.
+    let eye = f64s(&get(&format!("{view3d}/EyeControls3D"), "EyeControls3D:position")[0]);
+    let target = f64s(
+        &get(
+            &format!("{view3d}/EyeControls3D"),
+            "EyeControls3D:look_target",
+        )[0],
+    );
+    let axis: Vec<f64> = (0..3).map(|k| target[k] - eye[k]).collect();
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let mcap = run_py("read_mcap.py", &[&d.join("run.mcap")]);
+    let mut widest: f64 = 0.0;
+    for rows in mcap["frames"].as_object().unwrap().values() {
+        for row in rows.as_array().unwrap() {
+            let p: Vec<f64> = (1..4)
+                .map(|k| row[k].as_f64().unwrap() - eye[k - 1])
+                .collect();
+            let cos =
+                p.iter().zip(&axis).map(|(a, b)| a * b).sum::<f64>() / (norm(&p) * norm(&axis));
+            widest = widest.max(cos.clamp(-1.0, 1.0).acos().to_degrees());
+        }
+    }
+    assert!(widest < 25.0, "a frame is {widest}° off the view axis");
+
+    // The change series against the MCAP's energies and momenta.
+    let scalars = run_py("read_scalars.py", &[&d.join("run.rrd")]);
+    let bodies = mcap["bodies"].as_object().unwrap();
+    let n = bodies.values().next().unwrap().as_array().unwrap().len();
+    let row = |b: &serde_json::Value, i: usize, k: usize| b[i][k].as_f64().unwrap();
+    let energy = |i: usize| {
+        let kinetic: f64 = bodies.values().map(|b| row(b, i, 1)).sum();
+        let potential: f64 = bodies.values().map(|b| row(b, i, 2)).sum();
+        kinetic + potential
+    };
+    let e0 = energy(0);
+    let energy_change = scalars["/plots/scene/energy_change"].as_array().unwrap();
+    let angmom_change = scalars["/plots/scene/angular_momentum_change"]
+        .as_array()
+        .unwrap();
+    assert_eq!((energy_change.len(), angmom_change.len()), (n, n));
+    let (mut e_max, mut l_max): (f64, f64) = (0.0, 0.0);
+    for i in 0..n {
+        let want_e = (energy(i) - e0) / e0.abs();
+        let got_e = energy_change[i][1].as_f64().unwrap();
+        assert!((got_e - want_e).abs() <= 1e-15, "{i}: {got_e} vs {want_e}");
+        let want_l = bodies
+            .values()
+            .map(|b| {
+                let d: Vec<f64> = (3..6).map(|k| row(b, i, k) - row(b, 0, k)).collect();
+                let l0: Vec<f64> = (3..6).map(|k| row(b, 0, k)).collect();
+                norm(&d) / norm(&l0)
+            })
+            .fold(0.0, f64::max);
+        let got_l = angmom_change[i][1].as_f64().unwrap();
+        assert!((got_l - want_l).abs() <= 1e-18, "{i}: {got_l} vs {want_l}");
+        e_max = e_max.max(got_e.abs());
+        l_max = l_max.max(got_l);
+    }
+    // What the plots show for the default scene over 2 s: energy within 2.61e-7 (O(h²) at
+    // h|Ω| = 0.02), angular momentum at round-off (measured 6.5e-15).
+    assert!(e_max > 1e-9 && e_max < 1e-6, "{e_max}");
+    assert!(l_max < 1e-13, "{l_max}");
+}
+
+/// A tetrahedron in millimetres, placed by a node 100 mm along x (what real robots' Collada
+/// meshes look like to the reader: a unit and a node transform).
+const TETRA_DAE: &str = r##"<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><unit name="millimetre" meter="0.001"/><up_axis>Z_UP</up_axis></asset>
+  <library_geometries><geometry id="t"><mesh>
+    <source id="p"><float_array id="pa" count="12">0 0 0  50 0 0  0 50 0  0 0 50</float_array>
+      <technique_common><accessor source="#pa" count="4" stride="3"/></technique_common></source>
+    <vertices id="v"><input semantic="POSITION" source="#p"/></vertices>
+    <triangles count="4"><input semantic="VERTEX" source="#v" offset="0"/>
+      <p>0 2 1  0 1 3  0 3 2  1 2 3</p></triangles>
+  </mesh></geometry></library_geometries>
+  <library_visual_scenes><visual_scene id="s">
+    <node id="n"><translate>100 0 0</translate><instance_geometry url="#t"/></node>
+  </visual_scene></library_visual_scenes>
+  <scene><instance_visual_scene url="#s"/></scene>
+</COLLADA>"##;
+
+/// Collada meshes, which Rerun cannot read, reach both viewers as triangles: a `Mesh3D` in the
+/// .rrd (with vertex normals) and a triangle list on `/scene`, vertices in metres with the node
+/// transform applied, scaled by the URDF `scale` on the way (Rerun: the instance pose's scale).
+#[test]
+fn collada_meshes_reach_rerun_and_foxglove_as_triangles() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("tetra.dae"), TETRA_DAE).unwrap();
+    std::fs::write(
+        d.join("tetra.urdf"),
+        r#"<robot name="tetra"><link name="shell">
+             <inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial>
+             <visual><geometry><mesh filename="tetra.dae" scale="2 2 2"/></geometry></visual>
+           </link></robot>"#,
+    )
+    .unwrap();
+    let out = tumble(
+        &[
+            "simulate",
+            "tetra.urdf",
+            "--out",
+            "run",
+            "--duration",
+            "0.01",
+        ],
+        d,
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        !text(&out.stderr).contains("warning"),
+        "{}",
+        text(&out.stderr)
+    );
+    // The file's corners in metres, node translation (0.1 m, 0, 0) applied.
+    let corners = [
+        [0.1, 0.0, 0.0],
+        [0.15, 0.0, 0.0],
+        [0.1, 0.05, 0.0],
+        [0.1, 0.0, 0.05],
+    ];
+    let meshes = run_py("read_meshes.py", &[&d.join("run.rrd")]);
+    let mesh = &meshes["/tetra/visual_geometries/shell/visual_0"];
+    let positions: Vec<Vec<f64>> = mesh["positions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(f64s)
+        .collect();
+    assert_eq!(positions.len(), 4, "{meshes}");
+    for c in &corners {
+        // f32 storage: 0.15 is stored to 6e-9.
+        assert!(
+            positions
+                .iter()
+                .any(|p| (0..3).all(|k| (p[k] - c[k]).abs() < 1e-8)),
+            "{c:?} not in {positions:?}"
+        );
+    }
+    assert_eq!(mesh["indices"].as_array().unwrap().len(), 4);
+    assert_eq!(mesh["normals"], 4);
+    // Foxglove gets the scaled corners (×2) as a triangle list.
+    let scene = run_py("read_scene.py", &[&d.join("run.mcap")]);
+    let tri = &scene["topics"]["/scene"][0]["entities"][0]["triangles"][0];
+    let points: Vec<Vec<f64>> = tri["points"].as_array().unwrap().iter().map(f64s).collect();
+    for c in &corners {
+        let scaled: Vec<f64> = c.iter().map(|x| 2.0 * x).collect();
+        assert!(
+            points
+                .iter()
+                .any(|p| (0..3).all(|k| (p[k] - scaled[k]).abs() < 1e-15)),
+            "{scaled:?} not in {points:?}"
+        );
+    }
+}
+
+/// The Foxglove layout shipped with tumble (docs/foxglove/tumble-layout.json, named in the run
+/// summary) is a layout Foxglove imports: a 3D panel on `world` with `/scene` visible, and
+/// plots whose message paths exist in the `/bodies` messages of a real recording (read by the
+/// Python `mcap` reader with protobuf decoding).
+#[test]
+fn the_shipped_foxglove_layout_shows_the_scene_and_plots_real_fields() {
+    let root = common::root();
+    let json = std::fs::read_to_string(root.join("docs/foxglove/tumble-layout.json")).unwrap();
+    let layout: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let panels = layout["configById"].as_object().unwrap();
+    let three_d = &panels["3D!tumble"];
+    assert_eq!(three_d["followTf"], "world");
+    assert_eq!(three_d["topics"]["/scene"]["visible"], true);
+    // Every panel the layout tree names is configured.
+    let tree = layout["layout"].to_string();
+    for id in panels.keys() {
+        assert!(
+            tree.contains(&format!("\"{id}\"")),
+            "{id} not placed in {tree}"
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = tumble(
+        &["simulate", "--out", "run", "--duration", "0.05"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let mcap = run_py("read_mcap.py", &[&dir.path().join("run.mcap")]);
+    assert!(mcap["schemas"]["/bodies"] == "tumble.BodyStates");
+    // The plotted paths: /bodies.total_energy and /bodies.bodies[0].angular_momentum.{x,y,z}, the
+    // fields of tumble.BodyStates (src/record/mcap.rs), checked against the decoded message.
+    let fields = run_py("bodies_fields.py", &[&dir.path().join("run.mcap")]);
+    for (id, panel) in panels.iter().filter(|(id, _)| id.starts_with("Plot!")) {
+        for path in panel["paths"].as_array().unwrap() {
+            let path = path["value"].as_str().unwrap();
+            let field = path
+                .strip_prefix("/bodies.")
+                .unwrap_or_else(|| panic!("{id}: {path}"));
+            assert!(
+                fields["paths"].as_array().unwrap().contains(&field.into()),
+                "{id}: {path} is not a field of /bodies: {fields}"
+            );
+        }
     }
 }

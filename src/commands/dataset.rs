@@ -53,6 +53,10 @@ pub struct DatasetArgs {
     /// estimate is checked before anything runs).
     #[arg(long)]
     pub allow_huge: bool,
+    /// Refuse the URDF oddities urdfdom loads instead of loading them with a warning; sets
+    /// strict = true on the template's [[scene.model]] (docs/urdf.md).
+    #[arg(long)]
+    pub strict: bool,
 }
 
 #[derive(Subcommand, Debug, Clone)]
@@ -92,7 +96,10 @@ pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
     let (Some(spec_path), Some(out)) = (&args.spec, &args.out) else {
         anyhow::bail!("usage: tumble dataset SPEC.toml --out DIR (see --help)");
     };
-    let spec = DatasetSpec::load(spec_path)?;
+    let mut spec = DatasetSpec::load(spec_path)?;
+    if args.strict {
+        spec.template.set_strict();
+    }
     // Ctrl-C / SIGTERM: finish the chunks in flight, write the manifest, exit 130 / 143.
     crate::interrupt::install()?;
     let opts = Options {

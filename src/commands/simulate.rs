@@ -1,11 +1,12 @@
-//! `tumble simulate [SCENE.toml | MODEL.urdf] [--out STEM]`: runs a scene and writes
-//! `STEM.mcap` and `STEM.rrd`.
+//! `tumble simulate [SCENE.toml | MODEL.urdf] [--out STEM] [--ros2]`: runs a scene and writes
+//! `STEM.mcap` and `STEM.rrd` (and with `--ros2` `STEM.ros2.mcap`, docs/ros2.md).
 
 use crate::budget::{Estimate, human_bytes, peak_memory_bytes};
 use crate::fsutil::check_not_overwriting;
 use crate::record::Sink;
 use crate::record::mcap::{McapOptions, McapSink};
 use crate::record::rerun::{RerunOptions, RerunSink};
+use crate::record::ros2::Ros2Sink;
 use crate::run::{Diverged, RunSummary};
 use crate::scene::{Scene, SimOverrides, World};
 use crate::sim::integrators::{Jacobian, Potential};
@@ -80,21 +81,30 @@ pub struct SimulateArgs {
     /// With a URDF input: extra folders searched for package:// meshes.
     #[arg(long = "package-path")]
     pub package_paths: Vec<PathBuf>,
+    /// Also write STEM.ros2.mcap, a ROS 2 recording (`ros2 bag play`, RViz2): /tf,
+    /// /robot_description, /bodies in CDR (docs/ros2.md).
+    #[arg(long)]
+    pub ros2: bool,
     /// Leave the inertia ellipsoids out of both files (the .rrd's ellipsoid entities and the
     /// MCAP's /inertia topic).
     #[arg(long)]
     pub no_ellipsoids: bool,
-    /// Replace STEM.mcap and STEM.rrd if they exist (without it, an existing output is an error).
+    /// Replace STEM.mcap and STEM.rrd (and STEM.ros2.mcap) if they exist (without it, an existing output is an error).
     #[arg(long)]
     pub force: bool,
     /// Run even when the estimated recordings exceed 64 GiB or the computing time 7 days (the
-    /// estimate is checked before anything runs; see README "Reliability").
+    /// estimate is checked before anything runs; see docs/reliability.md).
     #[arg(long)]
     pub allow_huge: bool,
     /// --inertia, --density, --geometry: replace the scene's [mass] values ([[model]] and
     /// per-link keys of a scene still refine them).
     #[command(flatten)]
     pub mass: super::MassArgs,
+    /// Refuse the URDF oddities urdfdom loads (a misplaced XML declaration, unknown geometry,
+    /// repeated elements, a 4-number mesh scale, a mimic of a missing joint) instead of loading
+    /// them with a warning; sets strict = true on every [[model]] (docs/urdf.md).
+    #[arg(long)]
+    pub strict: bool,
 }
 
 fn parse_jacobian(s: &str) -> Result<Jacobian, String> {
@@ -119,23 +129,24 @@ pub const FOXGLOVE_LAYOUT: &str = "docs/foxglove/tumble-layout.json";
 /// Where the Foxglove layout is: `./docs/foxglove/tumble-layout.json` if present, else the copy
 /// in the source tree the binary was built from.
 pub fn foxglove_layout_path() -> PathBuf {
-    let local = PathBuf::from(FOXGLOVE_LAYOUT);
+    repository_file(FOXGLOVE_LAYOUT)
+}
+
+/// `relative` in the working directory if it is there, else in the source tree the binary was
+/// built from.
+fn repository_file(relative: &str) -> PathBuf {
+    let local = PathBuf::from(relative);
     if local.is_file() {
         local
     } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(FOXGLOVE_LAYOUT)
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(relative)
     }
 }
 
 /// Where the default scene is: `./models/default.toml` if present, else the copy in the
 /// source tree the binary was built from.
 pub fn default_scene_path() -> PathBuf {
-    let local = PathBuf::from(DEFAULT_SCENE);
-    if local.is_file() {
-        local
-    } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_SCENE)
-    }
+    repository_file(DEFAULT_SCENE)
 }
 
 /// Reads the scene the arguments name and applies the overrides.
@@ -166,6 +177,9 @@ pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
         }
         Scene::load(&input)?
     };
+    if args.strict {
+        scene.set_strict();
+    }
     scene.apply(&SimOverrides {
         dt: args.dt,
         duration: args.duration,
@@ -189,6 +203,8 @@ pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
 pub struct Outputs {
     pub mcap: PathBuf,
     pub rrd: PathBuf,
+    /// `STEM.ros2.mcap`, when asked for.
+    pub ros2: Option<PathBuf>,
     pub summary: RunSummary,
     pub bodies: usize,
 }
@@ -199,7 +215,7 @@ pub fn simulate(
     stem: &Path,
     rerun_options: &RerunOptions,
 ) -> anyhow::Result<Outputs> {
-    simulate_world(scene, &scene.build()?, stem, rerun_options)
+    simulate_world(scene, &scene.build()?, stem, rerun_options, false)
 }
 
 /// The warning for a step too large for some body's spin ([`crate::sim::limits`]), if any.
@@ -212,7 +228,7 @@ pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
     };
     Some(format!(
         "warning: dt = {} s is too large for body {:?}{others}: it turns at up to |Ω| = {:.4e} rad/s, \
-         h|Ω| = {:.3} rad per step, over the {} limit of {} rad for its inertia ratio {:.3e} (README \"Limits\"; {}). \
+         h|Ω| = {:.3} rad per step, over the {} limit of {} rad for its inertia ratio {:.3e} (docs/limits.md; {}). \
          Largest safe step: dt <= {:.3e} s",
         scene.sim.dt,
         world.layout.bodies[w.body].name,
@@ -230,14 +246,15 @@ pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
     ))
 }
 
-/// Runs the built `world` of `scene` and writes `<stem>.mcap` and `<stem>.rrd`. A run the guard
-/// stops ([`crate::sim::guard`]) still finishes both files (they end at the last good recorded
-/// step) and then returns a [`Diverged`] error.
+/// Runs the built `world` of `scene` and writes `<stem>.mcap` and `<stem>.rrd`, and with `ros2`
+/// `<stem>.ros2.mcap`. A run the guard stops ([`crate::sim::guard`]) still finishes the files
+/// (they end at the last good recorded step) and then returns a [`Diverged`] error.
 pub fn simulate_world(
     scene: &Scene,
     world: &World,
     stem: &Path,
     rerun_options: &RerunOptions,
+    ros2: bool,
 ) -> anyhow::Result<Outputs> {
     if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
@@ -259,6 +276,15 @@ pub fn simulate_world(
         Box::new(mcap_sink),
         Box::new(RerunSink::create(&rrd, &world.layout, rerun_options)?),
     ];
+    let ros2 = ros2.then(|| with_extension(stem, crate::record::ros2::EXTENSION));
+    if let Some(path) = &ros2 {
+        match Ros2Sink::create(path, &world.layout) {
+            Ok(sink) => sinks.push(Box::new(sink)),
+            Err(e) => return crate::record::finish_all(sinks, Err(e), &[&mcap, &rrd]),
+        }
+    }
+    let mut outputs: Vec<&Path> = vec![&mcap, &rrd];
+    outputs.extend(ros2.as_deref());
     let mut integrator = world.integrator(
         scene.integrator(),
         scene.sim.dt,
@@ -269,7 +295,7 @@ pub fn simulate_world(
         ..scene.run_settings()
     };
     let result = crate::run::run(world, integrator.as_mut(), &settings, &mut sinks);
-    let summary = crate::record::finish_all(sinks, result, &[&mcap, &rrd])?;
+    let summary = crate::record::finish_all(sinks, result, &outputs)?;
     if let Some(signal) = summary.interrupted {
         return Err(crate::interrupt::Interrupted {
             signal,
@@ -280,9 +306,12 @@ pub fn simulate_world(
                 crate::run::time_ns(summary.steps, scene.sim.dt) as f64 / 1e9
             ),
             finished: format!(
-                "the recordings end at that step and are complete: {} {}",
-                mcap.display(),
-                rrd.display()
+                "the recordings end at that step and are complete: {}",
+                outputs
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(" ")
             ),
         }
         .into());
@@ -293,13 +322,14 @@ pub fn simulate_world(
             body_name: world.layout.bodies[divergence.body].name.clone(),
             dt_secs: scene.sim.dt,
             last_recorded_step: summary.last_recorded_step,
-            outputs: vec![mcap, rrd],
+            outputs: outputs.iter().map(|p| p.to_path_buf()).collect(),
         }
         .into());
     }
     Ok(Outputs {
-        mcap,
-        rrd,
+        mcap: mcap.clone(),
+        rrd: rrd.clone(),
+        ros2: ros2.clone(),
         summary,
         bodies: world.bodies.len(),
     })
@@ -322,7 +352,19 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     let (mcap, rrd) = (with_extension(&stem, "mcap"), with_extension(&stem, "rrd"));
     check_not_overwriting(&mcap, args.force)?;
     check_not_overwriting(&rrd, args.force)?;
+    if args.ros2 {
+        check_not_overwriting(
+            &with_extension(&stem, crate::record::ros2::EXTENSION),
+            args.force,
+        )?;
+    }
     let world = scene.build()?;
+    for warning in &world.warnings {
+        eprintln!("warning: {warning}");
+    }
+    for note in &world.notes {
+        eprintln!("warning: {note}");
+    }
     Estimate::run(
         world.bodies.len() as f64,
         world.layout.frames.len() as f64,
@@ -342,6 +384,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         &RerunOptions {
             ellipsoids: !args.no_ellipsoids,
         },
+        args.ros2,
     )?;
     let wall = started.elapsed().as_secs_f64();
     let s = &out.summary;
@@ -382,6 +425,9 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     println!("wrote {} frames to", s.frames_recorded);
     println!("  {}", out.mcap.display());
     println!("  {}", out.rrd.display());
+    if let Some(ros2) = &out.ros2 {
+        println!("  {}", ros2.display());
+    }
     println!("view them with:");
     println!(
         "  rerun {}        (Rerun viewer 0.36/0.37: pip install rerun-sdk==0.36.3)",
@@ -392,5 +438,11 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         out.mcap.display(),
         foxglove_layout_path().display()
     );
+    if let Some(ros2) = &out.ros2 {
+        println!(
+            "  ROS 2: ros2 bag play {} --clock   (RViz2 with use_sim_time:=true, fixed frame \"world\"; docs/ros2.md)",
+            ros2.display()
+        );
+    }
     Ok(())
 }

@@ -1,7 +1,8 @@
 //! `tumble survey DIR...`: loads every URDF under each folder and tabulates which files load and
 //! how many links have missing, zero, invalid, light or valid inertial data ([`crate::survey`]).
 //! Exit 0 when the survey ran (files that fail are part of the report), 2 when a root does not
-//! exist.
+//! exist. Each oddity a file loaded with (docs/urdf.md) is a `warning:` line on stderr and an
+//! entry of that file's `warnings` in the JSON; `--strict` makes such files fail instead.
 
 use crate::survey::{self, FileReport, LinkClass, Summary};
 use anyhow::bail;
@@ -22,6 +23,9 @@ pub struct SurveyArgs {
     /// List every file that failed to load, with its error.
     #[arg(long)]
     pub failures: bool,
+    /// Refuse the oddities urdfdom loads (docs/urdf.md): such files count as failed.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 /// Runs the survey and prints it. A reader that goes away early (`tumble survey ... | head`)
@@ -48,8 +52,17 @@ fn print_survey(args: &SurveyArgs) -> anyhow::Result<()> {
         }
         let files: Vec<FileReport> = survey::urdf_files(root)
             .iter()
-            .map(|p| survey::survey_file(p, &args.package_paths))
+            .map(|p| {
+                survey::survey_file_with(
+                    p,
+                    &args.package_paths,
+                    crate::model::urdf::Strictness::from_strict(args.strict),
+                )
+            })
             .collect();
+        for warning in files.iter().flat_map(|f| &f.warnings) {
+            eprintln!("warning: {warning}");
+        }
         summaries.push(survey::summarize(root, &files));
         all_files.extend(files);
     }
@@ -74,11 +87,11 @@ fn print_table(out: &mut impl Write, summaries: &[Summary]) -> std::io::Result<(
     let classes = LinkClass::ALL.map(LinkClass::name).join(" | ");
     writeln!(
         out,
-        "| root | files | loaded | failed | links | {classes} | of which triangle | repaired by auto | still invalid |"
+        "| root | files | loaded | failed | links | {classes} | of which triangle | repaired by auto | still invalid | warnings |"
     )?;
     writeln!(
         out,
-        "|---|---|---|---|---|{}---|---|---|",
+        "|---|---|---|---|---|{}---|---|---|---|",
         "---|".repeat(LinkClass::ALL.len())
     )?;
     for s in summaries {
@@ -88,7 +101,7 @@ fn print_table(out: &mut impl Write, summaries: &[Summary]) -> std::io::Result<(
             .collect();
         writeln!(
             out,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             s.root.display(),
             s.files,
             s.loaded,
@@ -97,7 +110,8 @@ fn print_table(out: &mut impl Write, summaries: &[Summary]) -> std::io::Result<(
             counts.join(" | "),
             s.triangle_violations,
             s.repaired,
-            s.still_invalid
+            s.still_invalid,
+            s.warnings
         )?;
     }
     Ok(())

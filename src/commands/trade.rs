@@ -39,6 +39,10 @@ pub struct TradeArgs {
     /// Replace the output files if they exist (without it, an existing output is an error).
     #[arg(long)]
     pub force: bool,
+    /// Refuse the URDF oddities urdfdom loads instead of loading them with a warning; sets
+    /// strict = true on every [[model]] (docs/urdf.md).
+    #[arg(long)]
+    pub strict: bool,
 }
 
 /// `path` if present, else its copy in the source tree the binary was built from.
@@ -63,7 +67,10 @@ pub fn settings_from_args(args: &TradeArgs) -> anyhow::Result<(Scene, TradeSetti
         .scene
         .clone()
         .unwrap_or_else(|| bundled(DEFAULT_TRADE_SCENE));
-    let scene = Scene::load(&path)?;
+    let mut scene = Scene::load(&path)?;
+    if args.strict {
+        scene.set_strict();
+    }
     let integrators = super::parse_integrators(&args.integrators)?;
     let dts = if args.dts.is_empty() {
         DEFAULT_DTS.to_vec()
@@ -135,6 +142,9 @@ pub fn run(args: &TradeArgs) -> anyhow::Result<()> {
     let report = trade::run(&scene, &settings, |row| {
         eprintln!("  measured {} at dt = {} s", row.integrator, row.dt);
     })?;
+    for warning in &report.warnings {
+        eprintln!("warning: {warning}");
+    }
     println!("simulated bodies per run: {}", report.bodies);
     print!("{}", trade::output::table(&report.rows));
     println!(

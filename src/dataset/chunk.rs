@@ -10,6 +10,7 @@ use super::spec::{DatasetSpec, RecordFormat};
 use super::tables::{RowsSink, RunRow, TrajectoryColumns, runs_batch, trajectories_schema};
 use crate::record::mcap::McapSink;
 use crate::record::rerun::{RerunOptions, RerunSink};
+use crate::record::ros2::Ros2Sink;
 use crate::record::{RecordingLayout, Sink};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
@@ -185,15 +186,27 @@ fn simulate_run(
             if let Some(parent) = path.parent() {
                 std::fs::create_dir_all(parent)?;
             }
-            sinks.push(match format {
-                RecordFormat::Mcap => Box::new(McapSink::create(&path, &rec_layout)?),
-                RecordFormat::Rrd => Box::new(RerunSink::create(
-                    &path,
-                    &rec_layout,
-                    &RerunOptions::default(),
-                )?),
-            });
+            let sink: anyhow::Result<Box<dyn Sink>> = match format {
+                RecordFormat::Mcap => {
+                    McapSink::create(&path, &rec_layout).map(|s| Box::new(s) as _)
+                }
+                RecordFormat::Rrd => {
+                    RerunSink::create(&path, &rec_layout, &RerunOptions::default())
+                        .map(|s| Box::new(s) as _)
+                }
+                RecordFormat::Ros2 => {
+                    Ros2Sink::create(&path, &rec_layout).map(|s| Box::new(s) as _)
+                }
+            };
             outputs.push(path);
+            match sink {
+                Ok(sink) => sinks.push(sink),
+                // The run's recordings created so far are discarded (no `.part` left behind).
+                Err(e) => {
+                    let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
+                    return crate::record::finish_all(sinks, Err(e), &outputs);
+                }
+            }
             recordings.push(name);
         }
     }

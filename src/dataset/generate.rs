@@ -151,6 +151,9 @@ pub fn generate(spec: &DatasetSpec, opts: &Options) -> anyhow::Result<Summary> {
         bail!("--threads must be at least 1");
     }
     let cache = ModelCache::load(spec)?;
+    for warning in cache.worlds.iter().flat_map(|w| &w.warnings) {
+        eprintln!("warning: {warning}");
+    }
     check_budget(spec, &cache, opts.allow_huge)?;
     let dir = opts.out.as_path();
     let fresh = new_manifest(spec, opts.shard)?;

@@ -183,6 +183,7 @@ impl ModelCache {
             layout: Default::default(),
             bodies,
             attachments: base.attachments.clone(),
+            warnings: Vec::new(),
             ..Default::default()
         }
     }

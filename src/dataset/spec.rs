@@ -5,7 +5,7 @@
 //! runs = 10000            # number of runs, >= 1
 //! seed = 42               # master seed, integer >= 0; run i draws from a stream seeded by (seed, i) alone
 //! runs_per_file = 100     # runs per Parquet part file (the unit of parallelism, sharding and resume) (default 100)
-//! record = ["mcap"]       # optional per-run recordings: "mcap", "rrd" (default none)
+//! record = ["mcap"]       # optional per-run recordings: "mcap", "rrd", "ros2" (default none)
 //! record_runs = 10        # how many runs, from run 0 on, get them (default 10 when `record` is set)
 //!
 //! [scene.sim]             # the scene template: the keys of a scene file, under [scene]
@@ -42,6 +42,8 @@ use std::path::{Path, PathBuf};
 pub enum RecordFormat {
     Mcap,
     Rrd,
+    /// `run-NNNNNN.ros2.mcap`, a ROS 2 recording ([`crate::record::ros2`]).
+    Ros2,
 }
 
 impl RecordFormat {
@@ -49,6 +51,7 @@ impl RecordFormat {
         match self {
             RecordFormat::Mcap => "mcap",
             RecordFormat::Rrd => "rrd",
+            RecordFormat::Ros2 => crate::record::ros2::EXTENSION,
         }
     }
 }

@@ -2,6 +2,7 @@
 //! geometry.
 
 pub mod articulation;
+pub mod description;
 pub mod geometry;
 pub mod kinematics;
 pub mod mass_properties;
@@ -27,6 +28,10 @@ pub struct Model {
     pub root: usize,
     /// The URDF joints, links referred to by index into `links`, in file order.
     pub joints: Vec<kinematics::Joint>,
+    /// The oddities the loader accepted, one per oddity, in file order (by the line their
+    /// element starts on; see
+    /// [`urdf::Strictness`]); empty for a file URDF defines fully.
+    pub warnings: Vec<urdf::LoadWarning>,
 }
 
 /// Where a link's mass properties came from.

@@ -26,6 +26,14 @@
 //!   ([`super::policy`]); its defects are reported when it is used, not at load time.
 //! - **The URDF's own values** stay in `Link::urdf_inertial` whatever an inertia policy later
 //!   puts in `Link::inertial`.
+//! - **Oddities urdfdom loads** (a misplaced XML declaration, `<plane>` geometry, identical
+//!   repeated elements, a `"1 1 1 1"` mesh scale, a stray element in `<geometry>`, a mimic of a
+//!   missing joint) load too, each with one [`LoadWarning`] in `Model::warnings`, unless
+//!   [`Strictness::Strict`] asks for the refusal ([`lenient`]; docs/urdf.md).
+
+mod lenient;
+
+pub use lenient::{LoadWarning, Oddity, Strictness};
 
 use super::kinematics::{self, Joint, JointKind, KinematicsError, Mimic};
 use super::package;
@@ -131,13 +139,24 @@ pub fn load_at(
     package_paths: &[PathBuf],
     joint_positions: &HashMap<String, f64>,
 ) -> Result<Model, ModelError> {
+    load_with(path, package_paths, joint_positions, Strictness::Lenient)
+}
+
+/// [`load_at`], choosing whether the oddities of [`lenient`] load (with warnings in
+/// `Model::warnings`) or are refused.
+pub fn load_with(
+    path: &Path,
+    package_paths: &[PathBuf],
+    joint_positions: &HashMap<String, f64>,
+    strictness: Strictness,
+) -> Result<Model, ModelError> {
     let xml = crate::input::read_text(path, crate::input::URDF_MAX_BYTES).map_err(|error| {
         ModelError::Read {
             path: path.to_path_buf(),
             error,
         }
     })?;
-    load_str_at(&xml, path, package_paths, joint_positions)
+    load_str_with(&xml, path, package_paths, joint_positions, strictness)
 }
 
 /// [`load_str`] at a joint configuration.
@@ -147,7 +166,32 @@ pub fn load_str_at(
     package_paths: &[PathBuf],
     joint_positions: &HashMap<String, f64>,
 ) -> Result<Model, ModelError> {
+    load_str_with(
+        xml,
+        path,
+        package_paths,
+        joint_positions,
+        Strictness::Lenient,
+    )
+}
+
+/// [`load_with`] from text already read.
+pub fn load_str_with(
+    xml: &str,
+    path: &Path,
+    package_paths: &[PathBuf],
+    joint_positions: &HashMap<String, f64>,
+    strictness: Strictness,
+) -> Result<Model, ModelError> {
     let file = || path.to_path_buf();
+    let lenient = strictness == Strictness::Lenient;
+    let mut warnings = Vec::new();
+    let xml = if lenient {
+        lenient::blank_misplaced_declarations(xml, path, &mut warnings)
+    } else {
+        xml.into()
+    };
+    let xml = xml.as_ref();
     crate::input::check_xml_depth(xml).map_err(|message| ModelError::Xml {
         path: file(),
         message,
@@ -178,10 +222,25 @@ pub fn load_str_at(
         .filter(|n| n.children().any(|c| c.has_tag_name("inertial")))
         .filter_map(|n| n.attribute("name"))
         .collect();
-    let cleaned = strip_empty_textures(xml, &doc);
+    let mut edits = empty_textures(&doc);
+    if lenient {
+        let (more, found) = lenient::document_edits(&doc, path);
+        edits.extend(more);
+        warnings.extend(found);
+    }
+    let cleaned = lenient::apply(xml, edits);
     let robot = urdf_rs::read_from_string(&cleaned).map_err(|e| ModelError::Parse {
         path: file(),
-        location: locate_parse_problem(&doc),
+        // Located in the text urdf-rs read (what the leniency fixed is no longer a problem).
+        location: match &cleaned {
+            std::borrow::Cow::Borrowed(_) => locate_parse_problem(&doc),
+            std::borrow::Cow::Owned(text) => {
+                match roxmltree::Document::parse_with_options(text, options) {
+                    Ok(edited) => locate_parse_problem(&edited),
+                    Err(_) => locate_parse_problem(&doc),
+                }
+            }
+        },
         // urdf-rs's messages may span lines (serde-xml-rs token dumps): one line here.
         message: e
             .to_string()
@@ -202,7 +261,9 @@ pub fn load_str_at(
             });
         }
     }
+    let all_joint_names: HashSet<&str> = robot.joints.iter().map(|j| j.name.as_str()).collect();
     let mut joint_names = HashSet::new();
+    let mut missing_mimics = Vec::new();
     let mut joints = Vec::with_capacity(robot.joints.len());
     for j in &robot.joints {
         if !joint_names.insert(j.name.as_str()) {
@@ -229,11 +290,21 @@ pub fn load_str_at(
             child: find("child", &j.child.link)?,
             parent_from_joint: kinematics::isometry_from_pose(&j.origin),
             axis: Vector3::from(j.axis.xyz.0),
-            mimic: j.mimic.as_ref().map(|m| Mimic {
-                joint: m.joint.clone(),
-                multiplier: m.multiplier.unwrap_or(1.0),
-                offset: m.offset.unwrap_or(0.0),
-            }),
+            mimic: j
+                .mimic
+                .as_ref()
+                .filter(|m| {
+                    let keep = !lenient || all_joint_names.contains(m.joint.as_str());
+                    if !keep {
+                        missing_mimics.push((j.name.as_str(), m.joint.as_str()));
+                    }
+                    keep
+                })
+                .map(|m| Mimic {
+                    joint: m.joint.clone(),
+                    multiplier: m.multiplier.unwrap_or(1.0),
+                    offset: m.offset.unwrap_or(0.0),
+                }),
             limits: matches!(
                 j.joint_type,
                 urdf_rs::JointType::Revolute | urdf_rs::JointType::Prismatic
@@ -242,6 +313,13 @@ pub fn load_str_at(
             .filter(|[lo, hi]| hi > lo),
         });
     }
+    warnings.extend(lenient::mimics_of_missing_joints(
+        &doc,
+        path,
+        &missing_mimics,
+    ));
+    // In file order (stable: the warnings of one element keep the order of the rules).
+    warnings.sort_by_key(|w| w.line);
     let names: Vec<String> = robot.links.iter().map(|l| l.name.clone()).collect();
     let tree_error = |e: KinematicsError| match e {
         KinematicsError::SeveralParents {
@@ -326,6 +404,7 @@ pub fn load_str_at(
         links,
         root: root_index,
         joints,
+        warnings,
     })
 }
 
@@ -501,27 +580,16 @@ fn geometry(
     }
 }
 
-/// Cuts `<texture>` elements without a `filename` out of the text (urdf-rs requires the
-/// attribute; urdfdom does not). Returns the text unchanged when there are none.
-fn strip_empty_textures<'a>(xml: &'a str, doc: &roxmltree::Document) -> std::borrow::Cow<'a, str> {
-    let ranges: Vec<std::ops::Range<usize>> = doc
-        .descendants()
+/// Edits cutting `<texture>` elements without a `filename` out of the text (urdf-rs requires
+/// the attribute; urdfdom does not, so this is valid URDF and needs no warning).
+fn empty_textures(doc: &roxmltree::Document) -> Vec<lenient::Edit> {
+    doc.descendants()
         .filter(|n| n.has_tag_name("texture") && n.attribute("filename").is_none())
-        .map(|n| n.range())
-        .collect();
-    if ranges.is_empty() {
-        return xml.into();
-    }
-    let mut out = String::with_capacity(xml.len());
-    let mut last = 0;
-    for r in ranges {
-        if r.start >= last {
-            out.push_str(&xml[last..r.start]);
-            last = r.end;
-        }
-    }
-    out.push_str(&xml[last..]);
-    out.into()
+        .map(|n| lenient::Edit {
+            range: n.range(),
+            text: String::new(),
+        })
+        .collect()
 }
 
 /// After urdf-rs failed: find the first link or joint whose content urdf-rs cannot read,
@@ -616,16 +684,27 @@ fn check_required(node: roxmltree::Node, tag: &str) -> Result<(), String> {
 }
 
 /// The first of `tags` that appears more than once among `node`'s children (urdf-rs refuses
-/// a repeated field with "duplicate field", naming neither the element nor where it is).
+/// a repeated field with "duplicate field", naming neither the element nor where it is). Says
+/// when the copies differ (identical copies load leniently: [`lenient`]).
 fn check_unique(node: roxmltree::Node, tags: &[&str]) -> Check {
-    tags.iter()
-        .find(|&&tag| node.children().filter(|c| c.has_tag_name(tag)).count() > 1)
-        .map(|tag| {
+    tags.iter().find_map(|&tag| {
+        let copies: Vec<roxmltree::Node> =
+            node.children().filter(|c| c.has_tag_name(tag)).collect();
+        (copies.len() > 1).then(|| {
+            let differ = if copies[1..]
+                .iter()
+                .all(|c| lenient::same_content(copies[0], *c))
+            {
+                ""
+            } else {
+                "; the copies differ, so which one is meant is unclear"
+            };
             format!(
-                "<{}> has more than one <{tag}> (at most one is allowed)",
+                "<{}> has more than one <{tag}> (at most one is allowed{differ})",
                 node.tag_name().name()
             )
         })
+    })
 }
 
 fn check_link(link: roxmltree::Node) -> Check {
@@ -658,11 +737,20 @@ fn check_link(link: roxmltree::Node) -> Check {
             }
         }
     }
-    for (k, element) in link
+    // Numbered per kind (the first collision is #0 even after visuals), as in the link's
+    // problems and the load warnings.
+    let (mut visuals, mut collisions) = (0, 0);
+    for element in link
         .children()
         .filter(|c| c.has_tag_name("visual") || c.has_tag_name("collision"))
-        .enumerate()
     {
+        let counter = if element.has_tag_name("visual") {
+            &mut visuals
+        } else {
+            &mut collisions
+        };
+        let k = *counter;
+        *counter += 1;
         let label = format!(
             "<{}> #{k}{}",
             element.tag_name().name(),
@@ -705,7 +793,17 @@ fn check_geometry(element: roxmltree::Node) -> Result<(), String> {
             .or_else(|| check_vector(shape, "scale", 3, false)),
         other => Some(format!("unknown geometry <{other}>")),
     };
-    problem.map_or(Ok(()), Err)
+    if let Some(p) = problem {
+        return Err(p);
+    }
+    match geometry.children().filter(|c| c.is_element()).nth(1) {
+        Some(extra) => Err(format!(
+            "<geometry> holds <{}> after its <{}> (URDF allows one shape there)",
+            extra.tag_name().name(),
+            shape.tag_name().name()
+        )),
+        None => Ok(()),
+    }
 }
 
 fn check_material(material: roxmltree::Node) -> Check {

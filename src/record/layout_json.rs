@@ -366,5 +366,6 @@ pub fn from_json(text: &str) -> anyhow::Result<RecordingLayout> {
         topic_groups,
         joints,
         mechanisms,
+        robot_descriptions: Vec::new(),
     })
 }

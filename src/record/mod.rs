@@ -1,11 +1,16 @@
-//! Where results go. One [`Sink`] trait; implementations for MCAP ([`mcap`]) and Rerun ([`rerun`]).
+//! Where results go. One [`Sink`] trait; implementations for MCAP ([`mcap`]), Rerun ([`rerun`])
+//! and ROS 2 MCAP ([`ros2`]).
 //!
 //! A recorder receives a [`RecordingLayout`] once (what frames exist, what they look like, the
 //! metadata) and then one [`Frame`] per recorded step. It knows nothing of integrators.
 
+pub mod cdr;
 pub mod layout_json;
 pub mod mcap;
 pub mod rerun;
+pub mod rerun_blueprint;
+pub mod ros2;
+pub mod ros2_msgs;
 pub mod rrd_footer;
 pub mod scene_update;
 
@@ -34,6 +39,9 @@ pub struct RecordingLayout {
     pub joints: Vec<JointLayout>,
     /// One entry per articulated model, in the order of [`Frame::mechanisms`].
     pub mechanisms: Vec<MechanismLayout>,
+    /// One per model of the scene, in scene order: its URDF prepared for publishing next to the
+    /// frames ([`crate::model::description`]). Read by the ROS 2 sink (`/robot_description`).
+    pub robot_descriptions: Vec<RobotDescription>,
 }
 
 /// A recorded joint of an articulated model.
@@ -61,6 +69,19 @@ pub struct MechanismLayout {
     pub joints: std::ops::Range<usize>,
     /// Whether the base floats (the totals' momenta are then conserved without gravity).
     pub floating: bool,
+}
+
+/// A model's URDF with its link names turned into the layout's frame ids and its meshes into
+/// absolute `file://` URIs.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RobotDescription {
+    /// The model's label, as in [`FrameLayout::model`].
+    pub model: String,
+    /// The URDF file it was read from.
+    pub urdf_path: std::path::PathBuf,
+    /// The rewritten URDF text, or why the file could not be rewritten (the ROS 2 sink reports
+    /// it; the other sinks do not need the text).
+    pub urdf: Result<String, String>,
 }
 
 /// A contiguous run of frames and bodies published under one topic prefix.

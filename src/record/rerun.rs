@@ -34,13 +34,21 @@
 //! | `/plots/energy/<body>`                        | `Scalars` [kinetic, potential, total] (J), `SeriesLines` names (static) | both timelines |
 //! | `/plots/angular_momentum/<body>`              | `Scalars` [\|L\|] about the body's centre of mass (kg m²/s), `SeriesLines` (static) | both timelines |
 //! | `/plots/scene/energy`                         | `Scalars` [kinetic, potential, total] summed over all bodies (J), `SeriesLines` (static) | both timelines |
+//! | `/plots/scene/energy_change`                  | `Scalars` [(E − E₀)/\|E₀\|], E the total above, E₀ its first recorded value | both timelines |
+//! | `/plots/scene/angular_momentum_change`        | `Scalars` [max over bodies \|L − L₀\|/\|L₀\|] | both timelines |
+//!
+//! # Blueprint
+//!
+//! The file also holds a blueprint store ([`super::rerun_blueprint`]): the 3D view framed on
+//! the run, beside the two change plots and the energies, activated when the file opens.
 //!
 //! `<visual>` is the URDF `<visual name=...>`, else `visual_<i>` with `i` the index among the
 //! link's visuals: the same paths and frame attachment (a `CoordinateFrame` naming the link frame
 //! plus an `InstancePoses3D` for the visual origin) as Rerun 0.36's own URDF importer, so a URDF
 //! dropped into the viewer lines up with the recording. Differences from the importer: URDF
 //! capsules are centred on their origin (the importer leaves `Capsules3D`'s one end at the
-//! origin); DAE meshes and meshes whose file was not found are skipped with a warning (see
+//! origin); DAE meshes (which Rerun cannot read) are read by tumble and sent as `Mesh3D`
+//! (unit and node transforms applied, up axis ignored, as for mass properties); meshes whose file was not found are skipped with a warning (see
 //! [`RerunSink::warnings`]); a glTF file is embedded alone (external buffers are not).
 //! Colours come from the URDF material (linear RGBA), white when there is none, as in the importer.
 //!
@@ -70,9 +78,14 @@
 //! layout name plus a hash of the name and metadata: the same inputs give the same id, different
 //! scenes or settings do not get merged by the viewer.
 
+use super::rerun_blueprint::{
+    PlotView, SceneBounds, blueprint_chunks, blueprint_messages, default_plot_views,
+};
 use super::rrd_footer::{FooterHold, FooterWriter};
+use super::scene_update::MeshCache;
 use super::{BodyLayout, Frame, FrameLayout, RecordingLayout, Sink};
 use crate::fsutil::part_path;
+use crate::model::geometry::mesh::TriangleMesh;
 use crate::model::{Geometry, Visual};
 use anyhow::{Context, Result, anyhow, bail};
 use nalgebra::Isometry3;
@@ -158,6 +171,19 @@ pub fn angular_momentum_entity_path(body: &str) -> EntityPath {
 /// Entity of the whole scene's energy plot: `/plots/scene/energy`.
 pub fn scene_energy_entity_path() -> EntityPath {
     entity(&["plots", "scene", "energy"])
+}
+
+/// Entity of the scene's relative energy change `(E − E₀)/|E₀|` (`E₀` the first recorded
+/// total; divided by 1 J instead when `E₀ = 0`): `/plots/scene/energy_change`.
+pub fn scene_energy_change_entity_path() -> EntityPath {
+    entity(&["plots", "scene", "energy_change"])
+}
+
+/// Entity of the largest relative angular momentum change over the bodies,
+/// `max_i |L_i − L_i0| / |L_i0|` (about each body's centre of mass, world; divided by
+/// 1 kg m²/s instead where `L_i0 = 0`): `/plots/scene/angular_momentum_change`.
+pub fn scene_angmom_change_entity_path() -> EntityPath {
+    entity(&["plots", "scene", "angular_momentum_change"])
 }
 
 fn entity(parts: &[&str]) -> EntityPath {
@@ -358,6 +384,8 @@ struct Buffer {
     energy: Vec<Vec<f64>>,
     angular_momentum: Vec<Vec<f64>>,
     scene_energy: Vec<f64>,
+    scene_energy_change: Vec<f64>,
+    scene_angmom_change: Vec<f64>,
 }
 
 impl Buffer {
@@ -379,6 +407,8 @@ impl Buffer {
         self.time_ns.clear();
         self.step.clear();
         self.scene_energy.clear();
+        self.scene_energy_change.clear();
+        self.scene_angmom_change.clear();
         for v in &mut self.translation {
             v.clear();
         }
@@ -411,11 +441,92 @@ pub struct RerunSink {
     footer_hold: FooterHold,
     /// Entities of [`RerunSink::write_series`] whose series names were sent.
     series_named: BTreeSet<EntityPath>,
+    /// Collada meshes read so far (each file once).
+    meshes: MeshCache,
+    /// The recording's store, from which the blueprint store's id derives.
+    store_info: rerun::external::re_log_types::StoreInfo,
+    /// Per frame: how far its geometry reaches from the frame origin, m (for [`SceneBounds`]).
+    frame_reach: Vec<f64>,
+    /// Every frame origin of every recorded step, with its reach: what the 3D view frames.
+    bounds: SceneBounds,
+    /// The blueprint's plots ([`Self::set_plot_views`]).
+    plot_views: Vec<PlotView>,
+    /// First recorded total energy and angular momenta: the reference of the change plots.
+    energy0: Option<f64>,
+    angmom0: Vec<nalgebra::Vector3<f64>>,
     done: bool,
+}
+
+/// A triangle mesh as a Rerun `Mesh3D` (f32 positions, per-vertex normals averaged from the
+/// area-weighted face normals, so the viewer shades it).
+fn mesh3d(mesh: &TriangleMesh) -> rerun::Mesh3D {
+    let mut normals = vec![nalgebra::Vector3::<f64>::zeros(); mesh.vertices.len()];
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+        let n = (b - a).cross(&(c - a));
+        for &i in t {
+            normals[i as usize] += n;
+        }
+    }
+    rerun::Mesh3D::new(mesh.vertices.iter().map(f32x3))
+        .with_vertex_normals(normals.iter().map(|n| {
+            let len = n.norm();
+            // A vertex only on degenerate triangles has no normal: any unit vector will do.
+            f32x3(&if len > 0.0 {
+                n / len
+            } else {
+                nalgebra::Vector3::z()
+            })
+        }))
+        .with_triangle_indices(
+            mesh.triangles
+                .iter()
+                .map(|t| rerun::TriangleIndices::from(*t)),
+        )
+}
+
+/// `x`, or 1 when it is zero (the reference of a relative change that has none).
+fn nonzero(x: f64) -> f64 {
+    if x == 0.0 { 1.0 } else { x }
+}
+
+/// How far a link frame's visual geometry reaches from its origin, m: the largest distance of
+/// a visual origin plus the shape's bounding radius (a mesh counts 0.1 m per unit of scale).
+fn frame_reach(frame: &FrameLayout) -> f64 {
+    frame
+        .visuals
+        .iter()
+        .map(|v| {
+            let shape = match &v.geometry {
+                Geometry::Box { size } => size.norm() / 2.0,
+                Geometry::Sphere { radius } => *radius,
+                Geometry::Cylinder { radius, length } => radius.hypot(length / 2.0),
+                Geometry::Capsule { radius, length } => radius + length / 2.0,
+                Geometry::Mesh { scale, .. } => 0.1 * scale.amax(),
+            };
+            v.link_from_visual.translation.vector.norm() + shape
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The 64-bit seed of the blueprint's UUIDs: an FNV-1a hash of the recording id.
+fn recording_seed(info: &rerun::external::re_log_types::StoreInfo) -> u64 {
+    let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in info.store_id.recording_id().as_str().bytes() {
+        hash ^= u64::from(b);
+        hash = hash.wrapping_mul(0x0100_0000_01b3);
+    }
+    hash
 }
 
 /// Opens `<path>.part` and writes the static layout. See the module doc for what is written.
 impl RerunSink {
+    /// Replaces the time series views of the blueprint (default: [`default_plot_views`]);
+    /// `tumble diff` shows its error plots this way.
+    pub fn set_plot_views(&mut self, views: Vec<PlotView>) {
+        self.plot_views = views;
+    }
+
     /// Opens `<path>.part` and writes the static layout. See the module doc for what is written.
     pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> Result<Self> {
         create(path, layout, options)
@@ -452,6 +563,16 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         warnings: Vec::new(),
         footer_hold,
         series_named: BTreeSet::new(),
+        meshes: MeshCache::default(),
+        store_info: rerun::external::re_log_types::StoreInfo::new(
+            rerun::external::re_log_types::StoreId::recording("tumble", "tumble"),
+            rerun::external::re_log_types::StoreSource::Unknown,
+        ),
+        frame_reach: layout.frames.iter().map(frame_reach).collect(),
+        bounds: SceneBounds::default(),
+        plot_views: default_plot_views(),
+        energy0: None,
+        angmom0: Vec::new(),
         done: false,
     };
     lock(&state).encoder = Some(encoder.context("cannot write the .rrd header")?);
@@ -466,6 +587,7 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         builder.into_args();
     // The builder's properties hold `Timestamp::now()`: replace them by the name alone.
     let properties = rerun::RecordingInfo::new().with_name(layout.name.clone());
+    sink.store_info = store_info.clone();
     let rec = RecordingStream::new(
         store_info,
         Some(properties),
@@ -614,6 +736,14 @@ impl RerunSink {
                 scene_energy_entity_path(),
                 &[&rerun::SeriesLines::new().with_names(ENERGY_SERIES)],
             )?)?;
+            self.send(static_chunk(
+                scene_energy_change_entity_path(),
+                &[&rerun::SeriesLines::new().with_names(["(E − E₀)/|E₀|"])],
+            )?)?;
+            self.send(static_chunk(
+                scene_angmom_change_entity_path(),
+                &[&rerun::SeriesLines::new().with_names(["max |L − L₀|/|L₀|"])],
+            )?)?;
         }
         Ok(())
     }
@@ -709,6 +839,28 @@ impl RerunSink {
                     .and_then(|e| e.to_str())
                     .unwrap_or("")
                     .to_ascii_lowercase();
+                if ext == "dae" {
+                    // Rerun reads no Collada: tumble's own reader gives the triangles (its
+                    // `<unit>` and node transforms applied, `<up_axis>` ignored as RViz does), sent
+                    // as a `Mesh3D`.
+                    let mesh = match self.meshes.get(path) {
+                        Ok(mesh) => mesh,
+                        Err(err) => {
+                            self.warn(format!("{entity}: {err}, left out of the Rerun recording"));
+                            return Ok(());
+                        }
+                    };
+                    let mesh3d = mesh3d(&mesh).with_albedo_factor(color(visual.rgba));
+                    let chunk = static_chunk(
+                        entity,
+                        &[
+                            &frame_id,
+                            &instance_pose(origin, Some(f32x3(scale))),
+                            &mesh3d,
+                        ],
+                    )?;
+                    return self.send(chunk);
+                }
                 if !matches!(ext.as_str(), "stl" | "obj" | "glb" | "gltf") {
                     self.warn(format!(
                         "{entity}: mesh {uri:?} has a format Rerun cannot show (.{ext}), left out of the Rerun recording"
@@ -815,6 +967,18 @@ impl RerunSink {
                 rerun::Scalars::new(buffer.scene_energy.iter().copied())
                     .columns(std::iter::repeat_n(3, n))?,
             )?;
+            rec.send_columns(
+                scene_energy_change_entity_path(),
+                times(),
+                rerun::Scalars::new(buffer.scene_energy_change.iter().copied())
+                    .columns_of_unit_batches()?,
+            )?;
+            rec.send_columns(
+                scene_angmom_change_entity_path(),
+                times(),
+                rerun::Scalars::new(buffer.scene_angmom_change.iter().copied())
+                    .columns_of_unit_batches()?,
+            )?;
         }
         // Wait until the stream's forwarding thread has encoded what was sent: a producer faster
         // than the encoder would otherwise queue chunks without bound.
@@ -876,6 +1040,20 @@ impl RerunSink {
             .with_context(|| format!("flushing {}", self.part_path.display()))?;
         // Dropping the last handle joins Rerun's threads; the file sink is dropped with them.
         drop(rec);
+        // The blueprint store, after the recording (so its bytes do not depend on thread timing).
+        let chunks = blueprint_chunks(
+            recording_seed(&self.store_info),
+            &self.bounds,
+            &self.plot_views,
+        )?;
+        {
+            let mut state = lock(&self.state);
+            for msg in blueprint_messages(&self.store_info, chunks)? {
+                state
+                    .write(msg)
+                    .with_context(|| format!("writing {}", self.part_path.display()))?;
+            }
+        }
         let encoder = {
             let mut state = lock(&self.state);
             if let Some(err) = &state.error {
@@ -943,7 +1121,18 @@ impl Sink for RerunSink {
         for (i, pose) in frame.world_from_link.iter().enumerate() {
             buffer.translation[i].push(f32x3(&pose.translation.vector));
             buffer.quaternion[i].push(quat_xyzw(pose));
+            self.bounds
+                .add(&pose.translation.vector, self.frame_reach[i]);
         }
+        if self.angmom0.is_empty() {
+            self.angmom0 = frame.bodies.iter().map(|b| b.angmom_world).collect();
+        }
+        let angmom_change = frame
+            .bodies
+            .iter()
+            .zip(&self.angmom0)
+            .map(|(b, l0)| (b.angmom_world - l0).norm() / nonzero(l0.norm()))
+            .fold(0.0, f64::max);
         let (mut kinetic, mut potential) = (0.0, 0.0);
         for (i, body) in frame.bodies.iter().enumerate() {
             let total = body.kinetic_energy + body.potential_energy;
@@ -959,6 +1148,11 @@ impl Sink for RerunSink {
         buffer
             .scene_energy
             .extend([kinetic, potential, kinetic + potential]);
+        let energy0 = *self.energy0.get_or_insert(kinetic + potential);
+        buffer.scene_energy_change.push(f64c(
+            (kinetic + potential - energy0) / nonzero(energy0.abs()),
+        ));
+        buffer.scene_angmom_change.push(f64c(angmom_change));
         if buffer.len() >= self.batch_frames {
             self.flush_buffer()?;
         }

@@ -6,7 +6,7 @@
 //! it the file's last few kilobytes — changes from process to process although nothing else
 //! does. [`FooterWriter`] is the file writer under the encoder: while the encoder writes its
 //! footer, the bytes are held back ([`FooterHold::hold`]); [`FooterWriter::finish`]
-//! decodes them, sorts the schema's columns by name (the order Rerun itself uses for the schema's
+//! decodes them, sorts the per-store manifests (also a `HashMap`) by store, sorts the schema's columns by name (the order Rerun itself uses for the schema's
 //! SHA-256, so the hash is unchanged), and writes the footer again with fresh length, offsets
 //! and checksum. Same inputs, same bytes.
 
@@ -103,6 +103,13 @@ fn canonical_footer(held: &[u8], offset: u64) -> Result<Vec<u8>> {
         .context("the .rrd footer span is outside the footer bytes")?;
     let mut footer = re_protos::log_msg::v1alpha1::RrdFooter::decode(payload)
         .context("the .rrd footer does not decode")?;
+    // One manifest per store (the recording, and its blueprint when there is one), taken from a
+    // HashMap by the encoder: sort them by store kind and id too.
+    footer.manifests.sort_by_key(|m| {
+        m.store_id
+            .as_ref()
+            .map(|id| (id.kind, id.recording_id.clone()))
+    });
     for manifest in &mut footer.manifests {
         if let Some(schema) = &manifest.sorbet_schema {
             let arrow = ArrowSchema::try_from(schema)?;

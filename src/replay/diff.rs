@@ -34,6 +34,7 @@ use super::stream::{Item, McapStream, Message, StreamEnd};
 use crate::record::layout_json::{LAYOUT_KEY, from_json};
 use crate::record::mcap::METADATA_NAME;
 use crate::record::rerun::{RerunOptions, RerunSink};
+use crate::record::rerun_blueprint::PlotView;
 use crate::record::{Frame, FrameLayout, RecordingLayout, Sink};
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
@@ -186,6 +187,7 @@ fn scan(path: &Path, topic: &str) -> anyhow::Result<Scan> {
                     );
                 }
                 if times.is_empty() {
+                    super::steps::refuse_ros2(&stream, path)?;
                     frames = super::steps::decode_transforms(&data)
                         .with_context(|| format!("{}", path.display()))?
                         .into_iter()
@@ -545,11 +547,12 @@ pub fn diff(
             metadata.insert("topic".to_string(), settings.topic.clone());
             metadata.insert("tool_version".to_string(), crate::VERSION.to_string());
             let layout = overlay_layout(&matched, [&scans[0], &scans[1]], metadata);
-            Some(RerunSink::create(
-                path,
-                &layout,
-                &RerunOptions { ellipsoids: false },
-            )?)
+            let mut sink = RerunSink::create(path, &layout, &RerunOptions { ellipsoids: false })?;
+            sink.set_plot_views(vec![
+                PlotView::new("position error (m)", &["+ /plots/diff/position_error/**"]),
+                PlotView::new("rotation error (rad)", &["+ /plots/diff/rotation_error/**"]),
+            ]);
+            Some(sink)
         }
         None => None,
     };

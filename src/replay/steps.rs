@@ -33,6 +33,19 @@ pub struct RecordedStep {
     pub mechanisms: Vec<MechanismState>,
 }
 
+/// Fails for a ROS 2 recording (header profile `ros2`, [`crate::record::ros2`]): its messages
+/// are CDR, and tumble reads its recordings back from the protobuf file written beside it.
+pub fn refuse_ros2<R: std::io::Read>(stream: &McapStream<R>, path: &Path) -> anyhow::Result<()> {
+    if stream.profile() == Some("ros2") {
+        bail!(
+            "{}: a ROS 2 recording (profile ros2, CDR messages); tumble reads back the protobuf \
+             recording written beside it (STEM.mcap)",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 /// Decodes a `/tf` message into `(child_frame_id, world_from_child)` pairs.
 pub fn decode_transforms(data: &[u8]) -> anyhow::Result<Vec<(String, Isometry3<f64>)>> {
     let message = foxglove::messages::FrameTransforms::decode(data)
@@ -126,6 +139,7 @@ impl StepReader {
                             path.display()
                         )
                     })?;
+                    refuse_ros2(&stream, path)?;
                     let mut layout = from_json(&json)
                         .with_context(|| format!("{}: recording layout", path.display()))?;
                     layout.metadata = metadata;

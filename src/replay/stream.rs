@@ -63,6 +63,7 @@ pub struct McapStream<R: Read> {
     in_summary: bool,
     statistics: Option<Statistics>,
     library: Option<String>,
+    profile: Option<String>,
     end: StreamEnd,
 }
 
@@ -106,6 +107,7 @@ impl<R: Read> McapStream<R> {
             in_summary: false,
             statistics: None,
             library: None,
+            profile: None,
             end: StreamEnd::Reading,
         }
     }
@@ -128,6 +130,12 @@ impl<R: Read> McapStream<R> {
     /// The header's `library` field (e.g. "tumble 0.1.0"), once read.
     pub fn library(&self) -> Option<&str> {
         self.library.as_deref()
+    }
+
+    /// The header's `profile` field (`""` for tumble's protobuf files, `"ros2"` for its ROS 2
+    /// recordings), once read.
+    pub fn profile(&self) -> Option<&str> {
+        self.profile.as_deref()
     }
 
     /// Every channel seen so far: id -> (topic, schema name).
@@ -188,7 +196,10 @@ impl<R: Read> McapStream<R> {
                         }
                     };
                     match record {
-                        Record::Header(header) => self.library = Some(header.library),
+                        Record::Header(header) => {
+                            self.library = Some(header.library);
+                            self.profile = Some(header.profile);
+                        }
                         Record::Schema { header, .. } => {
                             self.schemas.insert(header.id, header.name.as_str().into());
                         }

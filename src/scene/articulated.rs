@@ -114,7 +114,7 @@ pub(super) fn add_articulated_model(
         }
     }
     for name in &art.locked_massless {
-        world.warnings.push(format!(
+        world.notes.push(format!(
             "model `{label}`: joint `{name}` carries no mass (nothing with mass hangs from it): \
              locked at its position"
         ));

@@ -54,6 +54,8 @@ pub struct TradeReport {
     pub energy_series: Vec<EnergySeries>,
     pub series_dt: f64,
     pub reference: reference::Reference,
+    /// The URDF oddities the scene's models loaded with (docs/urdf.md).
+    pub warnings: Vec<crate::model::urdf::LoadWarning>,
 }
 
 /// Runs every measurement. `progress` is called once per finished row.
@@ -92,6 +94,7 @@ pub fn run(
         energy_series,
         series_dt,
         reference,
+        warnings: world.warnings,
     })
 }
 

@@ -3,7 +3,12 @@
 links, links without <inertial>, links whose <mass value> is 0. Prints JSON:
 
 {"roots": {"example-robot-data": dir, "pybullet": dir, "package_path": dir},
- "files": {path: {"links": n, "missing": n, "zero_mass": n} | {"xml_error": "..."}}}
+ "files": {path: {"links": n, "missing": n, "zero_mass": n[, "leading_whitespace": true]}
+           | {"xml_error": "..."}}}
+
+A file expat refuses only because its XML declaration comes after leading whitespace is read
+again without that whitespace, as tinyxml2 (urdfdom's XML parser) reads it ("leading_whitespace":
+true); tumble loads such files with a warning (docs/urdf.md).
 """
 import json
 import os
@@ -28,11 +33,22 @@ def main():
                 if not name.lower().endswith(".urdf"):
                     continue
                 path = os.path.join(dirpath, name)
+                late_declaration = False
                 try:
                     robot = ET.parse(path).getroot()
                 except ET.ParseError as e:
-                    files[path] = {"xml_error": str(e)}
-                    continue
+                    with open(path, "rb") as f:
+                        text = f.read()
+                    stripped = text.lstrip(b" \t\r\n")
+                    if stripped == text or not stripped.startswith(b"<?xml"):
+                        files[path] = {"xml_error": str(e)}
+                        continue
+                    try:
+                        robot = ET.fromstring(stripped)
+                    except ET.ParseError as e2:
+                        files[path] = {"xml_error": str(e2)}
+                        continue
+                    late_declaration = True
                 links = robot.findall("link")
                 missing = sum(1 for l in links if l.find("inertial") is None)
                 zero = 0
@@ -44,6 +60,8 @@ def main():
                         except ValueError:
                             pass
                 files[path] = {"links": len(links), "missing": missing, "zero_mass": zero}
+                if late_declaration:
+                    files[path]["leading_whitespace"] = True
     json.dump({"roots": roots, "files": files}, sys.stdout)
 
 
