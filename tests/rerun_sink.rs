@@ -143,6 +143,7 @@ fn layout(mesh_dir: &Path) -> RecordingLayout {
         metadata,
         topic_groups: Vec::new(),
         robot_descriptions: Vec::new(),
+        ..Default::default()
     }
 }
 
