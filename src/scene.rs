@@ -391,6 +391,26 @@ impl Scene {
         if self.models.is_empty() {
             bail!("{file}: no [[model]] entry: the scene simulates nothing");
         }
+        if let Some(i) = self
+            .models
+            .iter()
+            .position(|m| m.bodies == BodiesMode::Articulated)
+        {
+            let kind = self.integrator();
+            if !crate::sim::mechanism::stepper::SUPPORTED.contains(&kind) {
+                let names: Vec<_> = crate::sim::mechanism::stepper::SUPPORTED
+                    .iter()
+                    .map(|k| format!("`{}`", k.name()))
+                    .collect();
+                bail!(
+                    "{file}: sim.integrator = {:?} cannot step model[{i}], which has bodies = \
+                     \"articulated\" (joints kept as constraints have a constrained form in \
+                     {} only; or give the model bodies = \"links\" or \"rigid\")",
+                    s.integrator,
+                    names.join(", ")
+                );
+            }
+        }
         // Densities, kg/m^3: finite and > 0 wherever given (unknown link names in `links` are
         // checked against the URDF by `policy::apply`).
         let density = |key: &str, v: Option<f64>| -> anyhow::Result<()> {
