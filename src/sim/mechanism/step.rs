@@ -800,8 +800,66 @@ pub(crate) mod tests {
                 .unwrap();
             worst = worst.max((theta - exact_angle(theta0, omega0, k as f64 * h)).abs());
         }
-        eprintln!("iters {iters}, worst angle error {worst:e}");
-        assert!(worst < 1e-4, "{worst:e}");
-        assert!(iters <= 4);
+        // Order 2 at h = 1 ms over 3 s: measured 1.8e-5 rad, 2 Newton iterations per step.
+        assert!(worst < 5e-5, "{worst:e}");
+        assert!(iters <= 3, "{iters}");
+    }
+
+    /// A warm start gone bad (multipliers off by orders of magnitude, as after an impulse that
+    /// changed in one step) is retried cold: the step converges, no failure is counted, and the
+    /// result is the cold solve's.
+    #[test]
+    fn a_failed_warm_start_is_retried_cold() {
+        let (model, inits, _) = pendulum(1.0);
+        let g = Vector3::new(0.0, 0.0, -9.81);
+        let settings = VariationalSettings::default();
+        let h = 1e-2;
+        let mut bodies = Bodies::new(&inits);
+        let mut state = MechanismState::new(&model);
+        let mut warm = Warm::new(&model);
+        step(&model, &mut state, &mut warm, &mut bodies, h, &g, &settings);
+        let mut cold_bodies = bodies.clone();
+        // The reference: the same step from a cold start.
+        let mut cold_warm = Warm::new(&model);
+        let mut cold_state = MechanismState::new(&model);
+        step(&model, &mut cold_state, &mut cold_warm, &mut cold_bodies, h, &g, &settings);
+        for l in &mut warm.lambda {
+            *l *= 1e6;
+        }
+        let direct = state
+            .ws
+            .attempt(&model, &bodies, h, &g, &settings, Some(&warm));
+        assert!(direct.is_err(), "the poisoned warm start must fail alone: {direct:?}");
+        let stats = step(&model, &mut state, &mut warm, &mut bodies, h, &g, &settings);
+        assert_eq!((stats.newton_failures, stats.substepped), (0, 0));
+        // The retry is the cold solve, bit for bit: measured 0.
+        let d = (bodies.com_world[0] - cold_bodies.com_world[0]).amax();
+        assert_eq!(d, 0.0);
+    }
+
+    /// A step too large for Newton from any start (h|Ω| ≈ 3 rad per step) is split into
+    /// substeps; the joint holds afterwards and the stats say so.
+    #[test]
+    fn a_step_newton_cannot_solve_is_split_into_substeps() {
+        let (model, mut inits, _) = pendulum(0.0);
+        inits[0].angvel_world = Vector3::new(0.0, 30.0, 0.0);
+        inits[0].linvel_world = Vector3::new(-30.0, 0.0, 0.0);
+        let g = Vector3::zeros();
+        let settings = VariationalSettings::default();
+        let mut bodies = Bodies::new(&inits);
+        let mut state = MechanismState::new(&model);
+        let mut warm = Warm::new(&model);
+        let stats = step(&model, &mut state, &mut warm, &mut bodies, 0.1, &g, &settings);
+        assert_eq!(stats.newton_failures, 0, "{stats:?}");
+        assert_eq!(stats.substepped, 1, "{stats:?}");
+        assert!(stats.substep_factor_max >= 2, "{stats:?}");
+        let pose = BodyPose {
+            rot: bodies.world_from_body[0].to_rotation_matrix().into_inner(),
+            com: bodies.com_world[0],
+        };
+        let gap = model.joints[0].rows.values(&BodyPose::identity(), &pose);
+        // Split 4 ways (measured); the joint holds to the tolerance (1e-12 · 1 m) after the
+        // split step: measured 1.2e-14 m.
+        assert!(gap.amax() < 1e-12, "{gap}");
     }
 }
