@@ -7,6 +7,7 @@
 pub mod cdr;
 pub mod layout_json;
 pub mod mcap;
+pub mod mechanism_proto;
 pub mod rerun;
 pub mod rerun_blueprint;
 pub mod ros2;

@@ -822,14 +822,25 @@ pub(crate) mod tests {
         // The reference: the same step from a cold start.
         let mut cold_warm = Warm::new(&model);
         let mut cold_state = MechanismState::new(&model);
-        step(&model, &mut cold_state, &mut cold_warm, &mut cold_bodies, h, &g, &settings);
+        step(
+            &model,
+            &mut cold_state,
+            &mut cold_warm,
+            &mut cold_bodies,
+            h,
+            &g,
+            &settings,
+        );
         for l in &mut warm.lambda {
             *l *= 1e6;
         }
         let direct = state
             .ws
             .attempt(&model, &bodies, h, &g, &settings, Some(&warm));
-        assert!(direct.is_err(), "the poisoned warm start must fail alone: {direct:?}");
+        assert!(
+            direct.is_err(),
+            "the poisoned warm start must fail alone: {direct:?}"
+        );
         let stats = step(&model, &mut state, &mut warm, &mut bodies, h, &g, &settings);
         assert_eq!((stats.newton_failures, stats.substepped), (0, 0));
         // The retry is the cold solve, bit for bit: measured 0.
@@ -849,7 +860,15 @@ pub(crate) mod tests {
         let mut bodies = Bodies::new(&inits);
         let mut state = MechanismState::new(&model);
         let mut warm = Warm::new(&model);
-        let stats = step(&model, &mut state, &mut warm, &mut bodies, 0.1, &g, &settings);
+        let stats = step(
+            &model,
+            &mut state,
+            &mut warm,
+            &mut bodies,
+            0.1,
+            &g,
+            &settings,
+        );
         assert_eq!(stats.newton_failures, 0, "{stats:?}");
         assert_eq!(stats.substepped, 1, "{stats:?}");
         assert!(stats.substep_factor_max >= 2, "{stats:?}");
