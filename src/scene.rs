@@ -48,6 +48,9 @@ use crate::model::{MassProperties, Model, urdf};
 use crate::record::{BodyLayout, FrameLayout, RecordingLayout, RobotDescription};
 use crate::sim::BodyInit;
 use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
+use crate::sim::mechanism::{Articulated, Mechanism};
+
+mod articulated;
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Translation3, Vector3};
 use serde::Deserialize;
@@ -133,6 +136,15 @@ pub struct ModelEntry {
     /// Joint positions (rad or m) the model is placed at; joints not named are at 0.
     #[serde(default)]
     pub joints: BTreeMap<String, f64>,
+    /// Articulated models: `floating` (default) or `fixed` root link.
+    #[serde(default)]
+    pub base: Option<BaseMode>,
+    /// Articulated models: initial joint rates (rad/s or m/s; default 0).
+    #[serde(default)]
+    pub joint_velocities: BTreeMap<String, f64>,
+    /// Articulated models: joints locked at their `joints` value and merged like fixed joints.
+    #[serde(default)]
+    pub locked_joints: Vec<String>,
     /// Mass settings of this model (refine the scene's `[mass]`).
     #[serde(default)]
     pub inertia: Option<InertiaPolicy>,
@@ -158,6 +170,20 @@ pub enum BodiesMode {
     Links,
     /// The whole model, locked at `joints`, as one rigid body; every link frame rides on it.
     Rigid,
+    /// Revolute, continuous and prismatic joints kept as constraints, fixed and locked joints
+    /// merged ([`articulated`]).
+    Articulated,
+}
+
+/// `base = "floating" | "fixed"` (articulated models).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BaseMode {
+    /// The root link moves freely (`linvel`/`angvel` are its twist).
+    #[default]
+    Floating,
+    /// The root link is welded to the world at `position`/`rpy`.
+    Fixed,
 }
 
 impl ModelEntry {
@@ -174,6 +200,9 @@ impl ModelEntry {
             allow_non_physical_inertia: false,
             bodies: BodiesMode::Links,
             joints: BTreeMap::new(),
+            base: None,
+            joint_velocities: BTreeMap::new(),
+            locked_joints: Vec::new(),
             inertia: None,
             density: None,
             geometry: None,
@@ -362,6 +391,26 @@ impl Scene {
         if self.models.is_empty() {
             bail!("{file}: no [[model]] entry: the scene simulates nothing");
         }
+        if let Some(i) = self
+            .models
+            .iter()
+            .position(|m| m.bodies == BodiesMode::Articulated)
+        {
+            let kind = self.integrator();
+            if !crate::sim::mechanism::stepper::SUPPORTED.contains(&kind) {
+                let names: Vec<_> = crate::sim::mechanism::stepper::SUPPORTED
+                    .iter()
+                    .map(|k| format!("`{}`", k.name()))
+                    .collect();
+                bail!(
+                    "{file}: sim.integrator = {:?} cannot step model[{i}], which has bodies = \
+                     \"articulated\" (joints kept as constraints have a constrained form in \
+                     {} only; or give the model bodies = \"links\" or \"rigid\")",
+                    s.integrator,
+                    names.join(", ")
+                );
+            }
+        }
         // Densities, kg/m^3: finite and > 0 wherever given (unknown link names in `links` are
         // checked against the URDF by `policy::apply`).
         let density = |key: &str, v: Option<f64>| -> anyhow::Result<()> {
@@ -413,6 +462,43 @@ impl Scene {
                          (rad or m; got {value})"
                     );
                 }
+            }
+            for (joint, value) in &m.joint_velocities {
+                if !value.is_finite() {
+                    bail!(
+                        "{file}: model[{i}].joint_velocities.{joint} must be a finite number \
+                         (rad/s or m/s; got {value})"
+                    );
+                }
+            }
+            if m.bodies != BodiesMode::Articulated {
+                let mode = match m.bodies {
+                    BodiesMode::Links => "links",
+                    _ => "rigid",
+                };
+                let key = if m.base.is_some() {
+                    Some("base")
+                } else if !m.joint_velocities.is_empty() {
+                    Some("joint_velocities")
+                } else if !m.locked_joints.is_empty() {
+                    Some("locked_joints")
+                } else {
+                    None
+                };
+                if let Some(key) = key {
+                    bail!(
+                        "{file}: model[{i}].{key} applies to bodies = \"articulated\" only \
+                         (this model has bodies = \"{mode}\")"
+                    );
+                }
+            }
+            if m.base == Some(BaseMode::Fixed) && (m.linvel != [0.0; 3] || m.angvel != [0.0; 3]) {
+                bail!(
+                    "{file}: model[{i}]: base = \"fixed\" welds the root link to the world, so \
+                     linvel and angvel (the root link's twist) must be zero (got {:?}, {:?})",
+                    m.linvel,
+                    m.angvel
+                );
             }
         }
         Ok(())
@@ -534,7 +620,7 @@ impl Scene {
             policy::apply(&mut model, &self.mass_settings(entry)).with_context(context)?;
             match entry.bodies {
                 BodiesMode::Links => model.check_simulable(entry.allow_non_physical_inertia),
-                BodiesMode::Rigid => check_rigid_parts(&model),
+                BodiesMode::Rigid | BodiesMode::Articulated => check_rigid_parts(&model),
             }
             .with_context(context)?;
             let key = format!("{URDF_METADATA_PREFIX}{}", entry.urdf.display());
@@ -550,6 +636,10 @@ impl Scene {
                 BodiesMode::Links => add_model(&mut world, &model, entry),
                 BodiesMode::Rigid => {
                     add_rigid_model(&mut world, &model, entry).with_context(context)?
+                }
+                BodiesMode::Articulated => {
+                    articulated::add_articulated_model(&mut world, &model, entry)
+                        .with_context(context)?
                 }
             }
             if world.layout.frames.len() == before {
@@ -625,16 +715,69 @@ pub struct World {
     /// Per recorded frame (same order as `layout.frames`): the body it moves with and the
     /// constant pose of the link in that body's principal frame.
     pub attachments: Vec<Attachment>,
+    /// Articulated models (`bodies = "articulated"`), each over a contiguous range of
+    /// `bodies`, in scene order (the same order as `layout.mechanisms`).
+    pub mechanisms: Vec<std::sync::Arc<Mechanism>>,
+    /// Frames of compound joints' massless interior links: placed from the mechanism's report,
+    /// not from a body (their [`Attachment`] is a placeholder).
+    pub interior_frames: Vec<InteriorFrame>,
+    /// What the build decided that the user should know (e.g. joints locked because no mass
+    /// hangs from them), one line each; the command prints them.
+    pub notes: Vec<String>,
     /// The URDF oddities the models loaded with (docs/urdf.md), each once however many models
     /// share the file; the command prints them.
     pub warnings: Vec<urdf::LoadWarning>,
 }
 
+/// A massless link frame inside a compound joint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InteriorFrame {
+    /// Index into `layout.frames`.
+    pub frame: usize,
+    /// Index into `World::mechanisms`.
+    pub mechanism: usize,
+    /// Index into the mechanism report's interior link poses
+    /// ([`crate::sim::mechanism::project::Report::interior_world_from_link`]).
+    pub interior: usize,
+    /// Pose of the frame's link in that interior link's frame (identity for the link itself).
+    pub interior_from_link: Isometry3<f64>,
+}
+
 /// A link frame riding on a body.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Attachment {
+    /// Index into `World::bodies`, or [`Attachment::WORLD`] for a frame at rest (the welded
+    /// root of a fixed-base articulated model): then `body_from_link` is `world_from_link`.
     pub body: usize,
     pub body_from_link: Isometry3<f64>,
+}
+
+impl Attachment {
+    /// The `body` of a frame at rest in the world.
+    pub const WORLD: usize = usize::MAX;
+}
+
+impl World {
+    /// The integrator that steps this world: `kind` itself when no model is articulated,
+    /// else the [`Articulated`] stepper (free bodies and mechanisms), which supports the
+    /// variational family only (an error naming the model otherwise).
+    pub fn integrator(
+        &self,
+        kind: IntegratorKind,
+        dt_secs: f64,
+        settings: &VariationalSettings,
+    ) -> anyhow::Result<Box<dyn crate::sim::Integrator>> {
+        if self.mechanisms.is_empty() {
+            return Ok(kind.build(dt_secs, settings));
+        }
+        Ok(Box::new(Articulated::new(
+            kind,
+            dt_secs,
+            settings,
+            &self.mechanisms,
+            self.bodies.len(),
+        )?))
+    }
 }
 
 /// The parts of a `bodies = "rigid"` model: each link with an `<inertial>` and a non-zero mass

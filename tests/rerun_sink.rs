@@ -143,6 +143,7 @@ fn layout(mesh_dir: &Path) -> RecordingLayout {
         metadata,
         topic_groups: Vec::new(),
         robot_descriptions: Vec::new(),
+        ..Default::default()
     }
 }
 
@@ -206,6 +207,8 @@ fn write_recording(path: &Path, mesh_dir: &Path, options: &RerunOptions) -> Vec<
             time_ns: time_ns(step),
             world_from_link: &poses,
             bodies: &states,
+            joints: &[],
+            mechanisms: &[],
         })
         .expect("write");
     }
@@ -465,6 +468,8 @@ fn nothing_under_the_final_name_without_finish() {
                 time_ns: time_ns(step),
                 world_from_link: &poses,
                 bodies: &states,
+                joints: &[],
+                mechanisms: &[],
             })
             .unwrap();
         }
@@ -484,6 +489,8 @@ fn nothing_under_the_final_name_without_finish() {
                 time_ns: 0,
                 world_from_link: &poses[..1],
                 bodies: &states,
+                joints: &[],
+                mechanisms: &[],
             })
             .unwrap_err();
         assert!(err.to_string().contains("link poses"), "{err}");

@@ -256,6 +256,12 @@ pub fn simulate_world(
     rerun_options: &RerunOptions,
     ros2: bool,
 ) -> anyhow::Result<Outputs> {
+    // Before any file exists: an integrator the world cannot use is refused with nothing written.
+    let mut integrator = world.integrator(
+        scene.integrator(),
+        scene.sim.dt,
+        &scene.variational_settings(),
+    )?;
     if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create the output folder {}", dir.display()))?;
@@ -285,9 +291,6 @@ pub fn simulate_world(
     }
     let mut outputs: Vec<&Path> = vec![&mcap, &rrd];
     outputs.extend(ros2.as_deref());
-    let mut integrator = scene
-        .integrator()
-        .build(scene.sim.dt, &scene.variational_settings());
     let settings = crate::run::RunSettings {
         stop_on_interrupt: true,
         ..scene.run_settings()
@@ -359,6 +362,9 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     let world = scene.build()?;
     for warning in &world.warnings {
         eprintln!("warning: {warning}");
+    }
+    for note in &world.notes {
+        eprintln!("warning: {note}");
     }
     Estimate::run(
         world.bodies.len() as f64,

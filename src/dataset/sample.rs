@@ -134,23 +134,32 @@ pub struct ModelCache {
 impl ModelCache {
     /// Loads every model choice; an error names the spec and the choice.
     pub fn load(spec: &DatasetSpec) -> anyhow::Result<Self> {
-        let worlds =
-            spec.model_choices()
-                .iter()
-                .enumerate()
-                .map(|(i, urdf)| {
-                    let mut scene = spec.template.clone();
-                    let entry = &mut scene.models[0];
-                    entry.urdf = urdf.into();
-                    entry.position = [0.0; 3];
-                    entry.rpy = [0.0; 3];
-                    entry.linvel = [0.0; 3];
-                    entry.angvel = [0.0; 3];
-                    scene.build().map(Arc::new).with_context(|| {
-                        format!("{}: model choice {i} ({urdf})", spec.path.display())
-                    })
-                })
-                .collect::<anyhow::Result<_>>()?;
+        let worlds = spec
+            .model_choices()
+            .iter()
+            .enumerate()
+            .map(|(i, urdf)| {
+                let mut scene = spec.template.clone();
+                let entry = &mut scene.models[0];
+                entry.urdf = urdf.into();
+                entry.position = [0.0; 3];
+                entry.rpy = [0.0; 3];
+                entry.linvel = [0.0; 3];
+                entry.angvel = [0.0; 3];
+                let world = scene.build().with_context(|| {
+                    format!("{}: model choice {i} ({urdf})", spec.path.display())
+                })?;
+                if !world.mechanisms.is_empty() {
+                    anyhow::bail!(
+                        "{}: model choice {i} ({urdf}): bodies = \"articulated\" is not \
+                             supported in datasets yet (the drawn velocities are per body); use \
+                             \"links\" or \"rigid\"",
+                        spec.path.display()
+                    );
+                }
+                Ok(Arc::new(world))
+            })
+            .collect::<anyhow::Result<_>>()?;
         Ok(Self { worlds })
     }
 
@@ -175,6 +184,7 @@ impl ModelCache {
             bodies,
             attachments: base.attachments.clone(),
             warnings: Vec::new(),
+            ..Default::default()
         }
     }
 }

@@ -6,6 +6,8 @@
 //! |------------|----------------------------|------------------------------------------------------------|
 //! | `/tf`      | `foxglove.FrameTransforms` | one `FrameTransform` per link frame: `parent_frame_id = "world"`, `child_frame_id` = frame id, the pose `world_from_link` |
 //! | `/bodies`  | `tumble.BodyStates`        | per body: linear and angular velocity (world), angular momentum about the centre of mass (world), kinetic and potential energy; plus the totals |
+//! | `/joints`  | `tumble.JointStates`       | articulated models only: per joint its name, position and velocity ([`super::mechanism_proto`]) |
+//! | `/mechanisms` | `tumble.MechanismStates` | articulated models only: per model its momenta, centre of mass, energies and constraint residual |
 //!
 //! With [`RecordingLayout::topic_groups`] the two topics are repeated per group under its prefix
 //! (`/rk4/tf`, `/rk4/bodies`, ...), each holding only the group's frames and bodies.
@@ -107,10 +109,19 @@ pub mod proto {
 /// The `FileDescriptorSet` describing [`proto::BodyStates`], built from the message definitions
 /// above (kept in one place: the field numbers here must match the `prost` tags).
 pub fn body_states_descriptor() -> Vec<u8> {
+    use prost_types::FileDescriptorSet;
+    FileDescriptorSet {
+        file: body_states_files().to_vec(),
+    }
+    .encode_to_vec()
+}
+
+/// The files of [`body_states_descriptor`]: `google/protobuf/timestamp.proto` and
+/// `tumble/BodyStates.proto` (which defines `tumble.Vector3`; other tumble schemas depend on
+/// it rather than define it again, so one descriptor pool can hold them all).
+pub fn body_states_files() -> [prost_types::FileDescriptorProto; 2] {
     use prost_types::field_descriptor_proto::{Label, Type};
-    use prost_types::{
-        DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet,
-    };
+    use prost_types::{DescriptorProto, FieldDescriptorProto, FileDescriptorProto};
 
     fn field(
         name: &str,
@@ -200,16 +211,17 @@ pub fn body_states_descriptor() -> Vec<u8> {
         syntax: Some("proto3".into()),
         ..Default::default()
     };
-    FileDescriptorSet {
-        file: vec![timestamp_file, tumble_file],
-    }
-    .encode_to_vec()
+    [timestamp_file, tumble_file]
 }
 
 /// The channels of one topic group.
 struct ChannelGroup {
     tf_channel: u16,
     bodies_channel: u16,
+    /// `/joints` and `/mechanisms` ([`super::mechanism_proto`]), for groups with articulated
+    /// models.
+    joints_channel: Option<u16>,
+    mechanisms_channel: Option<u16>,
     group: super::TopicGroup,
 }
 
@@ -235,6 +247,8 @@ pub struct McapSink {
     sequence: u32,
     frame_ids: Vec<String>,
     body_names: Vec<String>,
+    joint_names: Vec<String>,
+    mechanism_names: Vec<String>,
     buf: Vec<u8>,
     /// The `/scene` and `/inertia` messages of each group, written with the first frame.
     scene_updates: Vec<(u16, SceneUpdate)>,
@@ -304,6 +318,23 @@ impl McapSink {
             &scene_schema.encoding,
             &scene_schema.data,
         )?;
+        let articulated = if layout.joints.is_empty() && layout.mechanisms.is_empty() {
+            None
+        } else {
+            use super::mechanism_proto as mp;
+            Some((
+                writer.add_schema(
+                    mp::JOINT_STATES_SCHEMA,
+                    "protobuf",
+                    &mp::joint_states_descriptor(),
+                )?,
+                writer.add_schema(
+                    mp::MECHANISM_STATES_SCHEMA,
+                    "protobuf",
+                    &mp::mechanism_states_descriptor(),
+                )?,
+            ))
+        };
         let mut groups = Vec::new();
         let mut scene_updates = Vec::new();
         let mut meshes = MeshCache::default();
@@ -334,9 +365,33 @@ impl McapSink {
                 let bodies = &layout.bodies[group.bodies.clone()];
                 scene_updates.push((channel, inertia_update(&layout.frames, bodies, t0)));
             }
+            let (mut joints_channel, mut mechanisms_channel) = (None, None);
+            if let Some((joints_schema, mechanisms_schema)) = articulated {
+                use super::mechanism_proto::{JOINTS_TOPIC, MECHANISMS_TOPIC};
+                if !group.joints.is_empty() {
+                    let topic = format!("{}{JOINTS_TOPIC}", group.prefix);
+                    joints_channel = Some(writer.add_channel(
+                        joints_schema,
+                        &topic,
+                        "protobuf",
+                        &no_metadata,
+                    )?);
+                }
+                if !group.mechanisms.is_empty() {
+                    let topic = format!("{}{MECHANISMS_TOPIC}", group.prefix);
+                    mechanisms_channel = Some(writer.add_channel(
+                        mechanisms_schema,
+                        &topic,
+                        "protobuf",
+                        &no_metadata,
+                    )?);
+                }
+            }
             groups.push(ChannelGroup {
                 tf_channel,
                 bodies_channel,
+                joints_channel,
+                mechanisms_channel,
                 group,
             });
         }
@@ -348,6 +403,8 @@ impl McapSink {
             sequence: 0,
             frame_ids: layout.frames.iter().map(|f| f.frame_id.clone()).collect(),
             body_names: layout.bodies.iter().map(|b| b.name.clone()).collect(),
+            joint_names: layout.joints.iter().map(|j| j.name.clone()).collect(),
+            mechanism_names: layout.mechanisms.iter().map(|m| m.name.clone()).collect(),
             buf: Vec::new(),
             scene_updates,
             warnings,
@@ -443,6 +500,30 @@ impl Sink for McapSink {
             self.buf.clear();
             message.encode(&mut self.buf)?;
             self.write_message(bodies_channel, time_ns)?;
+            if let Some(channel) = self.groups[g].joints_channel {
+                let joints = self.groups[g].group.joints.clone();
+                let message = super::mechanism_proto::joint_states(
+                    time_ns,
+                    frame.step,
+                    &self.joint_names[joints.clone()],
+                    &frame.joints[joints],
+                );
+                self.buf.clear();
+                message.encode(&mut self.buf)?;
+                self.write_message(channel, time_ns)?;
+            }
+            if let Some(channel) = self.groups[g].mechanisms_channel {
+                let mechanisms = self.groups[g].group.mechanisms.clone();
+                let message = super::mechanism_proto::mechanism_states(
+                    time_ns,
+                    frame.step,
+                    &self.mechanism_names[mechanisms.clone()],
+                    &frame.mechanisms[mechanisms],
+                );
+                self.buf.clear();
+                message.encode(&mut self.buf)?;
+                self.write_message(channel, time_ns)?;
+            }
         }
         self.sequence = self.sequence.wrapping_add(1);
         Ok(())

@@ -36,6 +36,7 @@
 //! | `/plots/scene/energy`                         | `Scalars` [kinetic, potential, total] summed over all bodies (J), `SeriesLines` (static) | both timelines |
 //! | `/plots/scene/energy_change`                  | `Scalars` [(E − E₀)/\|E₀\|], E the total above, E₀ its first recorded value | both timelines |
 //! | `/plots/scene/angular_momentum_change`        | `Scalars` [max over bodies \|L − L₀\|/\|L₀\|] | both timelines |
+//! | `/plots/joints/…`, `/plots/mechanisms/<model>/…` | articulated models only: joint positions and velocities, each model's energy, momenta and constraint residual ([`joints`]) | both timelines |
 //!
 //! # Blueprint
 //!
@@ -77,6 +78,10 @@
 //! rewrites the footer with its columns sorted ([`super::rrd_footer`]). The recording id is the
 //! layout name plus a hash of the name and metadata: the same inputs give the same id, different
 //! scenes or settings do not get merged by the viewer.
+
+mod joints;
+
+pub use joints::{joint_position_entity_path, joint_velocity_entity_path, mechanism_entity_path};
 
 use super::rerun_blueprint::{
     PlotView, SceneBounds, blueprint_chunks, blueprint_messages, default_plot_views,
@@ -454,6 +459,8 @@ pub struct RerunSink {
     /// First recorded total energy and angular momenta: the reference of the change plots.
     energy0: Option<f64>,
     angmom0: Vec<nalgebra::Vector3<f64>>,
+    /// The series of articulated models ([`joints`]).
+    joint_plots: joints::JointPlots,
     done: bool,
 }
 
@@ -573,8 +580,11 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         plot_views: default_plot_views(),
         energy0: None,
         angmom0: Vec::new(),
+        joint_plots: joints::JointPlots::new(layout),
         done: false,
     };
+    let extra_views = sink.joint_plots.plot_views(layout);
+    sink.plot_views.extend(extra_views);
     lock(&state).encoder = Some(encoder.context("cannot write the .rrd header")?);
 
     let app_id = rerun::ApplicationId::try_new(application_id(&layout.name))
@@ -744,6 +754,9 @@ impl RerunSink {
                 scene_angmom_change_entity_path(),
                 &[&rerun::SeriesLines::new().with_names(["max |L − L₀|/|L₀|"])],
             )?)?;
+        }
+        for chunk in self.joint_plots.static_chunks()? {
+            self.send(chunk)?;
         }
         Ok(())
     }
@@ -980,6 +993,11 @@ impl RerunSink {
                     .columns_of_unit_batches()?,
             )?;
         }
+        let rec = self
+            .rec
+            .as_ref()
+            .ok_or_else(|| anyhow!("the Rerun recording is closed"))?;
+        self.joint_plots.send(rec, &times, n)?;
         // Wait until the stream's forwarding thread has encoded what was sent: a producer faster
         // than the encoder would otherwise queue chunks without bound.
         rec.flush_blocking()
@@ -1124,15 +1142,28 @@ impl Sink for RerunSink {
             self.bounds
                 .add(&pose.translation.vector, self.frame_reach[i]);
         }
-        if self.angmom0.is_empty() {
-            self.angmom0 = frame.bodies.iter().map(|b| b.angmom_world).collect();
-        }
-        let angmom_change = frame
-            .bodies
-            .iter()
-            .zip(&self.angmom0)
-            .map(|(b, l0)| (b.angmom_world - l0).norm() / nonzero(l0.norm()))
-            .fold(0.0, f64::max);
+        let angmom_change = if self.joint_plots.is_empty() {
+            if self.angmom0.is_empty() {
+                self.angmom0 = frame.bodies.iter().map(|b| b.angmom_world).collect();
+            }
+            frame
+                .bodies
+                .iter()
+                .zip(&self.angmom0)
+                .map(|(b, l0)| (b.angmom_world - l0).norm() / nonzero(l0.norm()))
+                .fold(0.0, f64::max)
+        } else {
+            self.joint_plots.push(frame)?;
+            let angmom = self.joint_plots.conserved_angmom(frame);
+            if self.angmom0.is_empty() {
+                self.angmom0 = angmom.clone();
+            }
+            angmom
+                .iter()
+                .zip(&self.angmom0)
+                .map(|(l, l0)| (l - l0).norm() / nonzero(l0.norm()))
+                .fold(0.0, f64::max)
+        };
         let (mut kinetic, mut potential) = (0.0, 0.0);
         for (i, body) in frame.bodies.iter().enumerate() {
             let total = body.kinetic_energy + body.potential_energy;
