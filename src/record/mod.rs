@@ -8,6 +8,7 @@ pub mod cdr;
 pub mod layout_json;
 pub mod mcap;
 pub mod rerun;
+pub mod rerun_batched;
 pub mod rerun_blueprint;
 pub mod ros2;
 pub mod ros2_msgs;
