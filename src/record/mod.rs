@@ -7,6 +7,8 @@
 pub mod cdr;
 pub mod layout_json;
 pub mod mcap;
+pub mod parquet;
+pub mod pipelined;
 pub mod rerun;
 pub mod rerun_batched;
 pub mod rerun_blueprint;

@@ -4,6 +4,7 @@ pub mod bodies;
 pub mod guard;
 pub mod integrators;
 pub mod limits;
+pub mod partition;
 pub mod reference;
 pub mod so3;
 pub mod workload;
