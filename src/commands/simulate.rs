@@ -4,7 +4,7 @@
 use crate::budget::{Estimate, human_bytes, peak_memory_bytes};
 use crate::fsutil::check_not_overwriting;
 use crate::record::Sink;
-use crate::record::mcap::{McapOptions, McapSink};
+use crate::record::mcap::{ChunkCompression, McapOptions, McapSink};
 use crate::record::parquet::{BodiesSink, TrajectorySink};
 use crate::record::pipelined::Pipelined;
 use crate::record::rerun::{RerunOptions, RerunSink};
@@ -107,6 +107,9 @@ pub struct SimulateArgs {
     /// ros2 (STEM.ros2.mcap, as --ros2).
     #[arg(long, default_value = "mcap,rrd", value_parser = Formats::parse)]
     pub format: Formats,
+    /// MCAP chunk compression: zstd (default, smallest), lz4 (faster, larger) or none.
+    #[arg(long, default_value = "zstd", value_parser = ChunkCompression::parse)]
+    pub mcap_compression: ChunkCompression,
     /// Threads stepping the bodies (default: all cores). The files do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
@@ -180,6 +183,7 @@ pub struct SimulateOptions {
     pub formats: Formats,
     /// Stepping threads (>= 1; the files do not depend on it).
     pub threads: usize,
+    pub mcap_compression: ChunkCompression,
 }
 
 fn parse_jacobian(s: &str) -> Result<Jacobian, String> {
@@ -297,6 +301,7 @@ pub fn simulate(
         rerun: *rerun_options,
         formats: Formats::default(),
         threads: 1,
+        mcap_compression: ChunkCompression::Zstd,
     };
     simulate_world(scene, &scene.build()?, stem, &options)
 }
@@ -394,6 +399,7 @@ pub fn simulate_world(
             &world.layout,
             &McapOptions {
                 ellipsoids: options.rerun.ellipsoids,
+                compression: options.mcap_compression,
             },
         )
         .map(|sink| {
@@ -528,6 +534,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             },
             formats,
             threads,
+            mcap_compression: args.mcap_compression,
         },
     )?;
     let wall = started.elapsed().as_secs_f64();

@@ -25,9 +25,7 @@ use super::{Frame, RecordingLayout, Sink};
 use crate::fsutil::part_path;
 use anyhow::Context;
 use foxglove::Encode;
-use foxglove::messages::{
-    FrameTransform, FrameTransforms, Quaternion, SceneUpdate, Timestamp, Vector3,
-};
+use foxglove::messages::{FrameTransforms, SceneUpdate, Timestamp};
 use prost::Message;
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -216,16 +214,52 @@ struct ChannelGroup {
     group: super::TopicGroup,
 }
 
-/// What to write besides the trajectories.
+/// What to write besides the trajectories, and how.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct McapOptions {
     /// Write the `/inertia` topic (equivalent inertia ellipsoids).
     pub ellipsoids: bool,
+    /// How chunks are compressed (default zstd).
+    pub compression: ChunkCompression,
 }
 
 impl Default for McapOptions {
     fn default() -> Self {
-        Self { ellipsoids: true }
+        Self {
+            ellipsoids: true,
+            compression: ChunkCompression::Zstd,
+        }
+    }
+}
+
+/// Chunk compression (`simulate --mcap-compression`). Every MCAP reader reads all three.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ChunkCompression {
+    /// zstd level [`ZSTD_LEVEL`]: the smallest files (the default).
+    #[default]
+    Zstd,
+    /// LZ4 frames: a fraction of zstd's time on incompressible float data, larger files.
+    Lz4,
+    /// Uncompressed chunks: no compression time at all, the largest files.
+    None,
+}
+
+impl ChunkCompression {
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "zstd" => Ok(Self::Zstd),
+            "lz4" => Ok(Self::Lz4),
+            "none" => Ok(Self::None),
+            _ => Err(format!("expected zstd, lz4 or none, got {s:?}")),
+        }
+    }
+
+    fn mcap(self) -> Option<mcap::Compression> {
+        match self {
+            Self::Zstd => Some(mcap::Compression::Zstd),
+            Self::Lz4 => Some(mcap::Compression::Lz4),
+            Self::None => None,
+        }
     }
 }
 
@@ -242,14 +276,6 @@ pub struct McapSink {
     /// The `/scene` and `/inertia` messages of each group, written with the first frame.
     scene_updates: Vec<(u16, SceneUpdate)>,
     warnings: Vec<String>,
-}
-
-fn vec3(v: &nalgebra::Vector3<f64>) -> proto::Vector3 {
-    proto::Vector3 {
-        x: v.x,
-        y: v.y,
-        z: v.z,
-    }
 }
 
 /// Simulation time in ns as a Foxglove timestamp (seconds since t = 0).
@@ -281,7 +307,11 @@ impl McapSink {
             // zstd level 1 (the fastest level: 64 KiB chunks of poses compress within a few
             // per cent of level 3 at about twice the speed), one thread: the file does not
             // depend on the machine's core count, and the sink runs on a thread of its own.
-            .compression_level(ZSTD_LEVEL)
+            .compression(options.compression.mcap())
+            .compression_level(match options.compression {
+                ChunkCompression::Zstd => ZSTD_LEVEL,
+                _ => 0,
+            })
             .compression_threads(0)
             .create(BufWriter::new(file))
             .with_context(|| format!("cannot write {}", part.display()))?;
@@ -382,7 +412,6 @@ impl McapSink {
 impl Sink for McapSink {
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
         let time_ns = u64::try_from(frame.time_ns).context("negative simulation time")?;
-        let stamp = foxglove_time(frame.time_ns);
         // The geometry, once, at the first recorded step (stamped t = 0 like its entities).
         for (channel, update) in std::mem::take(&mut self.scene_updates) {
             self.buf.clear();
@@ -394,62 +423,30 @@ impl Sink for McapSink {
                 (self.groups[g].tf_channel, self.groups[g].bodies_channel);
             let frames = self.groups[g].group.frames.clone();
             let bodies = self.groups[g].group.bodies.clone();
-            let transforms = FrameTransforms {
-                transforms: frame.world_from_link[frames.clone()]
-                    .iter()
-                    .zip(&self.frame_ids[frames])
-                    .map(|(pose, frame_id)| {
-                        let t = pose.translation.vector;
-                        let q = pose.rotation.quaternion().coords; // (x, y, z, w)
-                        FrameTransform {
-                            timestamp: Some(stamp),
-                            parent_frame_id: "world".into(),
-                            child_frame_id: frame_id.clone(),
-                            translation: Some(Vector3 {
-                                x: t.x,
-                                y: t.y,
-                                z: t.z,
-                            }),
-                            rotation: Some(Quaternion {
-                                x: q.x,
-                                y: q.y,
-                                z: q.z,
-                                w: q.w,
-                            }),
-                        }
-                    })
-                    .collect(),
-            };
             self.buf.clear();
-            Message::encode(&transforms, &mut self.buf)?;
+            super::mcap_encode::frame_transforms(
+                &mut self.buf,
+                time_ns,
+                "world",
+                &frame.world_from_link[frames.clone()],
+                &self.frame_ids[frames],
+            );
             self.write_message(tf_channel, time_ns)?;
 
             let states = &frame.bodies[bodies.clone()];
-            let message = proto::BodyStates {
-                timestamp: Some(prost_types::Timestamp {
-                    seconds: (time_ns / 1_000_000_000) as i64,
-                    nanos: (time_ns % 1_000_000_000) as i32,
-                }),
-                step: frame.step,
-                bodies: states
-                    .iter()
-                    .zip(&self.body_names[bodies])
-                    .map(|(b, name)| proto::BodyState {
-                        name: name.clone(),
-                        linear_velocity: Some(vec3(&b.linvel_world)),
-                        angular_velocity: Some(vec3(&b.angvel_world)),
-                        angular_momentum: Some(vec3(&b.angmom_world)),
-                        kinetic_energy: b.kinetic_energy,
-                        potential_energy: b.potential_energy,
-                    })
-                    .collect(),
-                total_energy: states
-                    .iter()
-                    .map(|b| b.kinetic_energy + b.potential_energy)
-                    .sum(),
-            };
+            let total_energy = states
+                .iter()
+                .map(|b| b.kinetic_energy + b.potential_energy)
+                .sum();
             self.buf.clear();
-            message.encode(&mut self.buf)?;
+            super::mcap_encode::body_states(
+                &mut self.buf,
+                time_ns,
+                frame.step,
+                states,
+                &self.body_names[bodies],
+                total_energy,
+            );
             self.write_message(bodies_channel, time_ns)?;
         }
         self.sequence = self.sequence.wrapping_add(1);

@@ -7,6 +7,7 @@
 pub mod cdr;
 pub mod layout_json;
 pub mod mcap;
+pub mod mcap_encode;
 pub mod parquet;
 pub mod pipelined;
 pub mod rerun;
