@@ -239,7 +239,7 @@ angvel = {{ uniform = [[-9.0, -9.0, -9.0], [9.0, 9.0, 9.0]] }}
 
 /// The recordings do not depend on the thread count: 1, 2 and 3 stepping threads write the same
 /// bytes (MCAP, batched `.rrd`, Parquet), for a scene big enough to be split (1500 bodies, above
-/// the 1000-frame batched threshold).
+/// the 256-frame batched threshold).
 #[test]
 fn threads_write_the_same_bytes() {
     let dir = tempfile::tempdir().unwrap();

@@ -34,7 +34,7 @@ use rerun::{EntityPath, EntityPathPart};
 use std::collections::{BTreeSet, HashMap};
 
 /// Recordings with more link frames than this use the batched layout.
-pub const BATCHED_MIN_FRAMES: usize = 1000;
+pub const BATCHED_MIN_FRAMES: usize = 256;
 
 /// Bytes of buffered poses per batch sent (see [`Batches::rows_per_send`]).
 pub const BATCHED_SEND_BYTES: usize = 4 << 20;
