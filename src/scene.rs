@@ -704,12 +704,17 @@ impl Scene {
                     }
                 }
             }
-            // One description per table, whatever its copies (docs/scale.md).
+            // One description per table, whatever its copies: with copies, the first copy's
+            // (its links named by copy 0's frame ids; docs/scale.md "ROS 2").
+            let described = match entry.copies {
+                Some(copies) => Some(placement::copy_name(&base, 0, copies)),
+                None => entry.name.clone(),
+            };
             world.layout.robot_descriptions.push(robot_description(
                 &urdf_texts[&key],
                 &urdf_path,
                 &package_paths,
-                entry,
+                described.as_deref(),
                 &model,
             ));
         }
@@ -730,17 +735,12 @@ fn robot_description(
     xml: &str,
     urdf_path: &Path,
     package_paths: &[PathBuf],
-    entry: &ModelEntry,
+    prefix: Option<&str>,
     model: &Model,
 ) -> RobotDescription {
-    let urdf = crate::model::description::for_frame_ids(
-        xml,
-        urdf_path,
-        package_paths,
-        entry.name.as_deref(),
-    );
+    let urdf = crate::model::description::for_frame_ids(xml, urdf_path, package_paths, prefix);
     RobotDescription {
-        model: entry.name.clone().unwrap_or_else(|| model.name.clone()),
+        model: prefix.map_or_else(|| model.name.clone(), str::to_string),
         urdf_path: urdf_path.to_path_buf(),
         urdf,
     }
