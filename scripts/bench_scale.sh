@@ -28,9 +28,9 @@ printf '%-8s %10s %8s %10s %10s %8s %8s %9s %8s\n' bodies startup_s bare_ns e2e_
 for n in "${sizes[@]}"; do
   boxes=$((n * 4 / 10)); handles=$((n * 3 / 10)); discs=$((n - boxes - handles))
   duration=$(awk -v n="$n" 'BEGIN {print 1e4 / n}')   # 1e7 body-steps at dt = 1 ms
-  sed -e "s/copies = 4000/copies = $boxes/" -e "0,/copies = 3000/s//copies = $handles/" \
-      -e "0,/copies = 3000/s//copies = $discs/" models/swarm.toml >"$out/swarm_$n.toml"
-  grep -q "copies = $discs" "$out/swarm_$n.toml"
+  sed -e "s/^copies = 4000$/copies = $boxes/" -e "0,/^copies = 3000$/s//copies = $handles/" \
+      -e "0,/^copies = 3000$/s//copies = $discs/" models/swarm.toml >"$out/swarm_$n.toml"
+  [ "$(grep -c '^copies = ' "$out/swarm_$n.toml")" = 3 ] && grep -q "^copies = $discs$" "$out/swarm_$n.toml"
   start0=$(date +%s.%N)
   "$T" simulate "$out/swarm_$n.toml" --duration 0 --out "$out/s0" --force --threads 1 >/dev/null
   startup=$(awk -v a="$start0" -v b="$(date +%s.%N)" 'BEGIN {printf "%.3f", b - a}')
@@ -46,7 +46,7 @@ for n in "${sizes[@]}"; do
   frames=$(awk '/^wrote/ {print $2}' "$out/log2")
   mcap=$(stat -c %s "$out/s2.mcap"); rrd=$(stat -c %s "$out/s2.rrd")
   cmp -s "$out/s1.mcap" "$out/s2.mcap" && cmp -s "$out/s1.rrd" "$out/s2.rrd" || { echo "threads 1 and 2 differ" >&2; exit 1; }
-  peak=$(sed -nE 's/peak memory \(VmHWM\) ([0-9.]+) MiB/\1/p' "$out/log2")
+  peak=$(awk '/peak memory \(VmHWM\)/ {v = $4; u = $5; if (u == "GiB") v *= 1024; if (u == "KiB") v /= 1024; print v}' "$out/log2")
   printf '%-8s %10s %8s %10s %10s %8.1f %8.1f %9s %8s\n' "$n" "$startup" "$bare" "${e2e[0]}" "${e2e[1]}" \
     "$(awk -v b="$mcap" -v n="$n" -v f="$frames" 'BEGIN {print b / (n * f)}')" \
     "$(awk -v b="$rrd" -v n="$n" -v f="$frames" 'BEGIN {print b / (n * f)}')" "${peak:-?}" "${scaling:-?}x"

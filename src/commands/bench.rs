@@ -73,7 +73,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     let gravity = Vector3::new(0.0, 0.0, -9.81);
     let settings = Default::default();
     let mut medians = Vec::new();
-    let counts: Vec<usize> = if threads > 1 { vec![1, threads] } else { vec![1] };
+    let counts: Vec<usize> = if threads > 1 {
+        vec![1, threads]
+    } else {
+        vec![1]
+    };
     for &t in &counts {
         let parts = partition_count(args.bodies, t);
         println!(

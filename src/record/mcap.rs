@@ -37,6 +37,9 @@ use std::path::{Path, PathBuf};
 /// readable (`tumble convert`, `tumble info`); large enough that zstd still compresses well.
 pub const CHUNK_BYTES: u64 = 64 * 1024;
 
+/// Frames (or bodies) per slice of the `/scene` (`/inertia`) message built at a time.
+const SCENE_SLICE: usize = 1024;
+
 /// zstd level of the chunks.
 pub const ZSTD_LEVEL: u32 = 1;
 
@@ -273,8 +276,8 @@ pub struct McapSink {
     frame_ids: Vec<String>,
     body_names: Vec<String>,
     buf: Vec<u8>,
-    /// The `/scene` and `/inertia` messages of each group, written with the first frame.
-    scene_updates: Vec<(u16, SceneUpdate)>,
+    /// The `/scene` and `/inertia` messages of each group (encoded), written with the first frame.
+    scene_updates: Vec<(u16, Vec<u8>)>,
     warnings: Vec<String>,
 }
 
@@ -362,15 +365,26 @@ impl McapSink {
             let scene_topic = format!("{}{SCENE_TOPIC}", group.prefix);
             let scene_channel =
                 writer.add_channel(scene_schema_id, &scene_topic, "protobuf", &no_metadata)?;
-            let frames = &layout.frames[group.frames.clone()];
-            let update = geometry_update(frames, t0, &mut meshes, &mut warnings);
+            // Encoded a slice of frames at a time: a `SceneUpdate`'s entities are a repeated
+            // field, so the concatenated encodings are the encoding of the whole message, and
+            // the entities (hundreds of bytes each as structs) never all exist at once.
+            let mut update = Vec::new();
+            for frames in layout.frames[group.frames.clone()].chunks(SCENE_SLICE) {
+                Message::encode(
+                    &geometry_update(frames, t0, &mut meshes, &mut warnings),
+                    &mut update,
+                )?;
+            }
             scene_updates.push((scene_channel, update));
             if options.ellipsoids {
                 let topic = format!("{}{INERTIA_TOPIC}", group.prefix);
                 let channel =
                     writer.add_channel(scene_schema_id, &topic, "protobuf", &no_metadata)?;
-                let bodies = &layout.bodies[group.bodies.clone()];
-                scene_updates.push((channel, inertia_update(&layout.frames, bodies, t0)));
+                let mut update = Vec::new();
+                for bodies in layout.bodies[group.bodies.clone()].chunks(SCENE_SLICE) {
+                    Message::encode(&inertia_update(&layout.frames, bodies, t0), &mut update)?;
+                }
+                scene_updates.push((channel, update));
             }
             groups.push(ChannelGroup {
                 tf_channel,
@@ -414,8 +428,7 @@ impl Sink for McapSink {
         let time_ns = u64::try_from(frame.time_ns).context("negative simulation time")?;
         // The geometry, once, at the first recorded step (stamped t = 0 like its entities).
         for (channel, update) in std::mem::take(&mut self.scene_updates) {
-            self.buf.clear();
-            Message::encode(&update, &mut self.buf)?;
+            self.buf = update;
             self.write_message(channel, time_ns)?;
         }
         for g in 0..self.groups.len() {

@@ -69,8 +69,7 @@ fn timed_partitions(
         .iter_mut()
         .map(|b| &mut **b as &mut dyn crate::sim::Integrator)
         .collect();
-    let Ok(mut batch) =
-        crate::sim::partition::Partitions::new(init, borrowed, f64::MAX, None)
+    let Ok(mut batch) = crate::sim::partition::Partitions::new(init, borrowed, f64::MAX, None)
     else {
         return f64::NAN;
     };
