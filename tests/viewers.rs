@@ -724,3 +724,49 @@ fn collada_meshes_reach_rerun_and_foxglove_as_triangles() {
         );
     }
 }
+
+/// The Foxglove layout shipped with tumble (docs/foxglove/tumble-layout.json, named in the run
+/// summary) is a layout Foxglove imports: a 3D panel on `world` with `/scene` visible, and
+/// plots whose message paths exist in the `/bodies` messages of a real recording (read by the
+/// Python `mcap` reader with protobuf decoding).
+#[test]
+fn the_shipped_foxglove_layout_shows_the_scene_and_plots_real_fields() {
+    let root = common::root();
+    let json = std::fs::read_to_string(root.join("docs/foxglove/tumble-layout.json")).unwrap();
+    let layout: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let panels = layout["configById"].as_object().unwrap();
+    let three_d = &panels["3D!tumble"];
+    assert_eq!(three_d["followTf"], "world");
+    assert_eq!(three_d["topics"]["/scene"]["visible"], true);
+    // Every panel the layout tree names is configured.
+    let tree = layout["layout"].to_string();
+    for id in panels.keys() {
+        assert!(
+            tree.contains(&format!("\"{id}\"")),
+            "{id} not placed in {tree}"
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = tumble(
+        &["simulate", "--out", "run", "--duration", "0.05"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let mcap = run_py("read_mcap.py", &[&dir.path().join("run.mcap")]);
+    assert!(mcap["schemas"]["/bodies"] == "tumble.BodyStates");
+    // The plotted paths: /bodies.total_energy and /bodies.bodies[0].angular_momentum.{x,y,z}, the
+    // fields of tumble.BodyStates (src/record/mcap.rs), checked against the decoded message.
+    let fields = run_py("bodies_fields.py", &[&dir.path().join("run.mcap")]);
+    for (id, panel) in panels.iter().filter(|(id, _)| id.starts_with("Plot!")) {
+        for path in panel["paths"].as_array().unwrap() {
+            let path = path["value"].as_str().unwrap();
+            let field = path
+                .strip_prefix("/bodies.")
+                .unwrap_or_else(|| panic!("{id}: {path}"));
+            assert!(
+                fields["paths"].as_array().unwrap().contains(&field.into()),
+                "{id}: {path} is not a field of /bodies: {fields}"
+            );
+        }
+    }
+}

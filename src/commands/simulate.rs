@@ -95,7 +95,7 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub force: bool,
     /// Run even when the estimated recordings exceed 64 GiB or the computing time 7 days (the
-    /// estimate is checked before anything runs; see README "Reliability").
+    /// estimate is checked before anything runs; see docs/reliability.md).
     #[arg(long)]
     pub allow_huge: bool,
     /// --inertia, --density, --geometry: replace the scene's [mass] values ([[model]] and
@@ -208,23 +208,24 @@ pub const FOXGLOVE_LAYOUT: &str = "docs/foxglove/tumble-layout.json";
 /// Where the Foxglove layout is: `./docs/foxglove/tumble-layout.json` if present, else the copy
 /// in the source tree the binary was built from.
 pub fn foxglove_layout_path() -> PathBuf {
-    let local = PathBuf::from(FOXGLOVE_LAYOUT);
+    repository_file(FOXGLOVE_LAYOUT)
+}
+
+/// `relative` in the working directory if it is there, else in the source tree the binary was
+/// built from.
+fn repository_file(relative: &str) -> PathBuf {
+    let local = PathBuf::from(relative);
     if local.is_file() {
         local
     } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(FOXGLOVE_LAYOUT)
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(relative)
     }
 }
 
 /// Where the default scene is: `./models/default.toml` if present, else the copy in the
 /// source tree the binary was built from.
 pub fn default_scene_path() -> PathBuf {
-    let local = PathBuf::from(DEFAULT_SCENE);
-    if local.is_file() {
-        local
-    } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_SCENE)
-    }
+    repository_file(DEFAULT_SCENE)
 }
 
 /// Reads the scene the arguments name and applies the overrides.
@@ -339,7 +340,7 @@ pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
     };
     Some(format!(
         "warning: dt = {} s is too large for body {:?}{others}: it turns at up to |Ω| = {:.4e} rad/s, \
-         h|Ω| = {:.3} rad per step, over the {} limit of {} rad for its inertia ratio {:.3e} (README \"Limits\"; {}). \
+         h|Ω| = {:.3} rad per step, over the {} limit of {} rad for its inertia ratio {:.3e} (docs/limits.md; {}). \
          Largest safe step: dt <= {:.3e} s",
         scene.sim.dt,
         world.layout.bodies[w.body].name,

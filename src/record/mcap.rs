@@ -467,28 +467,44 @@ impl Sink for McapSink {
     }
 
     fn finish(self: Box<Self>) -> anyhow::Result<()> {
-        let (part, path) = (self.part.clone(), self.path.clone());
-        self.complete()?;
-        std::fs::rename(&part, &path)
-            .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))
+        let McapSink {
+            writer, part, path, ..
+        } = *self;
+        finish_file(writer, &part, &path)
     }
 
     fn path(&self) -> Option<PathBuf> {
         Some(self.path.clone())
     }
 
-    fn complete(mut self: Box<Self>) -> anyhow::Result<()> {
-        self.writer
-            .finish()
-            .with_context(|| format!("cannot finish {}", self.part.display()))?;
+    fn complete(self: Box<Self>) -> anyhow::Result<()> {
         let McapSink { writer, part, .. } = *self;
-        let file = writer
-            .into_inner()
-            .into_inner()
-            .map_err(|e| e.into_error())
-            .with_context(|| format!("cannot write {}", part.display()))?;
-        file.sync_all()
-            .with_context(|| format!("cannot sync {}", part.display()))?;
-        Ok(())
+        complete_file(writer, &part)
     }
+}
+
+/// Ends an MCAP file written under `part` (summary, indexes, footer), flushes and syncs it; it
+/// stays under `part` (the caller renames it). Shared by every MCAP sink.
+pub fn complete_file(mut writer: mcap::Writer<BufWriter<File>>, part: &Path) -> anyhow::Result<()> {
+    writer
+        .finish()
+        .with_context(|| format!("cannot finish {}", part.display()))?;
+    let file = writer
+        .into_inner()
+        .into_inner()
+        .map_err(|e| e.into_error())
+        .with_context(|| format!("cannot write {}", part.display()))?;
+    file.sync_all()
+        .with_context(|| format!("cannot sync {}", part.display()))
+}
+
+/// [`complete_file`], then renames `part` onto `path`.
+pub fn finish_file(
+    writer: mcap::Writer<BufWriter<File>>,
+    part: &Path,
+    path: &Path,
+) -> anyhow::Result<()> {
+    complete_file(writer, part)?;
+    std::fs::rename(part, path)
+        .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))
 }
