@@ -31,6 +31,10 @@
 //! geometry = "collision"        # "collision" (visual as fallback) | "visual" (default: [mass])
 //! links = { base = { inertia = "geometry", density = 2700.0 } }   # per-link overrides
 //! strict = false                # refuse the URDF oddities urdfdom loads (docs/urdf.md) instead of loading them with a warning (default false; --strict sets it on every model)
+//! copies = 10000                # the table stands for N models named <name>_<index> (default: one, named `name`; docs/scale.md)
+//! seed = 7                      # copy i draws its distributions from streams seeded by (seed, i) (default 0)
+//! # position, rpy, linvel, angvel: a value or a distribution ({ uniform = [lo, hi] }, log_uniform, normal, choice);
+//! # orientation = "uniform" | [x, y, z, w] instead of rpy ([`crate::placement`])
 //!
 //! [mass]                        # scene-wide defaults of the mass settings (flags --inertia, --density, --geometry override them)
 //! inertia = "urdf"              # (default "urdf")
