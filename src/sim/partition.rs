@@ -265,7 +265,10 @@ mod tests {
             let mut three: Vec<_> = (0..3).map(|_| kind.build(0.002, &settings)).collect();
             let mut split = Partitions::new(
                 &inits,
-                three.iter_mut().map(|b| b.as_mut()).collect(),
+                three
+                    .iter_mut()
+                    .map(|b| &mut **b as &mut dyn Integrator)
+                    .collect(),
                 100.0,
                 Some(1024),
             )
