@@ -5,8 +5,10 @@ use crate::scene::World;
 use crate::sim::guard::{Divergence, Guard};
 use crate::sim::mechanism::Mechanism;
 use crate::sim::mechanism::project::Reporter;
+use crate::sim::partition::Partitions;
 use crate::sim::{Bodies, Integrator, StepStats};
 use nalgebra::{Isometry3, Vector3};
+use rayon::prelude::*;
 use std::sync::Arc;
 
 /// What a run is asked to do.
@@ -81,6 +83,20 @@ pub struct FrameBuilder {
     totals: Vec<MechanismState>,
 }
 
+/// The state of body `j` of `bodies`, as recorded.
+fn body_state(bodies: &Bodies, j: usize, gravity: &Vector3<f64>) -> BodyState {
+    BodyState {
+        linvel_world: bodies.linvel_world[j],
+        angvel_world: bodies.angvel_world(j),
+        angmom_world: bodies.angmom_world(j),
+        kinetic_energy: bodies.kinetic_energy(j),
+        potential_energy: bodies.potential_energy(j, gravity),
+    }
+}
+
+/// Items per parallel task when a frame is built from partitions.
+const FRAME_TASK_ITEMS: usize = 2048;
+
 impl FrameBuilder {
     pub fn new(world: &World) -> Self {
         let mechanisms: Vec<_> = world
@@ -125,13 +141,8 @@ impl FrameBuilder {
             }
         }));
         self.states.clear();
-        self.states.extend((0..bodies.len()).map(|i| BodyState {
-            linvel_world: bodies.linvel_world[i],
-            angvel_world: bodies.angvel_world(i),
-            angmom_world: bodies.angmom_world(i),
-            kinetic_energy: bodies.kinetic_energy(i),
-            potential_energy: bodies.potential_energy(i, gravity),
-        }));
+        self.states
+            .extend((0..bodies.len()).map(|i| body_state(bodies, i, gravity)));
         let time_ns = time_ns(step, dt_secs);
         let time_secs = time_ns as f64 / 1e9;
         for (k, (model, reporter)) in self.mechanisms.iter_mut().enumerate() {
@@ -194,6 +205,62 @@ impl FrameBuilder {
         }
     }
 
+    /// [`Self::frame`] from a partitioned batch, built on its threads (same values).
+    pub fn frame_of_parts(
+        &mut self,
+        parts: &Partitions<'_>,
+        gravity: &Vector3<f64>,
+        step: u64,
+        dt_secs: f64,
+    ) -> Frame<'_> {
+        debug_assert!(
+            self.mechanisms.is_empty(),
+            "articulated scenes run unpartitioned (run::run)"
+        );
+        let identity = Isometry3::identity();
+        self.poses.resize(self.attachments.len(), identity);
+        self.states.resize(
+            parts.len(),
+            BodyState {
+                linvel_world: Vector3::zeros(),
+                angvel_world: Vector3::zeros(),
+                angmom_world: Vector3::zeros(),
+                kinetic_energy: 0.0,
+                potential_energy: 0.0,
+            },
+        );
+        let (attachments, poses, states) = (&self.attachments, &mut self.poses, &mut self.states);
+        let view = parts.view();
+        let parts = &view;
+        view.install(|| {
+            poses
+                .par_chunks_mut(FRAME_TASK_ITEMS)
+                .zip(attachments.par_chunks(FRAME_TASK_ITEMS))
+                .for_each(|(poses, attachments)| {
+                    for (pose, a) in poses.iter_mut().zip(attachments) {
+                        *pose = parts.world_from_body(a.body) * a.body_from_link;
+                    }
+                });
+            states
+                .par_chunks_mut(FRAME_TASK_ITEMS)
+                .enumerate()
+                .for_each(|(c, states)| {
+                    for (k, state) in states.iter_mut().enumerate() {
+                        let (bodies, j) = parts.body(c * FRAME_TASK_ITEMS + k);
+                        *state = body_state(bodies, j, gravity);
+                    }
+                });
+        });
+        Frame {
+            step,
+            time_ns: time_ns(step, dt_secs),
+            world_from_link: &self.poses,
+            bodies: &self.states,
+            joints: &self.joints,
+            mechanisms: &self.totals,
+        }
+    }
+
     /// Total mechanical energy of the last frame built (reported states), J.
     pub fn total_energy(&self) -> f64 {
         self.states
@@ -227,15 +294,168 @@ impl FrameBuilder {
     }
 }
 
-fn total_energy(bodies: &Bodies, gravity: &Vector3<f64>) -> f64 {
-    (0..bodies.len()).map(|i| bodies.energy(i, gravity)).sum()
-}
+/// Longest run of steps between two meetings of the stepping threads (a recorded step always
+/// ends one; so does this many steps, so an interrupt is seen soon).
+pub const MAX_WINDOW_STEPS: u64 = 100;
 
 /// Runs the simulation, recording into every sink. Sinks are not finished here: the caller ends
 /// the run with [`crate::record::finish_all`]. After every step the [`Guard`] checks each body;
 /// a non-finite or diverging body ends the run early with [`RunSummary::stopped`] set (an `Ok`:
 /// what was recorded is good and is to be finished), so no bad state reaches a sink.
 pub fn run(
+    world: &World,
+    integrator: &mut dyn Integrator,
+    settings: &RunSettings,
+    sinks: &mut [Box<dyn Sink>],
+) -> anyhow::Result<RunSummary> {
+    if !world.mechanisms.is_empty() {
+        return run_articulated(world, integrator, settings, sinks);
+    }
+    run_partitions(world, vec![integrator], settings, sinks)
+}
+
+/// [`run`] on `threads` threads: the batch split into partitions ([`crate::sim::partition`]),
+/// each stepped by an integrator from `make`. The recordings are the same bytes for every
+/// thread count.
+pub fn run_threaded(
+    world: &World,
+    make: &dyn Fn() -> Box<dyn Integrator>,
+    threads: usize,
+    settings: &RunSettings,
+    sinks: &mut [Box<dyn Sink>],
+) -> anyhow::Result<RunSummary> {
+    if !world.mechanisms.is_empty() {
+        // A mechanism's bodies are coupled by its joint rows: one integrator steps them all.
+        return run_articulated(world, &mut *make(), settings, sinks);
+    }
+    let n = crate::sim::partition::partition_count(world.bodies.len(), threads);
+    let mut integrators: Vec<Box<dyn Integrator>> = (0..n).map(|_| make()).collect();
+    let borrowed: Vec<&mut dyn Integrator> = integrators
+        .iter_mut()
+        .map(|b| &mut **b as &mut dyn Integrator)
+        .collect();
+    run_partitions(world, borrowed, settings, sinks)
+}
+
+fn run_partitions(
+    world: &World,
+    integrators: Vec<&mut dyn Integrator>,
+    settings: &RunSettings,
+    sinks: &mut [Box<dyn Sink>],
+) -> anyhow::Result<RunSummary> {
+    let mut parts = Partitions::new(
+        &world.bodies,
+        integrators,
+        settings.divergence_energy_ratio,
+        settings.stop_on_newton_failure,
+    )?;
+    let dt = parts.dt();
+    let g = settings.gravity;
+    let angmom0: Vec<Vector3<f64>> = (0..parts.len())
+        .map(|i| {
+            let (bodies, j) = parts.body(i);
+            bodies.angmom_world(j)
+        })
+        .collect();
+    let mut summary = RunSummary {
+        energy_initial: parts.sum(|b, j| b.energy(j, &g)),
+        ..Default::default()
+    };
+    let mut frames = FrameBuilder::new(world);
+    let log_every = settings.log_every.max(1);
+
+    let mut record =
+        |parts: &Partitions<'_>, step: u64, summary: &mut RunSummary| -> anyhow::Result<()> {
+            let frame = frames.frame_of_parts(parts, &g, step, dt);
+            for sink in sinks.iter_mut() {
+                sink.write(&frame)?;
+            }
+            summary.frames_recorded += 1;
+            summary.last_recorded_step = step;
+            Ok(())
+        };
+    record(&parts, 0, &mut summary)?;
+    summary.steps = settings.steps;
+    let mut step = 0;
+    while step < settings.steps {
+        let next_record = (step / log_every + 1) * log_every;
+        let end = next_record.min(settings.steps).min(step + MAX_WINDOW_STEPS);
+        let window = parts.advance(step, end, &g);
+        summary.stats = summary.stats.merge(window.stats);
+        if let Some(stop) = window.stop {
+            summary.stopped = Some(stop);
+            summary.steps = stop.step - 1;
+            return Ok(summary);
+        }
+        step = end;
+        let stop = settings.stop_on_interrupt && crate::interrupt::requested();
+        if step % log_every == 0 || step == settings.steps || stop {
+            record(&parts, step, &mut summary)?;
+        }
+        if stop {
+            summary.interrupted = Some(crate::interrupt::signal());
+            summary.steps = step;
+            break;
+        }
+    }
+    summary.energy_final = parts.sum(|b, j| b.energy(j, &g));
+    summary.angmom_rel_change_max = (0..parts.len())
+        .map(|i| {
+            let l0 = angmom0[i];
+            let (bodies, j) = parts.body(i);
+            (bodies.angmom_world(j) - l0).norm() / l0.norm().max(f64::MIN_POSITIVE)
+        })
+        .fold(0.0, f64::max);
+    Ok(summary)
+}
+
+/// The error of a run the guard stopped ([`RunSummary::stopped`]), after its recordings were
+/// finished. `tumble` exits with status 3 on it.
+#[derive(Debug, Clone)]
+pub struct Diverged {
+    pub divergence: Divergence,
+    /// The body's name (its frame id).
+    pub body_name: String,
+    pub dt_secs: f64,
+    /// Steps recorded, the last one.
+    pub last_recorded_step: u64,
+    /// The finished recordings.
+    pub outputs: Vec<std::path::PathBuf>,
+}
+
+impl std::fmt::Display for Diverged {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let d = &self.divergence;
+        write!(
+            f,
+            "body {:?} (index {}) failed at step {} (t = {} s): {}. The run stopped after step {}; \
+             the recordings end at step {} (t = {} s) and are complete and readable:",
+            self.body_name,
+            d.body,
+            d.step,
+            time_ns(d.step, self.dt_secs) as f64 / 1e9,
+            d.cause,
+            d.step.saturating_sub(1),
+            self.last_recorded_step,
+            time_ns(self.last_recorded_step, self.dt_secs) as f64 / 1e9,
+        )?;
+        for path in &self.outputs {
+            write!(f, " {}", path.display())?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for Diverged {}
+
+fn total_energy(bodies: &Bodies, gravity: &Vector3<f64>) -> f64 {
+    (0..bodies.len()).map(|i| bodies.energy(i, gravity)).sum()
+}
+
+/// [`run`] of a scene with articulated models: one integrator steps the whole batch (a
+/// mechanism's bodies are coupled by its joint rows), the guard watches the mechanisms too, and
+/// the summary's energy and momenta are the reported ones.
+fn run_articulated(
     world: &World,
     integrator: &mut dyn Integrator,
     settings: &RunSettings,
@@ -318,42 +538,3 @@ pub fn run(
         .fold(0.0, f64::max);
     Ok(summary)
 }
-
-/// The error of a run the guard stopped ([`RunSummary::stopped`]), after its recordings were
-/// finished. `tumble` exits with status 3 on it.
-#[derive(Debug, Clone)]
-pub struct Diverged {
-    pub divergence: Divergence,
-    /// The body's name (its frame id).
-    pub body_name: String,
-    pub dt_secs: f64,
-    /// Steps recorded, the last one.
-    pub last_recorded_step: u64,
-    /// The finished recordings.
-    pub outputs: Vec<std::path::PathBuf>,
-}
-
-impl std::fmt::Display for Diverged {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let d = &self.divergence;
-        write!(
-            f,
-            "body {:?} (index {}) failed at step {} (t = {} s): {}. The run stopped after step {}; \
-             the recordings end at step {} (t = {} s) and are complete and readable:",
-            self.body_name,
-            d.body,
-            d.step,
-            time_ns(d.step, self.dt_secs) as f64 / 1e9,
-            d.cause,
-            d.step.saturating_sub(1),
-            self.last_recorded_step,
-            time_ns(self.last_recorded_step, self.dt_secs) as f64 / 1e9,
-        )?;
-        for path in &self.outputs {
-            write!(f, " {}", path.display())?;
-        }
-        Ok(())
-    }
-}
-
-impl std::error::Error for Diverged {}

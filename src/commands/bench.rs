@@ -1,7 +1,12 @@
 //! `tumble bench`: the cost of the bare step, no recording.
 //!
-//! - `tumble bench --bodies N --steps K --integrator NAME`: steps N differently initialised free
-//!   bodies K steps; the last line is `ns_per_body_step=<median>`.
+//! - `tumble bench --bodies N --steps K --integrator NAME [--threads T]`: steps N differently
+//!   initialised free bodies K steps; the last line is `ns_per_body_step=<median>` (wall time
+//!   per body-step on T threads). With T threads the batch is split as `simulate --threads T`
+//!   splits it ([`crate::sim::partition`]), the run guard checks every step, and the threads
+//!   meet every [`WINDOW_STEPS`] steps (a run recorded at 100 Hz with dt = 1 ms); with T > 1
+//!   the same is timed on one thread too and the line `scaling 1 -> T threads: S x` printed
+//!   before the last.
 //! - `tumble bench --scene SCENE.toml [--steps K] [--integrator NAME] [--dt DT]`: steps any
 //!   scene (articulated models included) with its own integrator and step unless given; the
 //!   last two lines are `ns_per_step=<median>` (one step of the whole scene) and
@@ -14,6 +19,7 @@
 //!   (`scripts/bench_mechanism.sh`).
 
 use crate::scene::Scene;
+use crate::sim::partition::{Partitions, partition_count};
 use crate::sim::workload::free_body_batch;
 use crate::sim::{Bodies, Integrator, IntegratorKind};
 use crate::trade::measure::median;
@@ -21,6 +27,9 @@ use anyhow::bail;
 use nalgebra::Vector3;
 use std::path::PathBuf;
 use std::time::Instant;
+
+/// Steps between two meetings of the threads (a 100 Hz recording at dt = 1 ms).
+pub const WINDOW_STEPS: u64 = 10;
 
 #[derive(clap::Args, Debug, Clone)]
 pub struct BenchArgs {
@@ -46,6 +55,9 @@ pub struct BenchArgs {
     /// (untimed).
     #[arg(long, value_name = "SECS")]
     pub errors_over: Option<f64>,
+    /// Stepping threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
     /// Run even when the estimated computing time exceeds 7 days (memory is always checked).
     #[arg(long)]
     pub allow_huge: bool,
@@ -113,28 +125,66 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
         None,
     )
     .check(args.allow_huge)?;
-    let start = Bodies::new(&free_body_batch(args.bodies));
+    let threads = crate::commands::simulate::thread_count(args.threads)?;
+    let inits = free_body_batch(args.bodies);
     let gravity = Vector3::new(0.0, 0.0, -9.81);
     let settings = Default::default();
-    println!(
-        "{} x {} steps of {} bodies ({name}, dt = {dt} s), no recording",
-        args.repeats, args.steps, args.bodies
-    );
-    let n = args.bodies as f64;
-    let ns = time_steps(
-        &start,
-        &|| Ok(kind.build(dt, &settings)),
-        &gravity,
-        args,
-        &|r, ns, failures| {
+    let mut medians = Vec::new();
+    let counts: Vec<usize> = if threads > 1 {
+        vec![1, threads]
+    } else {
+        vec![1]
+    };
+    for &t in &counts {
+        let parts = partition_count(args.bodies, t);
+        println!(
+            "{} x {} steps of {} bodies ({}, dt = {} s), no recording, {t} thread{} ({parts} partition{})",
+            args.repeats,
+            args.steps,
+            args.bodies,
+            name,
+            dt,
+            if t == 1 { "" } else { "s" },
+            if parts == 1 { "" } else { "s" },
+        );
+        let mut samples = Vec::with_capacity(args.repeats);
+        for r in 0..args.repeats {
+            let mut integrators: Vec<Box<dyn crate::sim::Integrator>> =
+                (0..parts).map(|_| kind.build(dt, &settings)).collect();
+            let borrowed: Vec<&mut dyn crate::sim::Integrator> = integrators
+                .iter_mut()
+                .map(|b| &mut **b as &mut dyn crate::sim::Integrator)
+                .collect();
+            let mut batch = Partitions::new(&inits, borrowed, f64::MAX, None)?;
+            let started = Instant::now();
+            let mut failures = 0u64;
+            let mut step = 0;
+            while step < args.steps {
+                let end = (step + WINDOW_STEPS).min(args.steps);
+                failures += u64::from(batch.advance(step, end, &gravity).stats.newton_failures);
+                step = end;
+            }
+            let ns =
+                started.elapsed().as_secs_f64() * 1e9 / (args.steps as f64 * args.bodies as f64);
+            std::hint::black_box(&batch.parts);
             println!(
-                "run {}: {:.2} ns per body-step ({failures} non-converged solves)",
-                r + 1,
-                ns / n
-            )
-        },
-    )?;
-    println!("ns_per_body_step={:.2}", ns / n);
+                "run {}: {ns:.2} ns per body-step ({failures} non-converged solves)",
+                r + 1
+            );
+            samples.push(ns);
+        }
+        medians.push(median(&mut samples));
+    }
+    if let [one, many] = medians[..] {
+        println!(
+            "ns_per_body_step 1 thread={one:.2} {threads} threads={many:.2}; scaling 1 -> {threads} threads: {:.2}x",
+            one / many
+        );
+    }
+    println!(
+        "ns_per_body_step={:.2}",
+        medians.last().copied().unwrap_or(f64::NAN)
+    );
     Ok(())
 }
 

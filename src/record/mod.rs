@@ -7,8 +7,12 @@
 pub mod cdr;
 pub mod layout_json;
 pub mod mcap;
+pub mod mcap_encode;
 pub mod mechanism_proto;
+pub mod parquet;
+pub mod pipelined;
 pub mod rerun;
+pub mod rerun_batched;
 pub mod rerun_blueprint;
 pub mod ros2;
 pub mod ros2_msgs;

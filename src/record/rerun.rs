@@ -83,6 +83,7 @@ mod joints;
 
 pub use joints::{joint_position_entity_path, joint_velocity_entity_path, mechanism_entity_path};
 
+use super::rerun_batched::{Batches, Content, is_batched};
 use super::rerun_blueprint::{
     PlotView, SceneBounds, blueprint_chunks, blueprint_messages, default_plot_views,
 };
@@ -254,12 +255,12 @@ fn f64c(x: f64) -> f64 {
     x + 0.0
 }
 
-fn f32x3(v: &nalgebra::Vector3<f64>) -> [f32; 3] {
+pub(super) fn f32x3(v: &nalgebra::Vector3<f64>) -> [f32; 3] {
     [f32c(v.x), f32c(v.y), f32c(v.z)]
 }
 
 /// Quaternion as `[x, y, z, w]` in f32.
-fn quat_xyzw(iso: &Isometry3<f64>) -> [f32; 4] {
+pub(super) fn quat_xyzw(iso: &Isometry3<f64>) -> [f32; 4] {
     let q = iso.rotation.quaternion();
     [f32c(q.i), f32c(q.j), f32c(q.k), f32c(q.w)]
 }
@@ -461,6 +462,11 @@ pub struct RerunSink {
     angmom0: Vec<nalgebra::Vector3<f64>>,
     /// The series of articulated models ([`joints`]).
     joint_plots: joints::JointPlots,
+    /// Link frames and bodies of the layout.
+    frame_count: usize,
+    body_count: usize,
+    /// The big-scene layout ([`super::rerun_batched`]), when the layout is big.
+    batched: Option<Batches>,
     done: bool,
 }
 
@@ -556,6 +562,7 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         last_id: 0,
         error: None,
     }));
+    let batched = is_batched(layout).then(|| Batches::new(layout, options.ellipsoids));
     // From here on, an early return drops `sink`, which removes the part file.
     let mut sink = RerunSink {
         rec: None,
@@ -564,8 +571,15 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         final_path: path.to_owned(),
         frames: Vec::new(),
         bodies: Vec::new(),
-        buffer: Buffer::new(layout.frames.len(), layout.bodies.len()),
-        batch_frames: batch_frames(layout.frames.len(), layout.bodies.len()),
+        buffer: if batched.is_some() {
+            Buffer::new(0, 0)
+        } else {
+            Buffer::new(layout.frames.len(), layout.bodies.len())
+        },
+        batch_frames: match &batched {
+            Some(b) => b.rows_per_send,
+            None => batch_frames(layout.frames.len(), layout.bodies.len()),
+        },
         last_time_ns: None,
         warnings: Vec::new(),
         footer_hold,
@@ -581,6 +595,9 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         energy0: None,
         angmom0: Vec::new(),
         joint_plots: joints::JointPlots::new(layout),
+        frame_count: layout.frames.len(),
+        body_count: layout.bodies.len(),
+        batched,
         done: false,
     };
     let extra_views = sink.joint_plots.plot_views(layout);
@@ -615,14 +632,29 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
 }
 
 /// A static chunk with one row holding all the given archetypes.
-fn static_chunk(entity: EntityPath, archetypes: &[&dyn AsComponents]) -> Result<Chunk> {
+pub(super) fn static_chunk(entity: EntityPath, archetypes: &[&dyn AsComponents]) -> Result<Chunk> {
     let batches: Vec<SerializedComponentBatch> = archetypes
         .iter()
         .flat_map(|a| a.as_serialized_batches())
         .collect();
+    static_batches_chunk(entity, batches)
+}
+
+/// A static chunk with one row holding the given component batches.
+pub(super) fn static_batches_chunk(
+    entity: EntityPath,
+    batches: Vec<SerializedComponentBatch>,
+) -> Result<Chunk> {
     Ok(Chunk::builder(entity)
         .with_serialized_batches(RowId::new(), TimePoint::default(), batches)
         .build()?)
+}
+
+/// A visual's shape ([`RerunSink::visual_shape`]).
+pub(super) struct Shape {
+    pub batches: Vec<SerializedComponentBatch>,
+    /// The mesh scale, for meshes.
+    pub scale: Option<[f32; 3]>,
 }
 
 fn instance_pose(iso: &Isometry3<f64>, scale: Option<[f32; 3]>) -> rerun::InstancePoses3D {
@@ -674,6 +706,10 @@ impl RerunSink {
             ],
         )?)?;
         self.write_metadata(layout)?;
+        if self.batched.is_some() {
+            self.write_batched_layout(layout)?;
+            return self.write_scene_plot_names(layout);
+        }
 
         let mut used = BTreeSet::new();
         for frame in &layout.frames {
@@ -741,6 +777,11 @@ impl RerunSink {
             )?)?;
             self.bodies.push(track);
         }
+        self.write_scene_plot_names(layout)
+    }
+
+    /// The static series names of the scene-level plots.
+    fn write_scene_plot_names(&mut self, layout: &RecordingLayout) -> Result<()> {
         if !layout.bodies.is_empty() {
             self.send(static_chunk(
                 scene_energy_entity_path(),
@@ -759,6 +800,39 @@ impl RerunSink {
             self.send(chunk)?;
         }
         Ok(())
+    }
+
+    /// The static part of the batched layout: each batch's shape ([`super::rerun_batched`]).
+    fn write_batched_layout(&mut self, layout: &RecordingLayout) -> Result<()> {
+        let batches = self.batched.take().context("no batched layout")?;
+        let result = (|| -> Result<()> {
+            for batch in &batches.list {
+                let frame = &layout.frames[batch.first_frame];
+                let shape = match batch.content {
+                    Content::Visual { index } => {
+                        match self.visual_shape(&batch.entity, &frame.visuals[index])? {
+                            Some(shape) => shape.batches,
+                            None => continue,
+                        }
+                    }
+                    Content::Inertia { body } => {
+                        let radii = layout.bodies[body].inertia_ellipsoid_radii();
+                        rerun::Ellipsoids3D::from_half_sizes([f32x3(&radii)])
+                            .with_colors([rerun::Rgba32::from_unmultiplied_rgba(255, 160, 0, 255)])
+                            .with_fill_mode(rerun::FillMode::MajorWireframe)
+                            .as_serialized_batches()
+                    }
+                };
+                // In the world frame: an entity without a `CoordinateFrame` sits in its implicit
+                // frame `tf#/<path>`, which is not connected to "world".
+                let mut batches = rerun::CoordinateFrame::new(WORLD_FRAME).as_serialized_batches();
+                batches.extend(shape);
+                self.send(static_batches_chunk(batch.entity.clone(), batches)?)?;
+            }
+            Ok(())
+        })();
+        self.batched = Some(batches);
+        result
     }
 
     fn write_metadata(&mut self, layout: &RecordingLayout) -> Result<()> {
@@ -793,66 +867,68 @@ impl RerunSink {
         frame: &FrameLayout,
         visual: &Visual,
     ) -> Result<()> {
+        let Some(shape) = self.visual_shape(&entity, visual)? else {
+            return Ok(());
+        };
         let frame_id = rerun::CoordinateFrame::new(frame.frame_id.as_str());
+        let pose = instance_pose(&visual.link_from_visual, shape.scale);
+        let mut batches = frame_id.as_serialized_batches();
+        batches.extend(pose.as_serialized_batches());
+        batches.extend(shape.batches);
+        self.send(static_batches_chunk(entity, batches)?)
+    }
+
+    /// The component batches drawing `visual` at its own origin (the caller places it: by a
+    /// `CoordinateFrame` and its origin as an instance pose, or by per-step instance poses in
+    /// the batched layout), and the mesh scale the instance pose must carry. `None`, with a
+    /// warning, for a mesh that cannot be shown.
+    pub(super) fn visual_shape(
+        &mut self,
+        entity: &EntityPath,
+        visual: &Visual,
+    ) -> Result<Option<Shape>> {
         let colors = [color(visual.rgba)];
-        let origin = &visual.link_from_visual;
-        let chunk = match &visual.geometry {
-            Geometry::Box { size } => static_chunk(
-                entity,
-                &[
-                    &frame_id,
-                    &instance_pose(origin, None),
-                    &rerun::Boxes3D::from_sizes([f32x3(size)]).with_colors(colors),
-                ],
-            )?,
-            Geometry::Sphere { radius } => static_chunk(
-                entity,
-                &[
-                    &frame_id,
-                    &instance_pose(origin, None),
-                    &rerun::Ellipsoids3D::from_radii([*radius as f32]).with_colors(colors),
-                ],
-            )?,
-            Geometry::Cylinder { radius, length } => static_chunk(
-                entity,
-                &[
-                    &frame_id,
-                    &instance_pose(origin, None),
-                    &rerun::Cylinders3D::from_lengths_and_radii([*length as f32], [*radius as f32])
-                        .with_colors(colors),
-                ],
-            )?,
-            Geometry::Capsule { radius, length } => static_chunk(
-                entity,
-                &[
-                    &frame_id,
-                    &instance_pose(origin, None),
-                    // Rerun's capsule runs from the origin to +z; URDF's is centred.
-                    &rerun::Capsules3D::from_lengths_and_radii([*length as f32], [*radius as f32])
-                        .with_translations([[0.0, 0.0, -0.5 * *length as f32]])
-                        .with_colors(colors),
-                ],
-            )?,
+        let primitive = |a: &dyn AsComponents| Shape {
+            batches: a.as_serialized_batches(),
+            scale: None,
+        };
+        let shape = match &visual.geometry {
+            Geometry::Box { size } => {
+                primitive(&rerun::Boxes3D::from_sizes([f32x3(size)]).with_colors(colors))
+            }
+            Geometry::Sphere { radius } => {
+                primitive(&rerun::Ellipsoids3D::from_radii([*radius as f32]).with_colors(colors))
+            }
+            Geometry::Cylinder { radius, length } => primitive(
+                &rerun::Cylinders3D::from_lengths_and_radii([*length as f32], [*radius as f32])
+                    .with_colors(colors),
+            ),
+            // Rerun's capsule runs from the origin to +z; URDF's is centred.
+            Geometry::Capsule { radius, length } => primitive(
+                &rerun::Capsules3D::from_lengths_and_radii([*length as f32], [*radius as f32])
+                    .with_translations([[0.0, 0.0, -0.5 * *length as f32]])
+                    .with_colors(colors),
+            ),
             Geometry::Mesh { uri, path, scale } => {
                 let Some(path) = path else {
                     self.warn(format!(
                         "{entity}: mesh {uri:?} was not found or is not a readable regular file (`tumble inspect` says which), left out of the Rerun recording"
                     ));
-                    return Ok(());
+                    return Ok(None);
                 };
                 if let Err(err) = crate::input::check(path, crate::input::MESH_MAX_BYTES) {
                     self.warn(format!(
                         "{entity}: cannot read mesh {}: {err}, left out of the Rerun recording",
                         path.display()
                     ));
-                    return Ok(());
+                    return Ok(None);
                 }
                 let ext = path
                     .extension()
                     .and_then(|e| e.to_str())
                     .unwrap_or("")
                     .to_ascii_lowercase();
-                if ext == "dae" {
+                let batches = if ext == "dae" {
                     // Rerun reads no Collada: tumble's own reader gives the triangles (its
                     // `<unit>` and node transforms applied, `<up_axis>` ignored as RViz does), sent
                     // as a `Mesh3D`.
@@ -860,54 +936,47 @@ impl RerunSink {
                         Ok(mesh) => mesh,
                         Err(err) => {
                             self.warn(format!("{entity}: {err}, left out of the Rerun recording"));
-                            return Ok(());
+                            return Ok(None);
                         }
                     };
-                    let mesh3d = mesh3d(&mesh).with_albedo_factor(color(visual.rgba));
-                    let chunk = static_chunk(
-                        entity,
-                        &[
-                            &frame_id,
-                            &instance_pose(origin, Some(f32x3(scale))),
-                            &mesh3d,
-                        ],
-                    )?;
-                    return self.send(chunk);
-                }
-                if !matches!(ext.as_str(), "stl" | "obj" | "glb" | "gltf") {
-                    self.warn(format!(
-                        "{entity}: mesh {uri:?} has a format Rerun cannot show (.{ext}), left out of the Rerun recording"
-                    ));
-                    return Ok(());
-                }
-                // Bounded, regular files only (`crate::input`), then as `from_file_path` would.
-                let read = crate::input::read_bytes(path, crate::input::MESH_MAX_BYTES).map(|b| {
-                    rerun::Asset3D::from_file_contents(
-                        b,
-                        rerun::components::MediaType::guess_from_path(path),
-                    )
-                });
-                let asset = match read {
-                    Ok(asset) => asset.with_albedo_factor(color(visual.rgba)),
-                    Err(err) => {
+                    mesh3d(&mesh)
+                        .with_albedo_factor(color(visual.rgba))
+                        .as_serialized_batches()
+                } else {
+                    if !matches!(ext.as_str(), "stl" | "obj" | "glb" | "gltf") {
                         self.warn(format!(
-                            "{entity}: cannot read mesh {}: {err}, left out of the Rerun recording",
-                            path.display()
+                            "{entity}: mesh {uri:?} has a format Rerun cannot show (.{ext}), left out of the Rerun recording"
                         ));
-                        return Ok(());
+                        return Ok(None);
+                    }
+                    // Bounded, regular files only (`crate::input`), then as `from_file_path` would.
+                    let read =
+                        crate::input::read_bytes(path, crate::input::MESH_MAX_BYTES).map(|b| {
+                            rerun::Asset3D::from_file_contents(
+                                b,
+                                rerun::components::MediaType::guess_from_path(path),
+                            )
+                        });
+                    match read {
+                        Ok(asset) => asset
+                            .with_albedo_factor(color(visual.rgba))
+                            .as_serialized_batches(),
+                        Err(err) => {
+                            self.warn(format!(
+                                "{entity}: cannot read mesh {}: {err}, left out of the Rerun recording",
+                                path.display()
+                            ));
+                            return Ok(None);
+                        }
                     }
                 };
-                static_chunk(
-                    entity,
-                    &[
-                        &frame_id,
-                        &instance_pose(origin, Some(f32x3(scale))),
-                        &asset,
-                    ],
-                )?
+                Shape {
+                    batches,
+                    scale: Some(f32x3(scale)),
+                }
             }
         };
-        self.send(chunk)
+        Ok(Some(shape))
     }
 
     fn write_inertia(
@@ -943,6 +1012,26 @@ impl RerunSink {
                 TimeColumn::new_sequence(STEP_TIMELINE, buffer.step.iter().copied()),
             ]
         };
+        if let Some(batched) = &self.batched {
+            for (b, batch) in batched.list.iter().enumerate() {
+                let per_row = batch.frames.len();
+                let mut poses = rerun::InstancePoses3D::update_fields()
+                    .with_translations(batched.translations[b].iter().copied())
+                    .with_quaternions(
+                        batched.quaternions[b]
+                            .iter()
+                            .map(|q| rerun::Quaternion::from_xyzw(*q)),
+                    );
+                if let Some(scale) = batch.scale {
+                    poses = poses.with_scales(std::iter::repeat_n(scale, n * per_row));
+                }
+                rec.send_columns(
+                    batch.entity.clone(),
+                    times(),
+                    poses.columns(std::iter::repeat_n(per_row, n))?,
+                )?;
+            }
+        }
         for (i, track) in self.frames.iter().enumerate() {
             let transforms = rerun::Transform3D::update_fields()
                 .with_many_translation(buffer.translation[i].iter().copied())
@@ -973,7 +1062,7 @@ impl RerunSink {
                     .columns_of_unit_batches()?,
             )?;
         }
-        if !self.bodies.is_empty() {
+        if self.body_count > 0 {
             rec.send_columns(
                 scene_energy_entity_path(),
                 times(),
@@ -1003,6 +1092,9 @@ impl RerunSink {
         rec.flush_blocking()
             .with_context(|| format!("writing {}", self.part_path.display()))?;
         self.buffer.clear();
+        if let Some(batched) = &mut self.batched {
+            batched.clear();
+        }
         self.check_sink()
     }
 
@@ -1111,18 +1203,18 @@ impl RerunSink {
 
 impl Sink for RerunSink {
     fn write(&mut self, frame: &Frame<'_>) -> Result<()> {
-        if frame.world_from_link.len() != self.frames.len() {
+        if frame.world_from_link.len() != self.frame_count {
             bail!(
                 "frame has {} link poses, the layout {}",
                 frame.world_from_link.len(),
-                self.frames.len()
+                self.frame_count
             );
         }
-        if frame.bodies.len() != self.bodies.len() {
+        if frame.bodies.len() != self.body_count {
             bail!(
                 "frame has {} body states, the layout {}",
                 frame.bodies.len(),
-                self.bodies.len()
+                self.body_count
             );
         }
         if let Some(last) = self.last_time_ns
@@ -1136,9 +1228,15 @@ impl Sink for RerunSink {
         buffer
             .step
             .push(i64::try_from(frame.step).context("step does not fit an i64")?);
+        let per_body = self.batched.is_none();
+        if let Some(batched) = &mut self.batched {
+            batched.push(frame);
+        }
         for (i, pose) in frame.world_from_link.iter().enumerate() {
-            buffer.translation[i].push(f32x3(&pose.translation.vector));
-            buffer.quaternion[i].push(quat_xyzw(pose));
+            if per_body {
+                buffer.translation[i].push(f32x3(&pose.translation.vector));
+                buffer.quaternion[i].push(quat_xyzw(pose));
+            }
             self.bounds
                 .add(&pose.translation.vector, self.frame_reach[i]);
         }
@@ -1166,13 +1264,15 @@ impl Sink for RerunSink {
         };
         let (mut kinetic, mut potential) = (0.0, 0.0);
         for (i, body) in frame.bodies.iter().enumerate() {
-            let total = body.kinetic_energy + body.potential_energy;
-            buffer.energy[i].extend([
-                f64c(body.kinetic_energy),
-                f64c(body.potential_energy),
-                f64c(total),
-            ]);
-            buffer.angular_momentum[i].push(f64c(body.angmom_world.norm()));
+            if per_body {
+                let total = body.kinetic_energy + body.potential_energy;
+                buffer.energy[i].extend([
+                    f64c(body.kinetic_energy),
+                    f64c(body.potential_energy),
+                    f64c(total),
+                ]);
+                buffer.angular_momentum[i].push(f64c(body.angmom_world.norm()));
+            }
             kinetic += body.kinetic_energy;
             potential += body.potential_energy;
         }

@@ -26,7 +26,7 @@
 
 use super::{Attachment, BaseMode, InteriorFrame, ModelEntry, World};
 use crate::model::articulation::{self, Articulation};
-use crate::model::kinematics::{JointKind, rotation_from_rpy};
+use crate::model::kinematics::JointKind;
 use crate::model::{MassProperties, Model};
 use crate::record::{BodyLayout, FrameLayout, JointLayout, MechanismLayout};
 use crate::sim::BodyInit;
@@ -38,7 +38,16 @@ use crate::sim::mechanism::{
 };
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeSet, HashMap, HashSet};
+
+/// One copy of a `[[model]]` table: its frame-id prefix, its label (the copy's name, the
+/// table's `name` or the URDF's) and its drawn placement (`position`/`rpy`/`linvel`/`angvel`,
+/// docs/scale.md).
+pub(super) struct CopyPlace<'a> {
+    pub prefix: Option<&'a str>,
+    pub label: &'a str,
+    pub place: &'a crate::placement::Placement,
+}
 use std::sync::Arc;
 
 /// Adds `model` as a mechanism (or, with no joint kept and a floating base, as the rigid body
@@ -47,8 +56,10 @@ pub(super) fn add_articulated_model(
     world: &mut World,
     model: &Model,
     entry: &ModelEntry,
+    copy: &CopyPlace<'_>,
+    body_names: &mut HashSet<String>,
 ) -> anyhow::Result<()> {
-    let label = entry.name.clone().unwrap_or_else(|| model.name.clone());
+    let label = copy.label.to_string();
     let joint_index: HashMap<&str, usize> = model
         .joints
         .iter()
@@ -129,9 +140,17 @@ pub(super) fn add_articulated_model(
             );
         }
         // One group: exactly the rigid body.
-        return super::add_rigid_model(world, model, entry);
+        return super::add_rigid_model(
+            world,
+            model,
+            copy.prefix,
+            copy.label,
+            copy.place,
+            entry.allow_non_physical_inertia,
+            body_names,
+        );
     }
-    build(world, model, entry, &art, &label, fixed)
+    build(world, model, entry, copy, &art, fixed)
 }
 
 /// Every group that is a body must be a valid rigid body (the rigid-mode rules).
@@ -190,18 +209,16 @@ fn build(
     world: &mut World,
     model: &Model,
     entry: &ModelEntry,
+    copy: &CopyPlace<'_>,
     art: &Articulation,
-    label: &str,
     fixed: bool,
 ) -> anyhow::Result<()> {
-    let frame_id = |link: &str| match &entry.name {
+    let label = copy.label;
+    let frame_id = |link: &str| match copy.prefix {
         Some(prefix) => format!("{prefix}/{link}"),
         None => link.to_string(),
     };
-    let world_from_model = Isometry3::from_parts(
-        Translation3::from(Vector3::from(entry.position)),
-        rotation_from_rpy(entry.rpy),
-    );
+    let world_from_model = copy.place.world_from_model;
     // Group frames F_g (model_from_group) and moments.
     let frames: Vec<(Vector3<f64>, Isometry3<f64>)> = art
         .groups
@@ -388,8 +405,8 @@ fn build(
         .collect();
     let root = (!fixed).then(|| RootTwist {
         origin: world_from_model.translation.vector,
-        linvel: Vector3::from(entry.linvel),
-        angvel: Vector3::from(entry.angvel),
+        linvel: copy.place.linvel_world,
+        angvel: copy.place.angvel_world,
     });
     let twists = body_twists(&mechanism, &world_from_body, root, &rates);
     for (g, group) in art.groups.iter().enumerate() {
@@ -480,7 +497,7 @@ fn build(
             .position(|j| j.name == c.name)
             .expect("a coordinate is a URDF joint")];
         world.layout.joints.push(JointLayout {
-            name: match &entry.name {
+            name: match copy.prefix {
                 Some(prefix) => format!("{prefix}/{}", c.name),
                 None => c.name.clone(),
             },
