@@ -517,8 +517,10 @@ fn fixed_joint_merges_into_the_rigid_composite() {
     let ixx =
         27.333333333333332 + 0.8336666666666667 + 200.0 * d_bus * d_bus + 10.0 * d_panel * d_panel;
     let iyy = 34.666666666666664 + 4.166666666666667;
-    let izz =
-        40.666666666666664 + 3.3336666666666668 + 200.0 * d_bus * d_bus + 10.0 * d_panel * d_panel;
+    let izz = 40.666666666666664
+        + 3.333_666_666_666_667
+        + 200.0 * d_bus * d_bus
+        + 10.0 * d_panel * d_panel;
     let mut expected = [ixx, iyy, izz];
     expected.sort_by(f64::total_cmp);
     let mut got: Vec<f64> = body.principal_moments.iter().copied().collect();

@@ -218,13 +218,14 @@ pub fn articulate(
     // Kept joints between pre-groups: entering[g] for g > 0.
     let massive = |g: usize| groups[g].composite.is_some();
     let root_link = &model.links[model.root].name;
-    if !fixed_base && !massive(0) {
-        if let Some(j) = (1..groups.len()).find_map(|g| entering[g]) {
-            return Err(ArticulationError::MasslessRoot {
-                link: root_link.clone(),
-                joint: model.joints[j].name.clone(),
-            });
-        }
+    if !fixed_base
+        && !massive(0)
+        && let Some(j) = (1..groups.len()).find_map(|g| entering[g])
+    {
+        return Err(ArticulationError::MasslessRoot {
+            link: root_link.clone(),
+            joint: model.joints[j].name.clone(),
+        });
     }
     // 4. Bodies: the root group and every massive group; massless groups inside chains.
     let mut body_of = vec![usize::MAX; groups.len()];

@@ -403,7 +403,7 @@ fn build(
         .filter(|(g, _)| local(*g).is_some())
         .map(|(g, _)| world_from_model * frames[g].1)
         .collect();
-    let root = (!fixed).then(|| RootTwist {
+    let root = (!fixed).then_some(RootTwist {
         origin: world_from_model.translation.vector,
         linvel: copy.place.linvel_world,
         angvel: copy.place.angvel_world,
