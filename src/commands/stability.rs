@@ -2,6 +2,10 @@
 //! [`crate::stability`]; writes `DIR/stability.csv` and `DIR/stability.png` and prints, per
 //! integrator, the limit of `h|Ω|` derived from the map beside the documented one
 //! ([`crate::sim::limits::h_omega_limit`]).
+//!
+//! `tumble stability --scene SCENE.toml [--dt a,b,...] [--duration SECS]`: the scene itself at
+//! a ladder of step sizes (articulated models included, [`crate::stability::scene`]); writes
+//! `DIR/stability_scene.csv` and prints the rows and, per integrator, the largest `ok` step.
 
 use crate::commands::parse_integrators;
 use crate::fsutil::write_atomic;
@@ -22,12 +26,76 @@ pub struct StabilityArgs {
     /// indicative only (the documented ones come from the full map).
     #[arg(long)]
     pub quick: bool,
-    /// Replace stability.csv and stability.png if they exist.
+    /// Replace stability.csv and stability.png (stability_scene.csv with --scene) if they exist.
     #[arg(long)]
     pub force: bool,
+    /// Map this scene along the step size instead of the dimensionless free-body map
+    /// (articulated models included: the variational family).
+    #[arg(long, value_name = "SCENE.toml")]
+    pub scene: Option<PathBuf>,
+    /// With --scene: step sizes, s, comma-separated (default: the scene's dt times 0.5, 1, 2,
+    /// 4, ..., 64).
+    #[arg(long = "dt", value_delimiter = ',', num_args = 1.., requires = "scene")]
+    pub dts: Vec<f64>,
+    /// With --scene: the horizon of each run, s (default: the scene's duration).
+    #[arg(long, requires = "scene")]
+    pub duration: Option<f64>,
+}
+
+fn run_scene(args: &StabilityArgs, path: &std::path::Path) -> anyhow::Result<()> {
+    let kinds = parse_integrators(&args.integrators)?;
+    if args.quick {
+        anyhow::bail!("--quick is for the free-body map; with --scene choose the steps with --dt");
+    }
+    let scene = crate::scene::Scene::load(path)?;
+    let dts: Vec<f64> = if args.dts.is_empty() {
+        stability::scene::DT_FACTORS
+            .iter()
+            .map(|f| f * scene.sim.dt)
+            .collect()
+    } else {
+        args.dts.clone()
+    };
+    for &dt in &dts {
+        if !(dt.is_finite() && dt > 0.0) {
+            anyhow::bail!("--dt: step sizes must be positive (got {dt})");
+        }
+    }
+    let duration = args.duration.unwrap_or(scene.sim.duration);
+    if !(duration.is_finite() && duration > 0.0) {
+        anyhow::bail!("--duration must be a positive number of seconds (got {duration})");
+    }
+    let csv = args.out.join("stability_scene.csv");
+    crate::fsutil::check_not_overwriting(&csv, args.force)?;
+    println!(
+        "stability of {} along dt: {} step sizes over {duration} s",
+        path.display(),
+        dts.len()
+    );
+    let map = stability::scene::sweep(
+        &scene,
+        &kinds,
+        !args.integrators.is_empty(),
+        &dts,
+        duration,
+        |row| eprintln!("  ran {} at dt = {} s", row.integrator.name(), row.dt),
+    )?;
+    for line in &map.skipped {
+        println!("{line}");
+    }
+    print!("{}", stability::scene::summary(&map));
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    write_atomic(&csv, stability::scene::csv(&map.rows).as_bytes())?;
+    println!("wrote");
+    println!("  {}", csv.display());
+    Ok(())
 }
 
 pub fn run(args: &StabilityArgs) -> anyhow::Result<()> {
+    if let Some(path) = &args.scene {
+        return run_scene(args, path);
+    }
     let kinds = parse_integrators(&args.integrators)?;
     let csv = args.out.join("stability.csv");
     let png = args.out.join("stability.png");

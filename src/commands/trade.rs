@@ -113,6 +113,7 @@ pub fn settings_from_args(args: &TradeArgs) -> anyhow::Result<(Scene, TradeSetti
             drift_horizon_secs,
             repeats: args.repeats,
             threads: crate::commands::simulate::thread_count(args.threads)?,
+            integrators_named: !args.integrators.is_empty(),
         },
     ))
 }
@@ -150,12 +151,21 @@ pub fn run(args: &TradeArgs) -> anyhow::Result<()> {
     for warning in &report.warnings {
         eprintln!("warning: {warning}");
     }
+    for line in &report.skipped {
+        println!("{line}");
+    }
     println!("simulated bodies per run: {}", report.bodies);
     print!("{}", trade::output::table(&report.rows));
     println!(
         "orientation reference: {}; its own error ~ {:.1e} rad (rot_err below that is not resolved)",
         report.reference.method, report.reference.own_error_rad
     );
+    if report.reference.com_world.is_some() {
+        println!(
+            "position reference: the same runs; its own error ~ {:.1e} m (pos_err below that is not resolved)",
+            report.reference.own_error_m
+        );
+    }
     let out = &args.out;
     let file = |name: &str| out.join(name);
     write_atomic(
@@ -184,7 +194,7 @@ pub fn run(args: &TradeArgs) -> anyhow::Result<()> {
     )?;
     let stopped = trade::recording::record(
         &scene,
-        &settings.integrators,
+        &report.integrators,
         report.series_dt,
         settings.duration_secs,
         &file("trade.rrd"),

@@ -45,6 +45,7 @@
 pub mod cell;
 pub mod output;
 pub mod plot;
+pub mod scene;
 
 pub use cell::run_cell;
 

@@ -149,39 +149,25 @@ pub fn measure(
 
     // Cost: the bare stepping loop, repeated; median of the samples.
     let parts = crate::sim::partition::partition_count(init.len(), settings.threads);
-    let mut samples = Vec::with_capacity(settings.repeats);
-    let mut runs_per_sample = 1u32;
-    while samples.len() < settings.repeats.max(1) {
-        let mut elapsed = 0.0;
-        for _ in 0..runs_per_sample {
-            elapsed += if parts > 1 {
-                timed_partitions(init, kind, dt, variational, gravity, steps, parts)
-            } else {
-                let mut bodies = start.clone();
-                let mut integrator = kind.build(dt, variational);
-                integrator.init(&bodies);
-                let started = Instant::now();
-                for _ in 0..steps {
-                    integrator.step(&mut bodies, gravity);
-                }
-                std::hint::black_box(&bodies);
-                started.elapsed().as_secs_f64()
-            };
+    let ns_per_body_step = timed_median(settings.repeats, steps, init.len(), &mut || {
+        if parts > 1 {
+            timed_partitions(init, kind, dt, variational, gravity, steps, parts)
+        } else {
+            let mut bodies = start.clone();
+            let mut integrator = kind.build(dt, variational);
+            integrator.init(&bodies);
+            let started = Instant::now();
+            for _ in 0..steps {
+                integrator.step(&mut bodies, gravity);
+            }
+            std::hint::black_box(&bodies);
+            started.elapsed().as_secs_f64()
         }
-        if elapsed < MIN_SAMPLE_SECS && runs_per_sample < 1 << 20 {
-            // Too short to time reliably: lengthen the sample and start over.
-            runs_per_sample =
-                (runs_per_sample * 2).max((MIN_SAMPLE_SECS / elapsed.max(1e-9)) as u32);
-            samples.clear();
-            continue;
-        }
-        let body_steps = f64::from(runs_per_sample) * steps.max(1) as f64 * init.len() as f64;
-        samples.push(elapsed * 1e9 / body_steps);
-    }
+    });
     let row = TradeRow {
         integrator: kind.name().to_string(),
         dt,
-        ns_per_body_step: median(&mut samples),
+        ns_per_body_step,
         pos_err,
         rot_err,
         energy_err_max,
@@ -196,9 +182,38 @@ pub fn measure(
     (row, series)
 }
 
+/// Median over `repeats` samples of the wall time per body-step, ns, of `run_once` (one run of
+/// `steps` steps of `bodies` bodies, returning its seconds). A run shorter than
+/// [`MIN_SAMPLE_SECS`] is repeated within one sample until the sample is long enough to time.
+pub fn timed_median(
+    repeats: usize,
+    steps: u64,
+    bodies: usize,
+    run_once: &mut dyn FnMut() -> f64,
+) -> f64 {
+    let mut samples = Vec::with_capacity(repeats);
+    let mut runs_per_sample = 1u32;
+    while samples.len() < repeats.max(1) {
+        let mut elapsed = 0.0;
+        for _ in 0..runs_per_sample {
+            elapsed += run_once();
+        }
+        if elapsed < MIN_SAMPLE_SECS && runs_per_sample < 1 << 20 {
+            // Too short to time reliably: lengthen the sample and start over.
+            runs_per_sample =
+                (runs_per_sample * 2).max((MIN_SAMPLE_SECS / elapsed.max(1e-9)) as u32);
+            samples.clear();
+            continue;
+        }
+        let body_steps = f64::from(runs_per_sample) * steps.max(1) as f64 * bodies.max(1) as f64;
+        samples.push(elapsed * 1e9 / body_steps);
+    }
+    median(&mut samples)
+}
+
 /// The larger error, where a non-finite error (a run that diverged) wins and stays: `f64::max`
 /// would silently drop a NaN.
-fn worst(a: f64, b: f64) -> f64 {
+pub(crate) fn worst(a: f64, b: f64) -> f64 {
     if a.is_nan() || b.is_nan() {
         f64::NAN
     } else {

@@ -19,6 +19,7 @@
 //! [`reference`]: a high-accuracy solution whose own error is estimated and reported, so a
 //! measured error below it is flagged rather than trusted.
 
+pub mod articulated;
 pub mod measure;
 pub mod output;
 pub mod plot;
@@ -46,6 +47,9 @@ pub struct TradeSettings {
     /// [`crate::sim::partition::MIN_BODIES_PER_PARTITION`] bodies is split as `simulate
     /// --threads` splits it, and `ns_per_body_step` is the wall time per body-step on them.
     pub threads: usize,
+    /// The user named `integrators` (rather than taking the default list): on an articulated
+    /// scene an integrator outside the variational family is then an error, not a skip.
+    pub integrators_named: bool,
 }
 
 /// Everything `tumble trade` measured.
@@ -60,9 +64,18 @@ pub struct TradeReport {
     pub reference: reference::Reference,
     /// The URDF oddities the scene's models loaded with (docs/urdf.md).
     pub warnings: Vec<crate::model::urdf::LoadWarning>,
+    /// One line per integrator of the list that has no rows, saying why (an articulated scene
+    /// and an integrator outside the variational family).
+    pub skipped: Vec<String>,
+    /// The integrators measured (the list minus the skipped ones), in list order.
+    pub integrators: Vec<IntegratorKind>,
 }
 
 /// Runs every measurement. `progress` is called once per finished row.
+///
+/// On a scene with articulated models ([`articulated`]) the integrators outside the variational
+/// family are skipped ([`TradeReport::skipped`]), or refused with one error when
+/// [`TradeSettings::integrators_named`].
 pub fn run(
     scene: &Scene,
     settings: &TradeSettings,
@@ -70,21 +83,61 @@ pub fn run(
 ) -> anyhow::Result<TradeReport> {
     let world = scene.build()?;
     let gravity = scene.gravity();
-    let reference = reference::Reference::compute(&world.bodies, settings.duration_secs);
+    let variational = scene.variational_settings();
     let series_dt = series_dt(&settings.dts);
+    let mut skipped = Vec::new();
+    let mut integrators = Vec::new();
+    for &kind in &settings.integrators {
+        if world.mechanisms.is_empty() {
+            integrators.push(kind);
+            continue;
+        }
+        match articulated::skip_reason(kind, &world) {
+            None => integrators.push(kind),
+            Some(_) if settings.integrators_named => {
+                // The stepper's own refusal names the model and the supported integrators.
+                world.integrator(kind, series_dt, &variational)?;
+            }
+            Some(why) => skipped.push(why),
+        }
+    }
+    let reference = if world.mechanisms.is_empty() {
+        reference::Reference::compute(&world.bodies, settings.duration_secs)
+    } else {
+        let finest = settings.dts.iter().copied().fold(f64::INFINITY, f64::min);
+        articulated::reference(
+            &world,
+            &variational,
+            &gravity,
+            settings.duration_secs,
+            finest,
+        )?
+    };
     let mut rows = Vec::new();
     let mut energy_series = Vec::new();
-    for &kind in &settings.integrators {
+    for &kind in &integrators {
         for &dt in &settings.dts {
-            let (row, series) = measure(
-                &world.bodies,
-                kind,
-                dt,
-                &scene.variational_settings(),
-                &gravity,
-                settings,
-                &reference,
-            );
+            let (row, series) = if world.mechanisms.is_empty() {
+                measure(
+                    &world.bodies,
+                    kind,
+                    dt,
+                    &variational,
+                    &gravity,
+                    settings,
+                    &reference,
+                )
+            } else {
+                articulated::measure(
+                    &world,
+                    kind,
+                    dt,
+                    &variational,
+                    &gravity,
+                    settings,
+                    &reference,
+                )?
+            };
             progress(&row);
             rows.push(row);
             if dt == series_dt {
@@ -99,6 +152,8 @@ pub fn run(
         series_dt,
         reference,
         warnings: world.warnings,
+        skipped,
+        integrators,
     })
 }
 

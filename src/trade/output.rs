@@ -29,7 +29,8 @@ pub fn csv(rows: &[TradeRow]) -> String {
 }
 
 /// `trade.json`: `{"rows": [...same fields as the CSV...], "scene", "duration_secs",
-/// "drift_horizon_secs", "series_dt", "reference": {"method", "own_error_rad"}, "tool_version"}`.
+/// "drift_horizon_secs", "series_dt", "reference": {"method", "own_error_rad", "own_error_m"},
+/// "skipped": [one line per integrator left out], "tool_version"}`.
 pub fn json(
     report: &TradeReport,
     scene: &str,
@@ -45,7 +46,9 @@ pub fn json(
         "reference": {
             "method": report.reference.method,
             "own_error_rad": report.reference.own_error_rad,
+            "own_error_m": report.reference.own_error_m,
         },
+        "skipped": report.skipped,
         "tool_version": crate::VERSION,
     });
     let mut text = serde_json::to_string_pretty(&doc).unwrap_or_default();

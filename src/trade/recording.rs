@@ -91,6 +91,26 @@ pub fn record(
 ) -> anyhow::Result<Option<(IntegratorKind, Divergence, String)>> {
     let world = scene.build()?;
     let layout = layout(&world, kinds, dt);
+    let gravity = scene.gravity();
+    let steps = super::measure::steps_in(duration_secs, dt);
+    let log_every = steps.div_ceil(MAX_FRAMES).max(1);
+    // The integrators first (an unsupported one is an error before any file exists).
+    let mut runs: Vec<_> = kinds
+        .iter()
+        .map(|kind| {
+            let bodies = Bodies::new(&world.bodies);
+            let mut integrator = world.integrator(*kind, dt, &scene.variational_settings())?;
+            integrator.init(&bodies);
+            let run = scene.run_settings();
+            let mut guard = Guard::new(
+                &bodies,
+                run.divergence_energy_ratio,
+                run.stop_on_newton_failure,
+            );
+            guard.watch_mechanisms(&world.mechanisms, &bodies, &gravity);
+            Ok((bodies, integrator, FrameBuilder::new(&world), guard))
+        })
+        .collect::<anyhow::Result<_>>()?;
     let mut sinks: Vec<Box<dyn Sink>> = vec![
         Box::new(McapSink::create(mcap, &layout)?),
         Box::new(RerunSink::create(
@@ -99,24 +119,6 @@ pub fn record(
             &RerunOptions { ellipsoids: false },
         )?),
     ];
-    let gravity = scene.gravity();
-    let steps = super::measure::steps_in(duration_secs, dt);
-    let log_every = steps.div_ceil(MAX_FRAMES).max(1);
-    let mut runs: Vec<_> = kinds
-        .iter()
-        .map(|kind| {
-            let bodies = Bodies::new(&world.bodies);
-            let mut integrator = kind.build(dt, &scene.variational_settings());
-            integrator.init(&bodies);
-            let run = scene.run_settings();
-            let guard = Guard::new(
-                &bodies,
-                run.divergence_energy_ratio,
-                run.stop_on_newton_failure,
-            );
-            (bodies, integrator, FrameBuilder::new(&world), guard)
-        })
-        .collect();
     let mut stopped = None;
     let mut poses = Vec::with_capacity(layout.frames.len());
     let mut states = Vec::with_capacity(layout.bodies.len());

@@ -9,7 +9,7 @@
 
 use crate::sim::reference::high_accuracy;
 use crate::sim::{BodyInit, IntegratorKind};
-use nalgebra::UnitQuaternion;
+use nalgebra::{UnitQuaternion, Vector3};
 
 pub use crate::sim::reference::rotation_error;
 
@@ -18,9 +18,15 @@ pub use crate::sim::reference::rotation_error;
 pub struct Reference {
     /// Per body, at `t_end_secs`.
     pub world_from_body: Vec<UnitQuaternion<f64>>,
+    /// Per body, the centre of mass at `t_end_secs`, m: `None` for free bodies, whose exact
+    /// parabola is the reference ([`crate::trade::measure`]); set on articulated scenes
+    /// ([`crate::trade::articulated::reference`]).
+    pub com_world: Option<Vec<Vector3<f64>>>,
     pub t_end_secs: f64,
     /// Estimated error of the reference itself (largest over bodies), rad.
     pub own_error_rad: f64,
+    /// Estimated error of `com_world` (largest over bodies), m; 0 for the exact parabola.
+    pub own_error_m: f64,
     /// How it was computed, in words.
     pub method: String,
 }
@@ -52,8 +58,10 @@ impl Reference {
             .collect();
         Self {
             world_from_body,
+            com_world: None,
             t_end_secs,
             own_error_rad,
+            own_error_m: 0.0,
             method: format!(
                 "{} at dt |Ω0| = {REFERENCE_TURN_PER_STEP:e} rad and half that (finest dt {dt_min:.2e} s), Richardson error estimate",
                 kind.name()
