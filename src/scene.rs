@@ -753,6 +753,8 @@ impl Scene {
             }
             let copies = entry.copy_count();
             let base = entry.name.clone().unwrap_or_else(|| model.name.clone());
+            // What the table's articulated copies share (made by the first one).
+            let mut template = None;
             for copy in 0..copies {
                 // The frame-id prefix: the copy's name, or the table's `name`, or none.
                 let prefix = match entry.copies {
@@ -786,6 +788,7 @@ impl Scene {
                             place: &place,
                         },
                         &mut body_names,
+                        &mut template,
                     )
                     .with_context(context)?,
                 }

@@ -34,7 +34,7 @@ use crate::sim::mechanism::init::{RootTwist, body_twists};
 use crate::sim::mechanism::rows::normals;
 use crate::sim::mechanism::{
     Base, BodyPose, CompoundChain, Coordinate, CoordinateKind, JointRows, Mechanism,
-    MechanismJoint, Mimic, RowKind,
+    MechanismJoint, MechanismModel, Mimic, RowKind,
 };
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
@@ -50,16 +50,59 @@ pub(super) struct CopyPlace<'a> {
 }
 use std::sync::Arc;
 
+/// What the copies of one `[[model]]` table share, made by its first copy: the checks, the
+/// merged groups and the [`MechanismModel`] are done once per table, so each further copy only
+/// places bodies and frames (and shares the model through one [`Arc`]).
+pub(super) enum Template {
+    /// No joint kept and a floating base: every copy is the rigid body it is.
+    Rigid,
+    Mechanism(Box<Shared>),
+}
+
+/// The shared part of an articulated table.
+pub(super) struct Shared {
+    art: Articulation,
+    /// Group frames `F_g` (model_from_group) and principal moments.
+    frames: Vec<(Vector3<f64>, Isometry3<f64>)>,
+    model: Arc<MechanismModel>,
+}
+
 /// Adds `model` as a mechanism (or, with no joint kept and a floating base, as the rigid body
-/// it is). Errors name the model, and the key and joint or link at fault.
+/// it is). Errors name the model, and the key and joint or link at fault. `template` is the
+/// table's: `None` for its first copy, which fills it; later copies reuse it.
 pub(super) fn add_articulated_model(
     world: &mut World,
     model: &Model,
     entry: &ModelEntry,
     copy: &CopyPlace<'_>,
     body_names: &mut HashSet<String>,
+    template: &mut Option<Template>,
 ) -> anyhow::Result<()> {
-    let label = copy.label.to_string();
+    if template.is_none() {
+        *template = Some(prepare(world, model, entry, copy.label)?);
+    }
+    match template.as_ref().expect("filled above") {
+        Template::Rigid => super::add_rigid_model(
+            world,
+            model,
+            copy.prefix,
+            copy.label,
+            copy.place,
+            entry.allow_non_physical_inertia,
+            body_names,
+        ),
+        Template::Mechanism(shared) => place(world, model, entry, copy, shared),
+    }
+}
+
+/// The table's checks, merged groups and mechanism model (see [`Template`]).
+fn prepare(
+    world: &mut World,
+    model: &Model,
+    entry: &ModelEntry,
+    label: &str,
+) -> anyhow::Result<Template> {
+    let label = label.to_string();
     let joint_index: HashMap<&str, usize> = model
         .joints
         .iter()
@@ -140,17 +183,14 @@ pub(super) fn add_articulated_model(
             );
         }
         // One group: exactly the rigid body.
-        return super::add_rigid_model(
-            world,
-            model,
-            copy.prefix,
-            copy.label,
-            copy.place,
-            entry.allow_non_physical_inertia,
-            body_names,
-        );
+        return Ok(Template::Rigid);
     }
-    build(world, model, entry, copy, &art, fixed)
+    let (frames, shared) = shared_model(model, entry, &art, fixed)?;
+    Ok(Template::Mechanism(Box::new(Shared {
+        art,
+        frames,
+        model: Arc::new(shared),
+    })))
 }
 
 /// Every group that is a body must be a valid rigid body (the rigid-mode rules).
@@ -205,20 +245,14 @@ fn body_pose(iso: &Isometry3<f64>) -> BodyPose {
     }
 }
 
-fn build(
-    world: &mut World,
+/// The group frames and the placement-free mechanism model of an articulation.
+#[allow(clippy::type_complexity)]
+fn shared_model(
     model: &Model,
     entry: &ModelEntry,
-    copy: &CopyPlace<'_>,
     art: &Articulation,
     fixed: bool,
-) -> anyhow::Result<()> {
-    let label = copy.label;
-    let frame_id = |link: &str| match copy.prefix {
-        Some(prefix) => format!("{prefix}/{link}"),
-        None => link.to_string(),
-    };
-    let world_from_model = copy.place.world_from_model;
+) -> anyhow::Result<(Vec<(Vector3<f64>, Isometry3<f64>)>, MechanismModel)> {
     // Group frames F_g (model_from_group) and moments.
     let frames: Vec<(Vector3<f64>, Isometry3<f64>)> = art
         .groups
@@ -228,14 +262,12 @@ fn build(
             None => (Vector3::zeros(), Isometry3::identity()),
         })
         .collect();
-    let first_body = world.bodies.len();
     let local = |g: usize| if fixed { g.checked_sub(1) } else { Some(g) };
     let body_count = if fixed {
         art.groups.len() - 1
     } else {
         art.groups.len()
     };
-    let world_pose_root = body_pose(&(world_from_model * frames[0].1));
     // Joints, coordinates, mimics.
     let mut joints = Vec::new();
     let mut coordinates: Vec<Coordinate> = Vec::new();
@@ -343,11 +375,6 @@ fn build(
             name: first.name.clone(),
             parent: local(gj.parent),
             child: local(gj.child).expect("a joint's child is a body"),
-            world_pose: if gj.parent == 0 && fixed {
-                world_pose_root
-            } else {
-                BodyPose::identity()
-            },
             rows: JointRows {
                 anchor_parent,
                 anchor_child,
@@ -374,9 +401,7 @@ fn build(
             })
         })
         .collect();
-    let mechanism = Mechanism {
-        name: label.to_string(),
-        first_body,
+    let shared = MechanismModel {
         body_count,
         joints,
         coordinates,
@@ -384,9 +409,42 @@ fn build(
         base: if fixed { Base::Fixed } else { Base::Floating },
         length_scale,
     };
-    mechanism
+    shared
         .validate()
-        .map_err(|e| anyhow::anyhow!("internal error building model `{label}`: {e}"))?;
+        .map_err(|e| anyhow::anyhow!("internal error building model `{}`: {e}", model.name))?;
+    Ok((frames, shared))
+}
+
+/// Places one copy of a prepared table: its bodies (forward velocity kinematics from the
+/// copy's root twist and the joint rates), its link frames and its layout.
+fn place(
+    world: &mut World,
+    model: &Model,
+    entry: &ModelEntry,
+    copy: &CopyPlace<'_>,
+    shared: &Shared,
+) -> anyhow::Result<()> {
+    let (art, frames) = (&shared.art, &shared.frames);
+    let fixed = shared.model.base == Base::Fixed;
+    let local = |g: usize| if fixed { g.checked_sub(1) } else { Some(g) };
+    let label = copy.label;
+    let frame_id = |link: &str| match copy.prefix {
+        Some(prefix) => format!("{prefix}/{link}"),
+        None => link.to_string(),
+    };
+    let world_from_model = copy.place.world_from_model;
+    let first_body = world.bodies.len();
+    let body_count = shared.model.body_count;
+    let mechanism = Mechanism {
+        name: label.to_string(),
+        first_body,
+        world_pose: if fixed {
+            body_pose(&(world_from_model * frames[0].1))
+        } else {
+            BodyPose::identity()
+        },
+        shared: Arc::clone(&shared.model),
+    };
     // Initial velocities: joint rates (mimic followers at their rule), then the body twists.
     let mut rates: Vec<f64> = mechanism
         .coordinates

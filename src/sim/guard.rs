@@ -135,8 +135,7 @@ impl Guard {
             let relative = m.base == Base::Floating;
             let mut reference = mechanism_kinetic_energy(bodies, range.clone(), relative);
             if m.base == Base::Fixed {
-                let anchor = m.joints[0].world_pose.com
-                    + m.joints[0].world_pose.rot * m.joints[0].rows.anchor_parent;
+                let anchor = m.world_pose.com + m.world_pose.rot * m.joints[0].rows.anchor_parent;
                 let reach = range
                     .clone()
                     .map(|i| (bodies.com_world[i] - anchor).norm())

@@ -58,7 +58,7 @@ pub fn body_twists(
         let joint = &model.joints[j];
         let (a, (va, wa)) = match joint.parent {
             Some(p) => (pose(p), twists[p]),
-            None => (joint.world_pose, (Vector3::zeros(), Vector3::zeros())),
+            None => (model.world_pose, (Vector3::zeros(), Vector3::zeros())),
         };
         let b = pose(joint.child);
         let anchor = a.com + a.rot * joint.rows.anchor_parent;

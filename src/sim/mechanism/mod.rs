@@ -27,7 +27,8 @@
 //! from joint rates and the base twist), [`stepper`] (the [`crate::sim::Integrator`] that
 //! steps free bodies and mechanisms together, and its compositions).
 //!
-//! A [`Mechanism`] is constant (built by the scene, [`crate::scene`]); [`step::MechanismState`]
+//! A [`Mechanism`] is constant (built by the scene, [`crate::scene`]; copies of one table share
+//! its [`MechanismModel`]); [`step::MechanismState`]
 //! holds what changes (warm starts, workspaces). Nothing here knows URDF.
 
 pub mod coords;
@@ -43,16 +44,39 @@ pub use rows::{BodyPose, JointRows, RowKind};
 pub use stepper::{Articulated, UnsupportedIntegrator};
 
 use nalgebra::{Isometry3, Vector3};
+use std::sync::Arc;
 
-/// A constant mechanism: a tree of bodies (a contiguous range of the batch) and joints.
+/// One mechanism of the batch: a placed instance of a [`MechanismModel`].
+///
+/// The model (joint rows in the bodies' principal frames, coordinates, mimics) does not depend
+/// on where the mechanism stands, so the copies of one `[[model]]` table share it (one
+/// [`Arc`]); an instance adds what differs: its name, its bodies' place in the batch and, for
+/// a fixed base, the welded root's pose. It dereferences to its model.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mechanism {
-    /// The model's name (the scene's `name`, else the URDF `<robot name>`).
+    /// The model's name (the scene's `name`, a copy's `<name>_<index>`, else the URDF
+    /// `<robot name>`).
     pub name: String,
     /// Batch index of the mechanism's first body; its bodies are `first_body ..
     /// first_body + body_count`, parents before children (local index `i` = batch index
     /// `first_body + i`).
     pub first_body: usize,
+    /// The world "body" pose that joints on the world (`parent: None`, fixed base) use: the
+    /// welded root's principal frame in the world (identity for a floating base).
+    pub world_pose: BodyPose,
+    pub shared: Arc<MechanismModel>,
+}
+
+impl std::ops::Deref for Mechanism {
+    type Target = MechanismModel;
+    fn deref(&self) -> &MechanismModel {
+        &self.shared
+    }
+}
+
+/// What a mechanism is, wherever it stands: a tree of bodies and joints (shared by copies).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MechanismModel {
     pub body_count: usize,
     /// One joint per body that has a parent joint; `joints[j].child` are distinct and
     /// increasing, `joints[j].parent < joints[j].child`.
@@ -81,12 +105,10 @@ pub enum Base {
 pub struct MechanismJoint {
     /// The URDF joint name (for a compound joint: the first joint's).
     pub name: String,
-    /// Local index of the parent body; `None`: the world (fixed base), at `world_pose`.
+    /// Local index of the parent body; `None`: the world (fixed base), at the instance's
+    /// [`Mechanism::world_pose`].
     pub parent: Option<usize>,
     pub child: usize,
-    /// For a joint on the world: the world "body" pose its rows use (identity: anchors in
-    /// world coordinates).
-    pub world_pose: BodyPose,
     pub rows: JointRows,
     /// For a compound joint: its chain of revolutes (angles recorded per stage).
     pub compound: Option<CompoundChain>,
@@ -129,7 +151,9 @@ impl Mechanism {
     pub fn bodies(&self) -> std::ops::Range<usize> {
         self.first_body..self.first_body + self.body_count
     }
+}
 
+impl MechanismModel {
     /// The tree structure for [`tree::TreeSolver`].
     pub fn topology(&self) -> tree::Topology {
         let mut parent_joint = vec![None; self.body_count];

@@ -158,7 +158,7 @@ impl Reporter {
         for (j, joint) in model.joints.iter().enumerate() {
             let a = match joint.parent {
                 Some(p) => self.poses[p],
-                None => joint.world_pose,
+                None => model.world_pose,
             };
             let (gp, gc) = &mut self.g[j];
             let values = joint.rows.evaluate(&a, &self.poses[joint.child], gp, gc);
@@ -176,7 +176,7 @@ impl Reporter {
             let joint = &model.joints[c.joint];
             let a = match joint.parent {
                 Some(p) => self.poses[p],
-                None => joint.world_pose,
+                None => model.world_pose,
             };
             let reference = report.position[k] + report.velocity[k] * dt;
             if let Some(v) = c.kind.value(&a, &self.poses[joint.child], reference) {
@@ -189,7 +189,7 @@ impl Reporter {
             };
             let a = match joint.parent {
                 Some(p) => self.poses[p],
-                None => joint.world_pose,
+                None => model.world_pose,
             };
             let w = a.rot.transpose() * self.poses[joint.child].rot;
             decompose(chain, &chain.target(&w), &mut self.compound_theta[j]);
@@ -209,7 +209,7 @@ impl Reporter {
                 let joint = &model.joints[c.joint];
                 let a = match joint.parent {
                     Some(p) => self.poses[p],
-                    None => joint.world_pose,
+                    None => model.world_pose,
                 };
                 if let Some((theta, ga, gb)) =
                     c.kind
@@ -315,7 +315,7 @@ impl Reporter {
                     report.linvel_world[p],
                     report.angmom_body[p].component_mul(&bodies.inv_inertia_body[first + p]),
                 ),
-                None => (joint.world_pose, Vector3::zeros(), Vector3::zeros()),
+                None => (model.world_pose, Vector3::zeros(), Vector3::zeros()),
             };
             let b = joint.child;
             let ob = report.angmom_body[b].component_mul(&bodies.inv_inertia_body[first + b]);
@@ -340,7 +340,7 @@ impl Reporter {
                     self.poses[p],
                     report.angmom_body[p].component_mul(&bodies.inv_inertia_body[first + p]),
                 ),
-                None => (joint.world_pose, Vector3::zeros()),
+                None => (model.world_pose, Vector3::zeros()),
             };
             let b = joint.child;
             let ob = report.angmom_body[b].component_mul(&bodies.inv_inertia_body[first + b]);

@@ -211,7 +211,7 @@ impl Workspace {
 fn parent_pose<'a>(model: &'a Mechanism, poses: &'a [BodyPose], j: usize) -> &'a BodyPose {
     match model.joints[j].parent {
         Some(p) => &poses[p],
-        None => &model.joints[j].world_pose,
+        None => &model.world_pose,
     }
 }
 
@@ -738,7 +738,9 @@ fn split(
 #[cfg(test)]
 pub(crate) mod tests {
     use super::super::rows::{JointRows, RowKind, normals};
-    use super::super::{Base, Coordinate, CoordinateKind, Mechanism, MechanismJoint};
+    use super::super::{
+        Base, Coordinate, CoordinateKind, Mechanism, MechanismJoint, MechanismModel,
+    };
     use super::*;
     use crate::sim::BodyInit;
     use crate::sim::reference::elliptic::{complete_k, jacobi_sn_cn_dn};
@@ -760,15 +762,12 @@ pub(crate) mod tests {
             angvel_world: Vector3::zeros(),
         };
         let y = Vector3::y();
-        let model = Mechanism {
-            name: "pendulum".into(),
-            first_body: 0,
+        let shared = MechanismModel {
             body_count: 1,
             joints: vec![MechanismJoint {
                 name: "pivot".into(),
                 parent: None,
                 child: 0,
-                world_pose: BodyPose::identity(),
                 rows: JointRows {
                     anchor_parent: Vector3::zeros(),
                     anchor_child: Vector3::new(0.0, 0.0, d),
@@ -798,7 +797,13 @@ pub(crate) mod tests {
             base: Base::Fixed,
             length_scale: d,
         };
-        model.validate().unwrap();
+        shared.validate().unwrap();
+        let model = Mechanism {
+            name: "pendulum".into(),
+            first_body: 0,
+            world_pose: BodyPose::identity(),
+            shared: std::sync::Arc::new(shared),
+        };
         // ω0² = m g d / (I + m d²)
         let omega0 = (m * 9.81 * d / (iyy + m * d * d)).sqrt();
         (model, vec![init], omega0)
