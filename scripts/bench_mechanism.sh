@@ -41,5 +41,8 @@ for c in "${case_list[@]}"; do
     done
   done
 done
-"$venv/bin/python" scripts/bench_mechanism.py models "$secs" "$timed" "$cases" "$dts" >>"$rows"
+# MuJoCo writes MUJOCO_LOG.TXT into its working directory when a model goes unstable: a temp one.
+repo="$PWD"
+(cd "$(dirname "$rows")" && "$repo/$venv/bin/python" "$repo/scripts/bench_mechanism.py" "$repo/models" \
+  "$secs" "$timed" "$cases" "$dts") >>"$rows"
 "$venv/bin/python" scripts/bench_mechanism.py --table <"$rows"
