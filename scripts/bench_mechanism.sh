@@ -25,8 +25,9 @@ if [ ! -f "$venv/.installed" ] || ! cmp -s "$req" "$venv/.installed"; then
 fi
 cargo build --release --quiet
 T=target/release/tumble
-rows="$(mktemp)"
-trap 'rm -f "$rows"' EXIT
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+rows="$work/rows.jsonl"
 IFS=, read -r -a case_list <<<"$cases"
 IFS=, read -r -a dt_list <<<"$dts"
 for c in "${case_list[@]}"; do
@@ -43,6 +44,6 @@ for c in "${case_list[@]}"; do
 done
 # MuJoCo writes MUJOCO_LOG.TXT into its working directory when a model goes unstable: a temp one.
 repo="$PWD"
-(cd "$(dirname "$rows")" && "$repo/$venv/bin/python" "$repo/scripts/bench_mechanism.py" "$repo/models" \
+(cd "$work" && "$repo/$venv/bin/python" "$repo/scripts/bench_mechanism.py" "$repo/models" \
   "$secs" "$timed" "$cases" "$dts") >>"$rows"
 "$venv/bin/python" scripts/bench_mechanism.py --table <"$rows"
