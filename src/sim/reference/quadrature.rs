@@ -52,18 +52,22 @@ fn gauss(f: &impl Fn(f64) -> f64, a: f64, b: f64) -> (f64, f64) {
     (half * sum, half.abs() * abs)
 }
 
-/// Levels of splitting at most (2^24 panels).
-const MAX_DEPTH: u32 = 24;
+/// Relative noise floor of the integrands (elliptic functions near the separatrix lose a few
+/// digits): 256 ulp.
+const NOISE: f64 = 256.0 * f64::EPSILON;
+
+/// Levels of splitting at most (2^20 panels).
+const MAX_DEPTH: u32 = 20;
 
 /// `∫_a^b f` to the absolute tolerance `tol`: the rule on `[a, b]` is accepted when it agrees
-/// with the sum over the two halves within `tol`, or within 64 ulp of the integrand's scale
-/// (round-off: below that the halves cannot agree better), and the halves' sum is returned;
+/// with the sum over the two halves within `tol`, or within [`NOISE`] of the integrand's
+/// scale (below that, round-off in the integrand keeps the halves from agreeing better), and the halves' sum is returned;
 /// else each half is integrated to `tol / 2`. At most [`MAX_DEPTH`] levels of splitting.
 pub fn integrate(f: &impl Fn(f64) -> f64, a: f64, b: f64, tol: f64) -> f64 {
     fn recurse(f: &impl Fn(f64) -> f64, a: f64, b: f64, whole: f64, tol: f64, depth: u32) -> f64 {
         let m = 0.5 * (a + b);
         let ((left, left_abs), (right, right_abs)) = (gauss(f, a, m), gauss(f, m, b));
-        let floor = 64.0 * f64::EPSILON * (left_abs + right_abs);
+        let floor = NOISE * (left_abs + right_abs);
         if (left + right - whole).abs() <= tol.max(floor) || depth >= MAX_DEPTH {
             left + right
         } else {

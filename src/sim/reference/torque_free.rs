@@ -121,9 +121,9 @@ pub struct AsymmetricOrientation {
     world_from_z: UnitQuaternion<f64>,
     /// `|M|`, kg m^2/s.
     angmom: f64,
-    /// The period of `Ω`, s, and `φ` gained over one period, rad.
+    /// The period of `Ω`, s, and `φ` gained over one period, rad (computed when first needed).
     period_secs: f64,
-    phi_per_period: f64,
+    phi_per_period: std::sync::OnceLock<f64>,
 }
 
 impl AsymmetricOrientation {
@@ -139,17 +139,15 @@ impl AsymmetricOrientation {
         let angmom = m0.norm();
         let (theta, psi) = theta_psi(&(abc_from_body * m0));
         let e0 = euler_zxz(0.0, theta, psi);
-        let mut this = Self {
+        Some(Self {
             motion,
             moments,
             abc_from_body,
             world_from_z: world_from_body_0 * abc_from_body.inverse() * e0.inverse(),
             angmom,
             period_secs: motion.period_secs(),
-            phi_per_period: 0.0,
-        };
-        this.phi_per_period = this.phi_between(0.0, this.period_secs);
-        Some(this)
+            phi_per_period: std::sync::OnceLock::new(),
+        })
     }
 
     /// `φ'(t)`, rad/s (module doc).
@@ -174,8 +172,14 @@ impl AsymmetricOrientation {
     /// `φ(t)`, rad.
     fn phi(&self, t_secs: f64) -> f64 {
         let periods = (t_secs / self.period_secs).floor();
+        if periods == 0.0 {
+            return self.phi_between(0.0, t_secs);
+        }
         let rest = t_secs - periods * self.period_secs;
-        periods * self.phi_per_period + self.phi_between(0.0, rest)
+        let per_period = *self
+            .phi_per_period
+            .get_or_init(|| self.phi_between(0.0, self.period_secs));
+        periods * per_period + self.phi_between(0.0, rest)
     }
 
     /// Orientation `world_from_body` at `t_secs >= 0`.
