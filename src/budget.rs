@@ -15,7 +15,7 @@
 //! about 80 + 95 n bytes of MCAP and 40 + 125 n bytes of RRD per recorded step with n recorded
 //! frames and bodies (`models/box.toml`, `models/arm.toml` over 1e4 recorded steps), rounded up
 //! to [`BYTES_PER_STEP`] + [`BYTES_PER_FRAME_STEP`] n for both files together. Computing:
-//! [`NS_PER_BODY_STEP`], a pessimistic figure for the slowest integrator in one thread (README
+//! [`NS_PER_BODY_STEP`], a pessimistic figure for the slowest integrator in one thread (docs/trade.md,
 //! "Performance"). Memory: [`BYTES_PER_BODY`] per simulated body (state, integrator scratch,
 //! layout, frame buffers).
 

@@ -12,6 +12,7 @@ pub mod fsutil;
 pub mod input;
 pub mod interrupt;
 pub mod model;
+pub mod placement;
 pub mod record;
 pub mod replay;
 pub mod run;

@@ -1,10 +1,15 @@
 //! The simulation loop: steps a [`World`]'s bodies and hands decimated frames to the sinks.
 
-use crate::record::{BodyState, Frame, Sink};
+use crate::record::{BodyState, Frame, JointState, MechanismState, Sink};
 use crate::scene::World;
 use crate::sim::guard::{Divergence, Guard};
+use crate::sim::mechanism::Mechanism;
+use crate::sim::mechanism::project::Reporter;
+use crate::sim::partition::Partitions;
 use crate::sim::{Bodies, Integrator, StepStats};
 use nalgebra::{Isometry3, Vector3};
+use rayon::prelude::*;
+use std::sync::Arc;
 
 /// What a run is asked to do.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -58,18 +63,64 @@ pub fn time_ns(step: u64, dt_secs: f64) -> i64 {
 }
 
 /// Reusable buffers turning the batch state into recorded frames.
+///
+/// Free bodies report their carried state. Bodies of an articulated model report the momenta
+/// projected onto the velocity constraints ([`crate::sim::mechanism::project`]), and each such
+/// model its joint coordinates and totals; compound joints' massless links are placed from the
+/// report. A joint found outside its URDF range at a recorded step is warned about once (on
+/// standard error), naming the joint and the time.
 pub struct FrameBuilder {
     attachments: Vec<crate::scene::Attachment>,
+    interior: Vec<crate::scene::InteriorFrame>,
+    mechanisms: Vec<(Arc<Mechanism>, Reporter)>,
+    /// Per mechanism: its bodies and joints in the layout.
+    mechanism_ranges: Vec<(std::ops::Range<usize>, std::ops::Range<usize>)>,
+    joint_names: Vec<String>,
+    warned_range: Vec<bool>,
     poses: Vec<Isometry3<f64>>,
     states: Vec<BodyState>,
+    joints: Vec<JointState>,
+    totals: Vec<MechanismState>,
 }
+
+/// The state of body `j` of `bodies`, as recorded.
+fn body_state(bodies: &Bodies, j: usize, gravity: &Vector3<f64>) -> BodyState {
+    BodyState {
+        linvel_world: bodies.linvel_world[j],
+        angvel_world: bodies.angvel_world(j),
+        angmom_world: bodies.angmom_world(j),
+        kinetic_energy: bodies.kinetic_energy(j),
+        potential_energy: bodies.potential_energy(j, gravity),
+    }
+}
+
+/// Items per parallel task when a frame is built from partitions.
+const FRAME_TASK_ITEMS: usize = 2048;
 
 impl FrameBuilder {
     pub fn new(world: &World) -> Self {
+        let mechanisms: Vec<_> = world
+            .mechanisms
+            .iter()
+            .map(|m| (Arc::clone(m), Reporter::new(m)))
+            .collect();
+        let mechanism_ranges = world
+            .layout
+            .mechanisms
+            .iter()
+            .map(|m| (m.bodies.clone(), m.joints.clone()))
+            .collect();
         Self {
             attachments: world.attachments.clone(),
+            interior: world.interior_frames.clone(),
+            mechanisms,
+            mechanism_ranges,
+            joint_names: world.layout.joints.iter().map(|j| j.name.clone()).collect(),
+            warned_range: vec![false; world.layout.joints.len()],
             poses: Vec::with_capacity(world.attachments.len()),
             states: Vec::with_capacity(world.bodies.len()),
+            joints: vec![JointState::default(); world.layout.joints.len()],
+            totals: vec![MechanismState::default(); world.mechanisms.len()],
         }
     }
 
@@ -82,31 +133,170 @@ impl FrameBuilder {
         dt_secs: f64,
     ) -> Frame<'_> {
         self.poses.clear();
-        self.poses.extend(
-            self.attachments
-                .iter()
-                .map(|a| bodies.world_from_body(a.body) * a.body_from_link),
-        );
-        self.states.clear();
-        self.states.extend((0..bodies.len()).map(|i| BodyState {
-            linvel_world: bodies.linvel_world[i],
-            angvel_world: bodies.angvel_world(i),
-            angmom_world: bodies.angmom_world(i),
-            kinetic_energy: bodies.kinetic_energy(i),
-            potential_energy: bodies.potential_energy(i, gravity),
+        self.poses.extend(self.attachments.iter().map(|a| {
+            if a.body == crate::scene::Attachment::WORLD {
+                a.body_from_link
+            } else {
+                bodies.world_from_body(a.body) * a.body_from_link
+            }
         }));
+        self.states.clear();
+        self.states
+            .extend((0..bodies.len()).map(|i| body_state(bodies, i, gravity)));
+        let time_ns = time_ns(step, dt_secs);
+        let time_secs = time_ns as f64 / 1e9;
+        for (k, (model, reporter)) in self.mechanisms.iter_mut().enumerate() {
+            let report = reporter.report(model, bodies, gravity, time_secs);
+            for (i, gi) in model.bodies().enumerate() {
+                let q = bodies.world_from_body[gi];
+                let m = report.angmom_body[i];
+                let omega = m.component_mul(&bodies.inv_inertia_body[gi]);
+                let v = report.linvel_world[i];
+                let mass = bodies.mass[gi];
+                self.states[gi] = BodyState {
+                    linvel_world: v,
+                    angvel_world: q * omega,
+                    angmom_world: q * m,
+                    kinetic_energy: 0.5 * mass * v.norm_squared() + 0.5 * m.dot(&omega),
+                    potential_energy: bodies.potential_energy(gi, gravity),
+                };
+            }
+            let joints = self.mechanism_ranges[k].1.clone();
+            for (c, j) in joints.enumerate() {
+                self.joints[j] = JointState {
+                    position: report.position[c],
+                    velocity: report.velocity[c],
+                };
+                if let Some([lo, hi]) = model.coordinates[c].limits {
+                    let p = report.position[c];
+                    if !self.warned_range[j] && !(lo..=hi).contains(&p) {
+                        self.warned_range[j] = true;
+                        eprintln!(
+                            "warning: joint {:?} left its URDF range [{lo}, {hi}] at t = {time_secs} s \
+                             (position {p:.6}); joint limits are not modelled (docs/mechanisms.md)",
+                            self.joint_names[j]
+                        );
+                    }
+                }
+            }
+            let t = &report.totals;
+            self.totals[k] = MechanismState {
+                linear_momentum: t.linear_momentum,
+                angular_momentum: t.angular_momentum,
+                com: t.com,
+                kinetic_energy: t.kinetic_energy,
+                potential_energy: t.potential_energy,
+                residual_m: t.residual_m,
+                residual_rad: t.residual_rad,
+            };
+        }
+        for f in &self.interior {
+            let report = &self.mechanisms[f.mechanism].1.report;
+            self.poses[f.frame] =
+                report.interior_world_from_link[f.interior] * f.interior_from_link;
+        }
+        Frame {
+            step,
+            time_ns,
+            world_from_link: &self.poses,
+            bodies: &self.states,
+            joints: &self.joints,
+            mechanisms: &self.totals,
+        }
+    }
+
+    /// [`Self::frame`] from a partitioned batch, built on its threads (same values).
+    pub fn frame_of_parts(
+        &mut self,
+        parts: &Partitions<'_>,
+        gravity: &Vector3<f64>,
+        step: u64,
+        dt_secs: f64,
+    ) -> Frame<'_> {
+        debug_assert!(
+            self.mechanisms.is_empty(),
+            "articulated scenes run unpartitioned (run::run)"
+        );
+        let identity = Isometry3::identity();
+        self.poses.resize(self.attachments.len(), identity);
+        self.states.resize(
+            parts.len(),
+            BodyState {
+                linvel_world: Vector3::zeros(),
+                angvel_world: Vector3::zeros(),
+                angmom_world: Vector3::zeros(),
+                kinetic_energy: 0.0,
+                potential_energy: 0.0,
+            },
+        );
+        let (attachments, poses, states) = (&self.attachments, &mut self.poses, &mut self.states);
+        let view = parts.view();
+        let parts = &view;
+        view.install(|| {
+            poses
+                .par_chunks_mut(FRAME_TASK_ITEMS)
+                .zip(attachments.par_chunks(FRAME_TASK_ITEMS))
+                .for_each(|(poses, attachments)| {
+                    for (pose, a) in poses.iter_mut().zip(attachments) {
+                        *pose = parts.world_from_body(a.body) * a.body_from_link;
+                    }
+                });
+            states
+                .par_chunks_mut(FRAME_TASK_ITEMS)
+                .enumerate()
+                .for_each(|(c, states)| {
+                    for (k, state) in states.iter_mut().enumerate() {
+                        let (bodies, j) = parts.body(c * FRAME_TASK_ITEMS + k);
+                        *state = body_state(bodies, j, gravity);
+                    }
+                });
+        });
         Frame {
             step,
             time_ns: time_ns(step, dt_secs),
             world_from_link: &self.poses,
             bodies: &self.states,
+            joints: &self.joints,
+            mechanisms: &self.totals,
         }
+    }
+
+    /// Total mechanical energy of the last frame built (reported states), J.
+    pub fn total_energy(&self) -> f64 {
+        self.states
+            .iter()
+            .map(|s| s.kinetic_energy + s.potential_energy)
+            .sum()
+    }
+
+    /// Angular momenta whose conservation the run summary checks, from the last frame built:
+    /// every free body's (about its centre of mass) and every floating articulated model's
+    /// total (about the model's centre of mass); fixed-base models are held by the world and
+    /// left out.
+    pub fn conserved_angmom(&self, out: &mut Vec<Vector3<f64>>) {
+        out.clear();
+        let mut in_mechanism = vec![false; self.states.len()];
+        for (k, (model, _)) in self.mechanisms.iter().enumerate() {
+            for i in model.bodies() {
+                in_mechanism[i] = true;
+            }
+            if model.base == crate::sim::mechanism::Base::Floating {
+                out.push(self.totals[k].angular_momentum);
+            }
+        }
+        out.extend(
+            self.states
+                .iter()
+                .zip(&in_mechanism)
+                .filter(|(_, m)| !**m)
+                .map(|(s, _)| s.angmom_world),
+        );
     }
 }
 
-fn total_energy(bodies: &Bodies, gravity: &Vector3<f64>) -> f64 {
-    (0..bodies.len()).map(|i| bodies.energy(i, gravity)).sum()
-}
+/// Longest run of steps between two meetings of the stepping threads (a recorded step always
+/// ends one; so does this many steps, so an interrupt is seen soon).
+pub const MAX_WINDOW_STEPS: u64 = 100;
 
 /// Runs the simulation, recording into every sink. Sinks are not finished here: the caller ends
 /// the run with [`crate::record::finish_all`]. After every step the [`Guard`] checks each body;
@@ -118,45 +308,89 @@ pub fn run(
     settings: &RunSettings,
     sinks: &mut [Box<dyn Sink>],
 ) -> anyhow::Result<RunSummary> {
-    let mut bodies = Bodies::new(&world.bodies);
-    integrator.init(&bodies);
-    let dt = integrator.dt();
-    let g = settings.gravity;
-    let angmom0: Vec<Vector3<f64>> = (0..bodies.len()).map(|i| bodies.angmom_world(i)).collect();
-    let mut summary = RunSummary {
-        energy_initial: total_energy(&bodies, &g),
-        ..Default::default()
-    };
-    let guard = Guard::new(
-        &bodies,
+    if !world.mechanisms.is_empty() {
+        return run_articulated(world, integrator, settings, sinks);
+    }
+    run_partitions(world, vec![integrator], settings, sinks)
+}
+
+/// [`run`] on `threads` threads: the batch split into partitions ([`crate::sim::partition`]),
+/// each stepped by an integrator from `make`. The recordings are the same bytes for every
+/// thread count.
+pub fn run_threaded(
+    world: &World,
+    make: &dyn Fn() -> Box<dyn Integrator>,
+    threads: usize,
+    settings: &RunSettings,
+    sinks: &mut [Box<dyn Sink>],
+) -> anyhow::Result<RunSummary> {
+    if !world.mechanisms.is_empty() {
+        // A mechanism's bodies are coupled by its joint rows: one integrator steps them all.
+        return run_articulated(world, &mut *make(), settings, sinks);
+    }
+    let n = crate::sim::partition::partition_count(world.bodies.len(), threads);
+    let mut integrators: Vec<Box<dyn Integrator>> = (0..n).map(|_| make()).collect();
+    let borrowed: Vec<&mut dyn Integrator> = integrators
+        .iter_mut()
+        .map(|b| &mut **b as &mut dyn Integrator)
+        .collect();
+    run_partitions(world, borrowed, settings, sinks)
+}
+
+fn run_partitions(
+    world: &World,
+    integrators: Vec<&mut dyn Integrator>,
+    settings: &RunSettings,
+    sinks: &mut [Box<dyn Sink>],
+) -> anyhow::Result<RunSummary> {
+    let mut parts = Partitions::new(
+        &world.bodies,
+        integrators,
         settings.divergence_energy_ratio,
         settings.stop_on_newton_failure,
-    );
+    )?;
+    let dt = parts.dt();
+    let g = settings.gravity;
+    let angmom0: Vec<Vector3<f64>> = (0..parts.len())
+        .map(|i| {
+            let (bodies, j) = parts.body(i);
+            bodies.angmom_world(j)
+        })
+        .collect();
+    let mut summary = RunSummary {
+        energy_initial: parts.sum(|b, j| b.energy(j, &g)),
+        ..Default::default()
+    };
     let mut frames = FrameBuilder::new(world);
     let log_every = settings.log_every.max(1);
 
-    let mut record = |bodies: &Bodies, step: u64, summary: &mut RunSummary| -> anyhow::Result<()> {
-        let frame = frames.frame(bodies, &g, step, dt);
-        for sink in sinks.iter_mut() {
-            sink.write(&frame)?;
-        }
-        summary.frames_recorded += 1;
-        summary.last_recorded_step = step;
-        Ok(())
-    };
-    record(&bodies, 0, &mut summary)?;
+    let mut record =
+        |parts: &Partitions<'_>, step: u64, summary: &mut RunSummary| -> anyhow::Result<()> {
+            let frame = frames.frame_of_parts(parts, &g, step, dt);
+            for sink in sinks.iter_mut() {
+                sink.write(&frame)?;
+            }
+            summary.frames_recorded += 1;
+            summary.last_recorded_step = step;
+            Ok(())
+        };
+    record(&parts, 0, &mut summary)?;
     summary.steps = settings.steps;
-    for step in 1..=settings.steps {
-        let stats = integrator.step(&mut bodies, &g);
-        summary.stats = summary.stats.merge(stats);
-        if let Some(stop) = guard.check(&bodies, &stats, step) {
+    let mut step = 0;
+    while step < settings.steps {
+        let next_record = (step / log_every + 1) * log_every;
+        let end = next_record.min(settings.steps).min(step + MAX_WINDOW_STEPS);
+        let window = parts.advance(step, end, &g);
+        summary.stats = summary.stats.merge(window.stats);
+        if let Some(stop) = window.stop {
             summary.stopped = Some(stop);
-            summary.steps = step - 1;
+            summary.steps = stop.step - 1;
             return Ok(summary);
         }
+        step = end;
         let stop = settings.stop_on_interrupt && crate::interrupt::requested();
         if step % log_every == 0 || step == settings.steps || stop {
-            record(&bodies, step, &mut summary)?;
+            record(&parts, step, &mut summary)?;
         }
         if stop {
             summary.interrupted = Some(crate::interrupt::signal());
@@ -164,11 +398,12 @@ pub fn run(
             break;
         }
     }
-    summary.energy_final = total_energy(&bodies, &g);
-    summary.angmom_rel_change_max = (0..bodies.len())
+    summary.energy_final = parts.sum(|b, j| b.energy(j, &g));
+    summary.angmom_rel_change_max = (0..parts.len())
         .map(|i| {
             let l0 = angmom0[i];
-            (bodies.angmom_world(i) - l0).norm() / l0.norm().max(f64::MIN_POSITIVE)
+            let (bodies, j) = parts.body(i);
+            (bodies.angmom_world(j) - l0).norm() / l0.norm().max(f64::MIN_POSITIVE)
         })
         .fold(0.0, f64::max);
     Ok(summary)
@@ -212,3 +447,94 @@ impl std::fmt::Display for Diverged {
 }
 
 impl std::error::Error for Diverged {}
+
+fn total_energy(bodies: &Bodies, gravity: &Vector3<f64>) -> f64 {
+    (0..bodies.len()).map(|i| bodies.energy(i, gravity)).sum()
+}
+
+/// [`run`] of a scene with articulated models: one integrator steps the whole batch (a
+/// mechanism's bodies are coupled by its joint rows), the guard watches the mechanisms too, and
+/// the summary's energy and momenta are the reported ones.
+fn run_articulated(
+    world: &World,
+    integrator: &mut dyn Integrator,
+    settings: &RunSettings,
+    sinks: &mut [Box<dyn Sink>],
+) -> anyhow::Result<RunSummary> {
+    let mut bodies = Bodies::new(&world.bodies);
+    integrator.init(&bodies);
+    let dt = integrator.dt();
+    let g = settings.gravity;
+    // With articulated models the summary's energy and momenta are the reported ones (projected
+    // momenta; a mechanism's total angular momentum), read from the recorded frames.
+    let articulated = !world.mechanisms.is_empty();
+    let mut angmom0: Vec<Vector3<f64>> =
+        (0..bodies.len()).map(|i| bodies.angmom_world(i)).collect();
+    let mut summary = RunSummary {
+        energy_initial: total_energy(&bodies, &g),
+        ..Default::default()
+    };
+    let mut guard = Guard::new(
+        &bodies,
+        settings.divergence_energy_ratio,
+        settings.stop_on_newton_failure,
+    );
+    guard.watch_mechanisms(&world.mechanisms, &bodies, &g);
+    let mut frames = FrameBuilder::new(world);
+    let log_every = settings.log_every.max(1);
+
+    let record = |frames: &mut FrameBuilder,
+                  sinks: &mut [Box<dyn Sink>],
+                  bodies: &Bodies,
+                  step: u64,
+                  summary: &mut RunSummary|
+     -> anyhow::Result<()> {
+        let frame = frames.frame(bodies, &g, step, dt);
+        for sink in sinks.iter_mut() {
+            sink.write(&frame)?;
+        }
+        summary.frames_recorded += 1;
+        summary.last_recorded_step = step;
+        Ok(())
+    };
+    record(&mut frames, sinks, &bodies, 0, &mut summary)?;
+    if articulated {
+        summary.energy_initial = frames.total_energy();
+        frames.conserved_angmom(&mut angmom0);
+    }
+    summary.steps = settings.steps;
+    for step in 1..=settings.steps {
+        let stats = integrator.step(&mut bodies, &g);
+        summary.stats = summary.stats.merge(stats);
+        if let Some(stop) = guard.check(&bodies, &stats, step) {
+            summary.stopped = Some(stop);
+            summary.steps = step - 1;
+            return Ok(summary);
+        }
+        let stop = settings.stop_on_interrupt && crate::interrupt::requested();
+        if step % log_every == 0 || step == settings.steps || stop {
+            record(&mut frames, sinks, &bodies, step, &mut summary)?;
+        }
+        if stop {
+            summary.interrupted = Some(crate::interrupt::signal());
+            summary.steps = step;
+            break;
+        }
+    }
+    let angmom1: Vec<Vector3<f64>> = if articulated {
+        // The last step is always recorded: the frame builder holds the final state.
+        summary.energy_final = frames.total_energy();
+        let mut l = Vec::new();
+        frames.conserved_angmom(&mut l);
+        l
+    } else {
+        summary.energy_final = total_energy(&bodies, &g);
+        (0..bodies.len()).map(|i| bodies.angmom_world(i)).collect()
+    };
+    summary.angmom_rel_change_max = angmom0
+        .iter()
+        .zip(&angmom1)
+        .map(|(l0, l1)| (l1 - l0).norm() / l0.norm().max(f64::MIN_POSITIVE))
+        .fold(0.0, f64::max);
+    Ok(summary)
+}

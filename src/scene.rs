@@ -31,6 +31,10 @@
 //! geometry = "collision"        # "collision" (visual as fallback) | "visual" (default: [mass])
 //! links = { base = { inertia = "geometry", density = 2700.0 } }   # per-link overrides
 //! strict = false                # refuse the URDF oddities urdfdom loads (docs/urdf.md) instead of loading them with a warning (default false; --strict sets it on every model)
+//! copies = 10000                # the table stands for N models named <name>_<index> (default: one, named `name`; docs/scale.md)
+//! seed = 7                      # copy i draws its distributions from streams seeded by (seed, i) (default 0)
+//! # position, rpy, linvel, angvel: a value or a distribution ({ uniform = [lo, hi] }, log_uniform, normal, choice);
+//! # orientation = "uniform" | [x, y, z, w] instead of rpy ([`crate::placement`])
 //!
 //! [mass]                        # scene-wide defaults of the mass settings (flags --inertia, --density, --geometry override them)
 //! inertia = "urdf"              # (default "urdf")
@@ -42,17 +46,21 @@
 //! (zero joint configuration). Links without mass are not simulated and not recorded.
 //! Unknown keys and bad values are errors naming the key.
 
-use crate::model::kinematics::rotation_from_rpy;
 use crate::model::policy::{self, GeometrySource, InertiaPolicy, MassSettings, ModelMassSettings};
 use crate::model::{MassProperties, Model, urdf};
+use crate::placement;
 use crate::record::{BodyLayout, FrameLayout, RecordingLayout, RobotDescription};
 use crate::sim::BodyInit;
 use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
+use crate::sim::mechanism::{Articulated, Mechanism};
+
+mod articulated;
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Translation3, Vector3};
 use serde::Deserialize;
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Prefix of the recording metadata keys holding URDF texts: `urdf/<the model's urdf value as
 /// the scene wrote it>` = the file's text, one entry per distinct file however many models use it.
@@ -133,6 +141,15 @@ pub struct ModelEntry {
     /// Joint positions (rad or m) the model is placed at; joints not named are at 0.
     #[serde(default)]
     pub joints: BTreeMap<String, f64>,
+    /// Articulated models: `floating` (default) or `fixed` root link.
+    #[serde(default)]
+    pub base: Option<BaseMode>,
+    /// Articulated models: initial joint rates (rad/s or m/s; default 0).
+    #[serde(default)]
+    pub joint_velocities: BTreeMap<String, f64>,
+    /// Articulated models: joints locked at their `joints` value and merged like fixed joints.
+    #[serde(default)]
+    pub locked_joints: Vec<String>,
     /// Mass settings of this model (refine the scene's `[mass]`).
     #[serde(default)]
     pub inertia: Option<InertiaPolicy>,
@@ -147,6 +164,29 @@ pub struct ModelEntry {
     /// ([`urdf::Strictness`], docs/urdf.md). Written into recordings' settings only when set.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub strict: bool,
+    /// `copies = N`: the table stands for N models named `<name>_<index>` ([`crate::placement`]).
+    /// `None`: one model, named `name`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub copies: Option<u64>,
+    /// `seed = S`: copy `i` draws its distributions from streams seeded by `(S, i)` (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// The distributions given for `position`, `rpy` / `orientation`, `linvel`, `angvel` (taken
+    /// out of the table before serde reads it, [`placement::Draws::take`]); what is drawn
+    /// replaces the plain value of the same key.
+    #[serde(
+        skip_deserializing,
+        skip_serializing_if = "placement::Draws::is_empty",
+        serialize_with = "serialize_draws"
+    )]
+    pub draws: placement::Draws,
+}
+
+fn serialize_draws<S: serde::Serializer>(
+    draws: &placement::Draws,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    serde::Serialize::serialize(&draws.written, serializer)
 }
 
 /// `bodies = "links" | "rigid"`.
@@ -158,6 +198,20 @@ pub enum BodiesMode {
     Links,
     /// The whole model, locked at `joints`, as one rigid body; every link frame rides on it.
     Rigid,
+    /// Revolute, continuous and prismatic joints kept as constraints, fixed and locked joints
+    /// merged ([`articulated`]).
+    Articulated,
+}
+
+/// `base = "floating" | "fixed"` (articulated models).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BaseMode {
+    /// The root link moves freely (`linvel`/`angvel` are its twist).
+    #[default]
+    Floating,
+    /// The root link is welded to the world at `position`/`rpy`.
+    Fixed,
 }
 
 impl ModelEntry {
@@ -174,12 +228,38 @@ impl ModelEntry {
             allow_non_physical_inertia: false,
             bodies: BodiesMode::Links,
             joints: BTreeMap::new(),
+            base: None,
+            joint_velocities: BTreeMap::new(),
+            locked_joints: Vec::new(),
             inertia: None,
             density: None,
             geometry: None,
             links: BTreeMap::new(),
             strict: false,
+            copies: None,
+            seed: None,
+            draws: placement::Draws::default(),
         }
+    }
+
+    /// How many models the table stands for.
+    pub fn copy_count(&self) -> u64 {
+        self.copies.unwrap_or(1)
+    }
+
+    /// The plain values of the keys [`placement::Draws`] may replace.
+    pub fn fixed(&self) -> placement::Fixed {
+        placement::Fixed {
+            position: self.position,
+            rpy: self.rpy,
+            linvel: self.linvel,
+            angvel: self.angvel,
+        }
+    }
+
+    /// Where copy `copy` starts.
+    pub fn placement(&self, copy: u64) -> placement::Placement {
+        placement::place(&self.fixed(), &self.draws, self.seed.unwrap_or(0), copy)
     }
 }
 
@@ -192,6 +272,34 @@ struct SceneFile {
     models: Vec<ModelEntry>,
     #[serde(default)]
     mass: MassSettings,
+}
+
+/// Reads the scene text: the distributions of each `[[model]]` first
+/// ([`placement::Draws::take`]), then serde the rest. A scene without distributions goes to
+/// serde as text, so its errors point at the line.
+fn parse_scene_file(text: &str, path: &Path) -> anyhow::Result<SceneFile> {
+    let file = path.display().to_string();
+    let syntax = |e: toml::de::Error| anyhow::anyhow!("{file}: {}", e.to_string().trim_end());
+    let mut table: toml::Table = toml::from_str(text).map_err(syntax)?;
+    let mut draws = Vec::new();
+    if let Some(toml::Value::Array(models)) = table.get_mut("model") {
+        for (i, model) in models.iter_mut().enumerate() {
+            if let toml::Value::Table(t) = model {
+                draws.push(placement::Draws::take(&file, i, t)?);
+            }
+        }
+    }
+    let mut scene: SceneFile = if draws.iter().all(placement::Draws::is_empty) {
+        toml::from_str(text).map_err(syntax)?
+    } else {
+        toml::Value::Table(table)
+            .try_into()
+            .map_err(|e: toml::de::Error| anyhow::anyhow!("{file}: {}", e.to_string().trim_end()))?
+    };
+    for (entry, d) in scene.models.iter_mut().zip(draws) {
+        entry.draws = d;
+    }
+    Ok(scene)
 }
 
 /// A parsed scene. Relative paths in it are relative to `base_dir`.
@@ -238,8 +346,7 @@ impl Scene {
 
     /// Parses scene text; `path` names the file in errors and anchors relative paths.
     pub fn parse(text: &str, path: &Path) -> anyhow::Result<Self> {
-        let file: SceneFile = toml::from_str(text)
-            .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), e.to_string().trim_end()))?;
+        let file = parse_scene_file(text, path)?;
         let scene = Self {
             source: path.to_path_buf(),
             base_dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
@@ -362,6 +469,26 @@ impl Scene {
         if self.models.is_empty() {
             bail!("{file}: no [[model]] entry: the scene simulates nothing");
         }
+        if let Some(i) = self
+            .models
+            .iter()
+            .position(|m| m.bodies == BodiesMode::Articulated)
+        {
+            let kind = self.integrator();
+            if !crate::sim::mechanism::stepper::SUPPORTED.contains(&kind) {
+                let names: Vec<_> = crate::sim::mechanism::stepper::SUPPORTED
+                    .iter()
+                    .map(|k| format!("`{}`", k.name()))
+                    .collect();
+                bail!(
+                    "{file}: sim.integrator = {:?} cannot step model[{i}], which has bodies = \
+                     \"articulated\" (joints kept as constraints have a constrained form in \
+                     {} only; or give the model bodies = \"links\" or \"rigid\")",
+                    s.integrator,
+                    names.join(", ")
+                );
+            }
+        }
         // Densities, kg/m^3: finite and > 0 wherever given (unknown link names in `links` are
         // checked against the URDF by `policy::apply`).
         let density = |key: &str, v: Option<f64>| -> anyhow::Result<()> {
@@ -384,6 +511,14 @@ impl Scene {
             finite3(&format!("{key}.rpy"), &m.rpy)?;
             finite3(&format!("{key}.linvel"), &m.linvel)?;
             finite3(&format!("{key}.angvel"), &m.angvel)?;
+            if let Some(copies) = m.copies
+                && !(1..=placement::MAX_COPIES).contains(&copies)
+            {
+                bail!(
+                    "{key}.copies must be between 1 and {} (got {copies})",
+                    placement::MAX_COPIES
+                );
+            }
             if let Some(name) = &m.name {
                 if name.is_empty() || name.contains('/') || name.trim() != name {
                     bail!(
@@ -413,6 +548,43 @@ impl Scene {
                          (rad or m; got {value})"
                     );
                 }
+            }
+            for (joint, value) in &m.joint_velocities {
+                if !value.is_finite() {
+                    bail!(
+                        "{file}: model[{i}].joint_velocities.{joint} must be a finite number \
+                         (rad/s or m/s; got {value})"
+                    );
+                }
+            }
+            if m.bodies != BodiesMode::Articulated {
+                let mode = match m.bodies {
+                    BodiesMode::Links => "links",
+                    _ => "rigid",
+                };
+                let key = if m.base.is_some() {
+                    Some("base")
+                } else if !m.joint_velocities.is_empty() {
+                    Some("joint_velocities")
+                } else if !m.locked_joints.is_empty() {
+                    Some("locked_joints")
+                } else {
+                    None
+                };
+                if let Some(key) = key {
+                    bail!(
+                        "{file}: model[{i}].{key} applies to bodies = \"articulated\" only \
+                         (this model has bodies = \"{mode}\")"
+                    );
+                }
+            }
+            if m.base == Some(BaseMode::Fixed) && (m.linvel != [0.0; 3] || m.angvel != [0.0; 3]) {
+                bail!(
+                    "{file}: model[{i}]: base = \"fixed\" welds the root link to the world, so \
+                     linvel and angvel (the root link's twist) must be zero (got {:?}, {:?})",
+                    m.linvel,
+                    m.angvel
+                );
             }
         }
         Ok(())
@@ -503,13 +675,24 @@ impl Scene {
     }
 
     /// Loads the models and builds what is simulated and recorded.
+    ///
+    /// Each distinct URDF with its loading settings (package paths, joints, strictness, mass
+    /// settings, `bodies`, `allow_non_physical_inertia`) is loaded, given its mass properties
+    /// and checked once, however many tables and copies use it; each copy then only places the
+    /// loaded links ([`placement`]).
     pub fn build(&self) -> anyhow::Result<World> {
         let mut world = World::default();
-        let mut frame_ids = HashSet::new();
+        let total: u64 = self.models.iter().map(ModelEntry::copy_count).sum();
+        let capacity = usize::try_from(total).unwrap_or(usize::MAX).min(1 << 24);
+        world.bodies.reserve(capacity);
+        world.layout.bodies.reserve(capacity);
+        let mut frame_ids: HashSet<String> = HashSet::with_capacity(capacity);
+        let mut body_names: HashSet<String> = HashSet::new();
         // Each URDF's text, once per distinct `urdf` value, for the recordings' metadata.
         let mut urdf_texts: BTreeMap<String, String> = BTreeMap::new();
         // A URDF used by many models warns once.
         let mut seen_warnings: HashSet<String> = HashSet::new();
+        let mut loaded: HashMap<String, Arc<Model>> = HashMap::new();
         for (i, entry) in self.models.iter().enumerate() {
             let urdf_path = self.base_dir.join(&entry.urdf);
             let package_paths: Vec<PathBuf> = entry
@@ -518,25 +701,48 @@ impl Scene {
                 .map(|p| self.base_dir.join(p))
                 .collect();
             let context = || format!("{}: model[{i}]", self.source.display());
-            let joints: HashMap<String, f64> = entry.joints.clone().into_iter().collect();
-            let mut model = urdf::load_with(
-                &urdf_path,
-                &package_paths,
-                &joints,
-                urdf::Strictness::from_strict(entry.strict),
-            )
-            .with_context(context)?;
-            for warning in model.warnings.drain(..) {
-                if seen_warnings.insert(warning.to_string()) {
-                    world.warnings.push(warning);
+            let mass_settings = self.mass_settings(entry);
+            let load_key = format!(
+                "{:?}",
+                (
+                    &urdf_path,
+                    &package_paths,
+                    &entry.joints,
+                    entry.strict,
+                    &mass_settings,
+                    entry.bodies,
+                    entry.allow_non_physical_inertia
+                )
+            );
+            let model = match loaded.get(&load_key) {
+                Some(model) => model.clone(),
+                None => {
+                    let joints: HashMap<String, f64> = entry.joints.clone().into_iter().collect();
+                    let mut model = urdf::load_with(
+                        &urdf_path,
+                        &package_paths,
+                        &joints,
+                        urdf::Strictness::from_strict(entry.strict),
+                    )
+                    .with_context(context)?;
+                    for warning in model.warnings.drain(..) {
+                        if seen_warnings.insert(warning.to_string()) {
+                            world.warnings.push(warning);
+                        }
+                    }
+                    policy::apply(&mut model, &mass_settings).with_context(context)?;
+                    match entry.bodies {
+                        BodiesMode::Links => {
+                            model.check_simulable(entry.allow_non_physical_inertia)
+                        }
+                        BodiesMode::Rigid | BodiesMode::Articulated => check_rigid_parts(&model),
+                    }
+                    .with_context(context)?;
+                    let model = Arc::new(model);
+                    loaded.insert(load_key, model.clone());
+                    model
                 }
-            }
-            policy::apply(&mut model, &self.mass_settings(entry)).with_context(context)?;
-            match entry.bodies {
-                BodiesMode::Links => model.check_simulable(entry.allow_non_physical_inertia),
-                BodiesMode::Rigid => check_rigid_parts(&model),
-            }
-            .with_context(context)?;
+            };
             let key = format!("{URDF_METADATA_PREFIX}{}", entry.urdf.display());
             if let std::collections::btree_map::Entry::Vacant(slot) = urdf_texts.entry(key.clone())
             {
@@ -545,36 +751,74 @@ impl Scene {
                         .with_context(context)?,
                 );
             }
-            let before = world.layout.frames.len();
-            match entry.bodies {
-                BodiesMode::Links => add_model(&mut world, &model, entry),
-                BodiesMode::Rigid => {
-                    add_rigid_model(&mut world, &model, entry).with_context(context)?
+            let copies = entry.copy_count();
+            let base = entry.name.clone().unwrap_or_else(|| model.name.clone());
+            for copy in 0..copies {
+                // The frame-id prefix: the copy's name, or the table's `name`, or none.
+                let prefix = match entry.copies {
+                    Some(_) => Some(placement::copy_name(&base, copy, copies)),
+                    None => entry.name.clone(),
+                };
+                let label = prefix.clone().unwrap_or_else(|| model.name.clone());
+                let place = entry.placement(copy);
+                let before = world.layout.frames.len();
+                match entry.bodies {
+                    BodiesMode::Links => {
+                        add_model(&mut world, &model, prefix.as_deref(), &label, &place)
+                    }
+                    BodiesMode::Rigid => add_rigid_model(
+                        &mut world,
+                        &model,
+                        prefix.as_deref(),
+                        &label,
+                        &place,
+                        entry.allow_non_physical_inertia,
+                        &mut body_names,
+                    )
+                    .with_context(context)?,
+                    BodiesMode::Articulated => articulated::add_articulated_model(
+                        &mut world,
+                        &model,
+                        entry,
+                        &articulated::CopyPlace {
+                            prefix: prefix.as_deref(),
+                            label: &label,
+                            place: &place,
+                        },
+                        &mut body_names,
+                    )
+                    .with_context(context)?,
+                }
+                if world.layout.frames.len() == before {
+                    bail!(
+                        "{}: model[{i}] ({}) has no link with positive mass: nothing to simulate",
+                        self.source.display(),
+                        urdf_path.display()
+                    );
+                }
+                for f in &world.layout.frames[before..] {
+                    if !frame_ids.insert(f.frame_id.clone()) {
+                        bail!(
+                            "{}: model[{i}]: frame id {:?} is used by an earlier model; give the model a `name`",
+                            self.source.display(),
+                            f.frame_id
+                        );
+                    }
                 }
             }
-            if world.layout.frames.len() == before {
-                bail!(
-                    "{}: model[{i}] ({}) has no link with positive mass: nothing to simulate",
-                    self.source.display(),
-                    urdf_path.display()
-                );
-            }
+            // One description per table, whatever its copies: with copies, the first copy's
+            // (its links named by copy 0's frame ids; docs/scale.md "ROS 2").
+            let described = match entry.copies {
+                Some(copies) => Some(placement::copy_name(&base, 0, copies)),
+                None => entry.name.clone(),
+            };
             world.layout.robot_descriptions.push(robot_description(
                 &urdf_texts[&key],
                 &urdf_path,
                 &package_paths,
-                entry,
+                described.as_deref(),
                 &model,
             ));
-            for f in &world.layout.frames[before..] {
-                if !frame_ids.insert(f.frame_id.clone()) {
-                    bail!(
-                        "{}: model[{i}]: frame id {:?} is used by an earlier model; give the model a `name`",
-                        self.source.display(),
-                        f.frame_id
-                    );
-                }
-            }
         }
         world.layout.name = self
             .source
@@ -593,17 +837,12 @@ fn robot_description(
     xml: &str,
     urdf_path: &Path,
     package_paths: &[PathBuf],
-    entry: &ModelEntry,
+    prefix: Option<&str>,
     model: &Model,
 ) -> RobotDescription {
-    let urdf = crate::model::description::for_frame_ids(
-        xml,
-        urdf_path,
-        package_paths,
-        entry.name.as_deref(),
-    );
+    let urdf = crate::model::description::for_frame_ids(xml, urdf_path, package_paths, prefix);
     RobotDescription {
-        model: entry.name.clone().unwrap_or_else(|| model.name.clone()),
+        model: prefix.map_or_else(|| model.name.clone(), str::to_string),
         urdf_path: urdf_path.to_path_buf(),
         urdf,
     }
@@ -625,16 +864,69 @@ pub struct World {
     /// Per recorded frame (same order as `layout.frames`): the body it moves with and the
     /// constant pose of the link in that body's principal frame.
     pub attachments: Vec<Attachment>,
+    /// Articulated models (`bodies = "articulated"`), each over a contiguous range of
+    /// `bodies`, in scene order (the same order as `layout.mechanisms`).
+    pub mechanisms: Vec<std::sync::Arc<Mechanism>>,
+    /// Frames of compound joints' massless interior links: placed from the mechanism's report,
+    /// not from a body (their [`Attachment`] is a placeholder).
+    pub interior_frames: Vec<InteriorFrame>,
+    /// What the build decided that the user should know (e.g. joints locked because no mass
+    /// hangs from them), one line each; the command prints them.
+    pub notes: Vec<String>,
     /// The URDF oddities the models loaded with (docs/urdf.md), each once however many models
     /// share the file; the command prints them.
     pub warnings: Vec<urdf::LoadWarning>,
 }
 
+/// A massless link frame inside a compound joint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InteriorFrame {
+    /// Index into `layout.frames`.
+    pub frame: usize,
+    /// Index into `World::mechanisms`.
+    pub mechanism: usize,
+    /// Index into the mechanism report's interior link poses
+    /// ([`crate::sim::mechanism::project::Report::interior_world_from_link`]).
+    pub interior: usize,
+    /// Pose of the frame's link in that interior link's frame (identity for the link itself).
+    pub interior_from_link: Isometry3<f64>,
+}
+
 /// A link frame riding on a body.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Attachment {
+    /// Index into `World::bodies`, or [`Attachment::WORLD`] for a frame at rest (the welded
+    /// root of a fixed-base articulated model): then `body_from_link` is `world_from_link`.
     pub body: usize,
     pub body_from_link: Isometry3<f64>,
+}
+
+impl Attachment {
+    /// The `body` of a frame at rest in the world.
+    pub const WORLD: usize = usize::MAX;
+}
+
+impl World {
+    /// The integrator that steps this world: `kind` itself when no model is articulated,
+    /// else the [`Articulated`] stepper (free bodies and mechanisms), which supports the
+    /// variational family only (an error naming the model otherwise).
+    pub fn integrator(
+        &self,
+        kind: IntegratorKind,
+        dt_secs: f64,
+        settings: &VariationalSettings,
+    ) -> anyhow::Result<Box<dyn crate::sim::Integrator>> {
+        if self.mechanisms.is_empty() {
+            return Ok(kind.build(dt_secs, settings));
+        }
+        Ok(Box::new(Articulated::new(
+            kind,
+            dt_secs,
+            settings,
+            &self.mechanisms,
+            self.bodies.len(),
+        )?))
+    }
 }
 
 /// The parts of a `bodies = "rigid"` model: each link with an `<inertial>` and a non-zero mass
@@ -708,9 +1000,17 @@ fn check_rigid_parts(model: &Model) -> Result<(), crate::model::urdf::ModelError
 /// composite that is not a valid rigid body (e.g. a total mass or inertia overflowing to
 /// infinity), naming the model and the broken rules; a link frame whose pose is not finite; a
 /// body name already used by an earlier model.
-fn add_rigid_model(world: &mut World, model: &Model, entry: &ModelEntry) -> anyhow::Result<()> {
-    let label = entry.name.clone().unwrap_or_else(|| model.name.clone());
-    let composite = rigid_composite(model, &label, entry.allow_non_physical_inertia)?;
+fn add_rigid_model(
+    world: &mut World,
+    model: &Model,
+    prefix: Option<&str>,
+    label: &str,
+    place: &placement::Placement,
+    allow_non_physical_inertia: bool,
+    body_names: &mut HashSet<String>,
+) -> anyhow::Result<()> {
+    let label = label.to_string();
+    let composite = rigid_composite(model, &label, allow_non_physical_inertia)?;
     if let Some(link) = model
         .links
         .iter()
@@ -722,7 +1022,7 @@ fn add_rigid_model(world: &mut World, model: &Model, entry: &ModelEntry) -> anyh
             link.name
         );
     }
-    if world.layout.bodies.iter().any(|b| b.name == label) {
+    if !body_names.insert(label.clone()) {
         bail!(
             "bodies = \"rigid\": body name {label:?} (the model's) is used by an earlier model; \
              give the model a different `name`"
@@ -731,18 +1031,14 @@ fn add_rigid_model(world: &mut World, model: &Model, entry: &ModelEntry) -> anyh
     let (moments, model_from_principal_rot) = composite.principal();
     let model_from_principal =
         Isometry3::from_parts(Translation3::from(composite.com), model_from_principal_rot);
-    let world_from_model = Isometry3::from_parts(
-        Translation3::from(Vector3::from(entry.position)),
-        rotation_from_rpy(entry.rpy),
-    );
     let principal_from_model = model_from_principal.inverse();
     let body = world.bodies.len();
     world.bodies.push(BodyInit {
         mass: composite.mass,
         principal_moments: moments,
-        world_from_body: world_from_model * model_from_principal,
-        linvel_world: Vector3::from(entry.linvel),
-        angvel_world: Vector3::from(entry.angvel),
+        world_from_body: place.world_from_model * model_from_principal,
+        linvel_world: place.linvel_world,
+        angvel_world: place.angvel_world,
     });
     let first_frame = world.layout.frames.len();
     for link in &model.links {
@@ -751,7 +1047,7 @@ fn add_rigid_model(world: &mut World, model: &Model, entry: &ModelEntry) -> anyh
             body_from_link: principal_from_model * link.model_from_link,
         });
         world.layout.frames.push(FrameLayout {
-            frame_id: match &entry.name {
+            frame_id: match prefix {
                 Some(prefix) => format!("{prefix}/{}", link.name),
                 None => link.name.clone(),
             },
@@ -819,13 +1115,17 @@ fn isometry_is_finite(p: &Isometry3<f64>) -> bool {
         && p.rotation.coords.iter().all(|x| x.is_finite())
 }
 
-/// One free body per link with positive mass.
-fn add_model(world: &mut World, model: &Model, entry: &ModelEntry) {
-    let world_from_model = Isometry3::from_parts(
-        Translation3::from(Vector3::from(entry.position)),
-        rotation_from_rpy(entry.rpy),
-    );
-    let model_label = entry.name.clone().unwrap_or_else(|| model.name.clone());
+/// One free body per link with positive mass, the model placed at `place`; frame ids
+/// `<prefix>/<link>` (or `<link>`), the model labelled `label`.
+fn add_model(
+    world: &mut World,
+    model: &Model,
+    prefix: Option<&str>,
+    label: &str,
+    place: &placement::Placement,
+) {
+    let world_from_model = place.world_from_model;
+    let model_label = label.to_string();
     for link in &model.links {
         let Some(mp) = link.inertial.as_ref().filter(|mp| mp.mass > 0.0) else {
             continue;
@@ -834,7 +1134,7 @@ fn add_model(world: &mut World, model: &Model, entry: &ModelEntry) {
         let link_from_principal =
             Isometry3::from_parts(Translation3::from(mp.com), link_from_principal_rot);
         let world_from_body = world_from_model * link.model_from_link * link_from_principal;
-        let frame_id = match &entry.name {
+        let frame_id = match prefix {
             Some(prefix) => format!("{prefix}/{}", link.name),
             None => link.name.clone(),
         };
@@ -844,8 +1144,8 @@ fn add_model(world: &mut World, model: &Model, entry: &ModelEntry) {
             mass: mp.mass,
             principal_moments: moments,
             world_from_body,
-            linvel_world: Vector3::from(entry.linvel),
-            angvel_world: Vector3::from(entry.angvel),
+            linvel_world: place.linvel_world,
+            angvel_world: place.angvel_world,
         });
         world.attachments.push(Attachment {
             body,

@@ -11,7 +11,7 @@
 //!
 //! Cases per target: `TUMBLE_FUZZ_CASES` (default 1000, under a second in release); seed:
 //! `TUMBLE_FUZZ_SEED` (default 0, so CI runs are repeatable). The long campaign recorded in the
-//! README ("Hostile input"):
+//! docs/reliability.md ("Hostile input"):
 //!
 //! ```sh
 //! for t in urdf scene stl obj; do
@@ -528,7 +528,7 @@ fn fuzz_dae_reader() {
 }
 
 /// The mutation engine itself: each kind of edit does what it says (so that the campaign
-/// figures mean what the README says).
+/// figures mean what docs/reliability.md says).
 #[test]
 fn mutations_edit_what_they_say() {
     let seed = b"<a x=\"1\">\n<b y=\"2\"/>\n</a>\n";

@@ -261,7 +261,7 @@ fn convert_replays_with_the_entities_of_a_fresh_run() {
     let (fresh, converted) = (print("arm.rrd"), print("conv.rrd"));
     assert!(fresh.contains("world_from_link") && fresh.len() > 10_000);
     assert_eq!(fresh, converted);
-    // And byte for byte (recordings are reproducible, README "Reliability").
+    // And byte for byte (recordings are reproducible, docs/reliability.md).
     assert!(
         std::fs::read(d.join("arm.rrd")).unwrap() == std::fs::read(d.join("conv.rrd")).unwrap()
     );

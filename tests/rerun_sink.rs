@@ -37,7 +37,8 @@ fn write_stl(dir: &Path) -> PathBuf {
 }
 
 /// Three frames (one with a prefixed id, one without visuals), every primitive, a mesh, a DAE
-/// mesh and an unresolved mesh (both skipped), two bodies.
+/// mesh whose file is missing and an unresolved mesh (both skipped), two bodies. (A DAE that
+/// exists becomes a `Mesh3D`: tests/viewers.rs.)
 fn layout(mesh_dir: &Path) -> RecordingLayout {
     let stl = write_stl(mesh_dir);
     let frames = vec![
@@ -142,6 +143,7 @@ fn layout(mesh_dir: &Path) -> RecordingLayout {
         metadata,
         topic_groups: Vec::new(),
         robot_descriptions: Vec::new(),
+        ..Default::default()
     }
 }
 
@@ -205,6 +207,8 @@ fn write_recording(path: &Path, mesh_dir: &Path, options: &RerunOptions) -> Vec<
             time_ns: time_ns(step),
             world_from_link: &poses,
             bodies: &states,
+            joints: &[],
+            mechanisms: &[],
         })
         .expect("write");
     }
@@ -286,7 +290,11 @@ fn transforms_read_back_by_frame_id_match_to_f32_precision() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.rrd");
     let warnings = write_recording(&path, dir.path(), &RerunOptions::default());
-    assert_eq!(warnings.len(), 2, "DAE and unresolved meshes: {warnings:?}");
+    assert_eq!(
+        warnings.len(),
+        2,
+        "missing DAE and unresolved meshes: {warnings:?}"
+    );
     assert!(warnings[0].contains("shell.dae"), "{warnings:?}");
     assert!(warnings[1].contains("missing/x.stl"), "{warnings:?}");
     assert!(!dir.path().join("scene.rrd.part").exists());
@@ -460,6 +468,8 @@ fn nothing_under_the_final_name_without_finish() {
                 time_ns: time_ns(step),
                 world_from_link: &poses,
                 bodies: &states,
+                joints: &[],
+                mechanisms: &[],
             })
             .unwrap();
         }
@@ -479,6 +489,8 @@ fn nothing_under_the_final_name_without_finish() {
                 time_ns: 0,
                 world_from_link: &poses[..1],
                 bodies: &states,
+                joints: &[],
+                mechanisms: &[],
             })
             .unwrap_err();
         assert!(err.to_string().contains("link poses"), "{err}");

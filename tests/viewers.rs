@@ -631,3 +631,142 @@ fn rerun_recording_opens_with_the_scene_framed_and_conservation_plots() {
     assert!(e_max > 1e-9 && e_max < 1e-6, "{e_max}");
     assert!(l_max < 1e-13, "{l_max}");
 }
+
+/// A tetrahedron in millimetres, placed by a node 100 mm along x (what real robots' Collada
+/// meshes look like to the reader: a unit and a node transform).
+const TETRA_DAE: &str = r##"<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><unit name="millimetre" meter="0.001"/><up_axis>Z_UP</up_axis></asset>
+  <library_geometries><geometry id="t"><mesh>
+    <source id="p"><float_array id="pa" count="12">0 0 0  50 0 0  0 50 0  0 0 50</float_array>
+      <technique_common><accessor source="#pa" count="4" stride="3"/></technique_common></source>
+    <vertices id="v"><input semantic="POSITION" source="#p"/></vertices>
+    <triangles count="4"><input semantic="VERTEX" source="#v" offset="0"/>
+      <p>0 2 1  0 1 3  0 3 2  1 2 3</p></triangles>
+  </mesh></geometry></library_geometries>
+  <library_visual_scenes><visual_scene id="s">
+    <node id="n"><translate>100 0 0</translate><instance_geometry url="#t"/></node>
+  </visual_scene></library_visual_scenes>
+  <scene><instance_visual_scene url="#s"/></scene>
+</COLLADA>"##;
+
+/// Collada meshes, which Rerun cannot read, reach both viewers as triangles: a `Mesh3D` in the
+/// .rrd (with vertex normals) and a triangle list on `/scene`, vertices in metres with the node
+/// transform applied, scaled by the URDF `scale` on the way (Rerun: the instance pose's scale).
+#[test]
+fn collada_meshes_reach_rerun_and_foxglove_as_triangles() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("tetra.dae"), TETRA_DAE).unwrap();
+    std::fs::write(
+        d.join("tetra.urdf"),
+        r#"<robot name="tetra"><link name="shell">
+             <inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial>
+             <visual><geometry><mesh filename="tetra.dae" scale="2 2 2"/></geometry></visual>
+           </link></robot>"#,
+    )
+    .unwrap();
+    let out = tumble(
+        &[
+            "simulate",
+            "tetra.urdf",
+            "--out",
+            "run",
+            "--duration",
+            "0.01",
+        ],
+        d,
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        !text(&out.stderr).contains("warning"),
+        "{}",
+        text(&out.stderr)
+    );
+    // The file's corners in metres, node translation (0.1 m, 0, 0) applied.
+    let corners = [
+        [0.1, 0.0, 0.0],
+        [0.15, 0.0, 0.0],
+        [0.1, 0.05, 0.0],
+        [0.1, 0.0, 0.05],
+    ];
+    let meshes = run_py("read_meshes.py", &[&d.join("run.rrd")]);
+    let mesh = &meshes["/tetra/visual_geometries/shell/visual_0"];
+    let positions: Vec<Vec<f64>> = mesh["positions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(f64s)
+        .collect();
+    assert_eq!(positions.len(), 4, "{meshes}");
+    for c in &corners {
+        // f32 storage: 0.15 is stored to 6e-9.
+        assert!(
+            positions
+                .iter()
+                .any(|p| (0..3).all(|k| (p[k] - c[k]).abs() < 1e-8)),
+            "{c:?} not in {positions:?}"
+        );
+    }
+    assert_eq!(mesh["indices"].as_array().unwrap().len(), 4);
+    assert_eq!(mesh["normals"], 4);
+    // Foxglove gets the scaled corners (×2) as a triangle list.
+    let scene = run_py("read_scene.py", &[&d.join("run.mcap")]);
+    let tri = &scene["topics"]["/scene"][0]["entities"][0]["triangles"][0];
+    let points: Vec<Vec<f64>> = tri["points"].as_array().unwrap().iter().map(f64s).collect();
+    for c in &corners {
+        let scaled: Vec<f64> = c.iter().map(|x| 2.0 * x).collect();
+        assert!(
+            points
+                .iter()
+                .any(|p| (0..3).all(|k| (p[k] - scaled[k]).abs() < 1e-15)),
+            "{scaled:?} not in {points:?}"
+        );
+    }
+}
+
+/// The Foxglove layout shipped with tumble (docs/foxglove/tumble-layout.json, named in the run
+/// summary) is a layout Foxglove imports: a 3D panel on `world` with `/scene` visible, and
+/// plots whose message paths exist in the `/bodies` messages of a real recording (read by the
+/// Python `mcap` reader with protobuf decoding).
+#[test]
+fn the_shipped_foxglove_layout_shows_the_scene_and_plots_real_fields() {
+    let root = common::root();
+    let json = std::fs::read_to_string(root.join("docs/foxglove/tumble-layout.json")).unwrap();
+    let layout: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let panels = layout["configById"].as_object().unwrap();
+    let three_d = &panels["3D!tumble"];
+    assert_eq!(three_d["followTf"], "world");
+    assert_eq!(three_d["topics"]["/scene"]["visible"], true);
+    // Every panel the layout tree names is configured.
+    let tree = layout["layout"].to_string();
+    for id in panels.keys() {
+        assert!(
+            tree.contains(&format!("\"{id}\"")),
+            "{id} not placed in {tree}"
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = tumble(
+        &["simulate", "--out", "run", "--duration", "0.05"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let mcap = run_py("read_mcap.py", &[&dir.path().join("run.mcap")]);
+    assert!(mcap["schemas"]["/bodies"] == "tumble.BodyStates");
+    // The plotted paths: /bodies.total_energy and /bodies.bodies[0].angular_momentum.{x,y,z}, the
+    // fields of tumble.BodyStates (src/record/mcap.rs), checked against the decoded message.
+    let fields = run_py("bodies_fields.py", &[&dir.path().join("run.mcap")]);
+    for (id, panel) in panels.iter().filter(|(id, _)| id.starts_with("Plot!")) {
+        for path in panel["paths"].as_array().unwrap() {
+            let path = path["value"].as_str().unwrap();
+            let field = path
+                .strip_prefix("/bodies.")
+                .unwrap_or_else(|| panic!("{id}: {path}"));
+            assert!(
+                fields["paths"].as_array().unwrap().contains(&field.into()),
+                "{id}: {path} is not a field of /bodies: {fields}"
+            );
+        }
+    }
+}

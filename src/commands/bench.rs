@@ -1,53 +1,123 @@
-//! `tumble bench --bodies N --steps K --integrator NAME`: steps N differently initialised bodies
-//! K steps with no recording and prints the cost; the last line is `ns_per_body_step=<median>`.
+//! `tumble bench`: the cost of the bare step, no recording.
+//!
+//! - `tumble bench --bodies N --steps K --integrator NAME [--threads T]`: steps N differently
+//!   initialised free bodies K steps; the last line is `ns_per_body_step=<median>` (wall time
+//!   per body-step on T threads). With T threads the batch is split as `simulate --threads T`
+//!   splits it ([`crate::sim::partition`]), the run guard checks every step, and the threads
+//!   meet every [`WINDOW_STEPS`] steps (a run recorded at 100 Hz with dt = 1 ms); with T > 1
+//!   the same is timed on one thread too and the line `scaling 1 -> T threads: S x` printed
+//!   before the last.
+//! - `tumble bench --scene SCENE.toml [--steps K] [--integrator NAME] [--dt DT]`: steps any
+//!   scene (articulated models included) with its own integrator and step unless given; the
+//!   last two lines are `ns_per_step=<median>` (one step of the whole scene) and
+//!   `ns_per_body_step=<median>` (that over the scene's bodies). With `--errors-over SECS`, an
+//!   untimed run of SECS first prints `energy_err_max=` (largest `|E − E₀|/|E₀|` of the
+//!   reported energy, every step), `momentum_err_max=` (largest relative change of the
+//!   conserved angular momenta: free bodies', floating models' totals about their centre of
+//!   mass; `nan` when nothing is conserved) and `linear_momentum_err_max=` (floating models'
+//!   total linear momentum, without gravity), for side-by-side comparisons
+//!   (`scripts/bench_mechanism.sh`).
 
+use crate::scene::Scene;
+use crate::sim::partition::{Partitions, partition_count};
 use crate::sim::workload::free_body_batch;
-use crate::sim::{Bodies, IntegratorKind};
+use crate::sim::{Bodies, Integrator, IntegratorKind};
 use crate::trade::measure::median;
 use anyhow::bail;
 use nalgebra::Vector3;
+use std::path::PathBuf;
 use std::time::Instant;
+
+/// Steps between two meetings of the threads (a 100 Hz recording at dt = 1 ms).
+pub const WINDOW_STEPS: u64 = 10;
 
 #[derive(clap::Args, Debug, Clone)]
 pub struct BenchArgs {
-    /// Number of bodies in the batch.
+    /// Number of bodies in the synthetic free-body batch (ignored with --scene).
     #[arg(long, default_value_t = 10_000)]
     pub bodies: usize,
+    /// Time this scene's step instead of the synthetic batch.
+    #[arg(long, value_name = "SCENE.toml")]
+    pub scene: Option<PathBuf>,
     /// Steps per timed run.
     #[arg(long, default_value_t = 1000)]
     pub steps: u64,
-    /// Integrator name.
-    #[arg(long, default_value = "variational")]
-    pub integrator: String,
-    /// Step size, s.
-    #[arg(long, default_value_t = 0.001)]
-    pub dt: f64,
+    /// Integrator name (default: the scene's, else variational).
+    #[arg(long)]
+    pub integrator: Option<String>,
+    /// Step size, s (default: the scene's, else 0.001).
+    #[arg(long)]
+    pub dt: Option<f64>,
     /// Timed runs; the median is printed last.
     #[arg(long, default_value_t = 5)]
     pub repeats: usize,
+    /// With --scene: first measure the energy and momentum errors over this many seconds
+    /// (untimed).
+    #[arg(long, value_name = "SECS")]
+    pub errors_over: Option<f64>,
+    /// Stepping threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
     /// Run even when the estimated computing time exceeds 7 days (memory is always checked).
     #[arg(long)]
     pub allow_huge: bool,
 }
 
-pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
-    let Some(kind) = IntegratorKind::from_name(&args.integrator) else {
+fn integrator_kind(name: &str) -> anyhow::Result<IntegratorKind> {
+    IntegratorKind::from_name(name).ok_or_else(|| {
         let names: Vec<_> = IntegratorKind::ALL.iter().map(|k| k.name()).collect();
-        bail!(
-            "--integrator: unknown integrator {:?} (expected one of: {})",
-            args.integrator,
+        anyhow::anyhow!(
+            "--integrator: unknown integrator {name:?} (expected one of: {})",
             names.join(", ")
-        );
-    };
-    if args.bodies == 0 || args.steps == 0 || args.repeats == 0 {
+        )
+    })
+}
+
+pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
+    if args.steps == 0 || args.repeats == 0 || (args.scene.is_none() && args.bodies == 0) {
         bail!("--bodies, --steps and --repeats must be at least 1");
     }
-    if !(args.dt.is_finite() && args.dt > 0.0) {
-        bail!(
-            "--dt must be a positive number of seconds (got {})",
-            args.dt
-        );
+    if let Some(dt) = args.dt
+        && !(dt.is_finite() && dt > 0.0)
+    {
+        bail!("--dt must be a positive number of seconds (got {dt})");
     }
+    match &args.scene {
+        Some(path) => run_scene(args, path),
+        None => run_batch(args),
+    }
+}
+
+/// Times `steps` steps from `start`, `repeats` times; returns the median wall time per step, ns.
+fn time_steps(
+    start: &Bodies,
+    make: &dyn Fn() -> anyhow::Result<Box<dyn Integrator>>,
+    gravity: &Vector3<f64>,
+    args: &BenchArgs,
+    per_run: &dyn Fn(usize, f64, u64),
+) -> anyhow::Result<f64> {
+    let mut samples = Vec::with_capacity(args.repeats);
+    for r in 0..args.repeats {
+        let mut bodies = start.clone();
+        let mut integrator = make()?;
+        integrator.init(&bodies);
+        let started = Instant::now();
+        let mut failures = 0u64;
+        for _ in 0..args.steps {
+            failures += u64::from(integrator.step(&mut bodies, gravity).newton_failures);
+        }
+        let ns = started.elapsed().as_secs_f64() * 1e9 / args.steps as f64;
+        std::hint::black_box(&bodies);
+        per_run(r, ns, failures);
+        samples.push(ns);
+    }
+    Ok(median(&mut samples))
+}
+
+fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
+    let name = args.integrator.as_deref().unwrap_or("variational");
+    let kind = integrator_kind(name)?;
+    let dt = args.dt.unwrap_or(0.001);
     crate::budget::Estimate::run(
         args.bodies as f64,
         0.0,
@@ -55,31 +125,198 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         None,
     )
     .check(args.allow_huge)?;
-    let start = Bodies::new(&free_body_batch(args.bodies));
+    let threads = crate::commands::simulate::thread_count(args.threads)?;
+    let inits = free_body_batch(args.bodies);
     let gravity = Vector3::new(0.0, 0.0, -9.81);
     let settings = Default::default();
-    println!(
-        "{} x {} steps of {} bodies ({}, dt = {} s), no recording",
-        args.repeats, args.steps, args.bodies, args.integrator, args.dt
-    );
-    let mut samples = Vec::with_capacity(args.repeats);
-    for r in 0..args.repeats {
-        let mut bodies = start.clone();
-        let mut integrator = kind.build(args.dt, &settings);
-        integrator.init(&bodies);
-        let started = Instant::now();
-        let mut failures = 0u64;
-        for _ in 0..args.steps {
-            failures += u64::from(integrator.step(&mut bodies, &gravity).newton_failures);
-        }
-        let ns = started.elapsed().as_secs_f64() * 1e9 / (args.steps as f64 * args.bodies as f64);
-        std::hint::black_box(&bodies);
+    let mut medians = Vec::new();
+    let counts: Vec<usize> = if threads > 1 {
+        vec![1, threads]
+    } else {
+        vec![1]
+    };
+    for &t in &counts {
+        let parts = partition_count(args.bodies, t);
         println!(
-            "run {}: {ns:.2} ns per body-step ({failures} non-converged solves)",
-            r + 1
+            "{} x {} steps of {} bodies ({}, dt = {} s), no recording, {t} thread{} ({parts} partition{})",
+            args.repeats,
+            args.steps,
+            args.bodies,
+            name,
+            dt,
+            if t == 1 { "" } else { "s" },
+            if parts == 1 { "" } else { "s" },
         );
-        samples.push(ns);
+        let mut samples = Vec::with_capacity(args.repeats);
+        for r in 0..args.repeats {
+            let mut integrators: Vec<Box<dyn crate::sim::Integrator>> =
+                (0..parts).map(|_| kind.build(dt, &settings)).collect();
+            let borrowed: Vec<&mut dyn crate::sim::Integrator> = integrators
+                .iter_mut()
+                .map(|b| &mut **b as &mut dyn crate::sim::Integrator)
+                .collect();
+            let mut batch = Partitions::new(&inits, borrowed, f64::MAX, None)?;
+            let started = Instant::now();
+            let mut failures = 0u64;
+            let mut step = 0;
+            while step < args.steps {
+                let end = (step + WINDOW_STEPS).min(args.steps);
+                failures += u64::from(batch.advance(step, end, &gravity).stats.newton_failures);
+                step = end;
+            }
+            let ns =
+                started.elapsed().as_secs_f64() * 1e9 / (args.steps as f64 * args.bodies as f64);
+            std::hint::black_box(&batch.parts);
+            println!(
+                "run {}: {ns:.2} ns per body-step ({failures} non-converged solves)",
+                r + 1
+            );
+            samples.push(ns);
+        }
+        medians.push(median(&mut samples));
     }
-    println!("ns_per_body_step={:.2}", median(&mut samples));
+    if let [one, many] = medians[..] {
+        println!(
+            "ns_per_body_step 1 thread={one:.2} {threads} threads={many:.2}; scaling 1 -> {threads} threads: {:.2}x",
+            one / many
+        );
+    }
+    println!(
+        "ns_per_body_step={:.2}",
+        medians.last().copied().unwrap_or(f64::NAN)
+    );
     Ok(())
+}
+
+fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
+    let mut scene = Scene::load(path)?;
+    scene.apply(&crate::scene::SimOverrides {
+        integrator: args.integrator.clone(),
+        dt: args.dt,
+        ..Default::default()
+    })?;
+    let kind = scene.integrator();
+    let dt = scene.sim.dt;
+    let settings = scene.variational_settings();
+    let world = scene.build()?;
+    let bodies = world.bodies.len();
+    crate::budget::Estimate::run(
+        bodies as f64,
+        0.0,
+        args.steps as f64 * args.repeats as f64,
+        None,
+    )
+    .check(args.allow_huge)?;
+    let gravity = scene.gravity();
+    let start = Bodies::new(&world.bodies);
+    let make = || world.integrator(kind, dt, &settings);
+    make()?;
+    println!(
+        "{} x {} steps of {} ({bodies} bodies, {} articulated models, {}, dt = {dt} s), no recording",
+        args.repeats,
+        args.steps,
+        path.display(),
+        world.mechanisms.len(),
+        kind.name()
+    );
+    if let Some(secs) = args.errors_over {
+        if !(secs.is_finite() && secs > 0.0) {
+            bail!("--errors-over must be a positive number of seconds (got {secs})");
+        }
+        let errors = measure_errors(&world, &make, &gravity, dt, secs)?;
+        println!("errors over {secs} s ({} steps):", errors.steps);
+        println!("energy_err_max={:e}", errors.energy);
+        println!("momentum_err_max={:e}", errors.angular);
+        println!("linear_momentum_err_max={:e}", errors.linear);
+    }
+    let ns = time_steps(&start, &make, &gravity, args, &|r, ns, failures| {
+        println!(
+            "run {}: {ns:.1} ns per step, {:.2} ns per body-step ({failures} non-converged solves)",
+            r + 1,
+            ns / bodies as f64
+        )
+    })?;
+    println!("ns_per_step={ns:.1}");
+    println!("ns_per_body_step={:.2}", ns / bodies as f64);
+    Ok(())
+}
+
+struct Errors {
+    steps: u64,
+    energy: f64,
+    angular: f64,
+    linear: f64,
+}
+
+/// The largest relative errors of the reported energy and the conserved momenta over `secs`.
+fn measure_errors(
+    world: &crate::scene::World,
+    make: &dyn Fn() -> anyhow::Result<Box<dyn Integrator>>,
+    gravity: &Vector3<f64>,
+    dt: f64,
+    secs: f64,
+) -> anyhow::Result<Errors> {
+    let steps = (secs / dt).round() as u64;
+    let mut bodies = Bodies::new(&world.bodies);
+    let mut integrator = make()?;
+    integrator.init(&bodies);
+    let mut frames = crate::run::FrameBuilder::new(world);
+    let floating: Vec<usize> = world
+        .layout
+        .mechanisms
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| m.floating)
+        .map(|(k, _)| k)
+        .collect();
+    let frame = frames.frame(&bodies, gravity, 0, dt);
+    let p0: Vec<Vector3<f64>> = floating
+        .iter()
+        .map(|&k| frame.mechanisms[k].linear_momentum)
+        .collect();
+    let e0 = frames.total_energy();
+    let mut l0 = Vec::new();
+    frames.conserved_angmom(&mut l0);
+    let mut l = Vec::new();
+    let (mut energy, mut angular, mut linear): (f64, f64, f64) = (0.0, 0.0, 0.0);
+    let worst = |a: f64, b: f64| {
+        if b.is_nan() || a.is_nan() {
+            f64::NAN
+        } else {
+            a.max(b)
+        }
+    };
+    for step in 1..=steps {
+        integrator.step(&mut bodies, gravity);
+        let frame = frames.frame(&bodies, gravity, step, dt);
+        if gravity.norm() == 0.0 {
+            for (i, &k) in floating.iter().enumerate() {
+                let p = frame.mechanisms[k].linear_momentum;
+                linear = worst(
+                    linear,
+                    (p - p0[i]).norm() / p0[i].norm().max(f64::MIN_POSITIVE),
+                );
+            }
+        }
+        energy = worst(
+            energy,
+            (frames.total_energy() - e0).abs() / e0.abs().max(f64::MIN_POSITIVE),
+        );
+        frames.conserved_angmom(&mut l);
+        for (a, b) in l.iter().zip(&l0) {
+            angular = worst(angular, (a - b).norm() / b.norm().max(f64::MIN_POSITIVE));
+        }
+    }
+    if l0.is_empty() {
+        angular = f64::NAN;
+    }
+    if floating.is_empty() || gravity.norm() != 0.0 {
+        linear = f64::NAN;
+    }
+    Ok(Errors {
+        steps,
+        energy,
+        angular,
+        linear,
+    })
 }

@@ -111,6 +111,9 @@ pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
         progress: !args.quiet,
         stop_after_chunks: None,
         allow_huge: args.allow_huge,
+        raise_sigint_after_chunks: std::env::var("TUMBLE_TEST_SIGINT_AFTER_CHUNKS")
+            .ok()
+            .and_then(|v| v.parse().ok()),
     };
     let s = dataset::generate(&spec, &opts)?;
     if s.runs_skipped > 0 || s.chunks_redone > 0 {

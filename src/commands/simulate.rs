@@ -4,7 +4,9 @@
 use crate::budget::{Estimate, human_bytes, peak_memory_bytes};
 use crate::fsutil::check_not_overwriting;
 use crate::record::Sink;
-use crate::record::mcap::{McapOptions, McapSink};
+use crate::record::mcap::{ChunkCompression, McapOptions, McapSink};
+use crate::record::parquet::{BodiesSink, TrajectorySink};
+use crate::record::pipelined::Pipelined;
 use crate::record::rerun::{RerunOptions, RerunSink};
 use crate::record::ros2::Ros2Sink;
 use crate::run::{Diverged, RunSummary};
@@ -93,18 +95,95 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub force: bool,
     /// Run even when the estimated recordings exceed 64 GiB or the computing time 7 days (the
-    /// estimate is checked before anything runs; see README "Reliability").
+    /// estimate is checked before anything runs; see docs/reliability.md).
     #[arg(long)]
     pub allow_huge: bool,
     /// --inertia, --density, --geometry: replace the scene's [mass] values ([[model]] and
     /// per-link keys of a scene still refine them).
     #[command(flatten)]
     pub mass: super::MassArgs,
+    /// Which files to write, comma-separated: mcap (STEM.mcap), rrd (STEM.rrd), parquet
+    /// (STEM.trajectories.parquet and STEM.bodies.parquet, the dataset's tables for this run),
+    /// ros2 (STEM.ros2.mcap, as --ros2).
+    #[arg(long, default_value = "mcap,rrd", value_parser = Formats::parse)]
+    pub format: Formats,
+    /// MCAP chunk compression: zstd (default, smallest), lz4 (faster, larger) or none.
+    #[arg(long, default_value = "zstd", value_parser = ChunkCompression::parse)]
+    pub mcap_compression: ChunkCompression,
+    /// Threads stepping the bodies (default: all cores). The files do not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
     /// Refuse the URDF oddities urdfdom loads (a misplaced XML declaration, unknown geometry,
     /// repeated elements, a 4-number mesh scale, a mimic of a missing joint) instead of loading
     /// them with a warning; sets strict = true on every [[model]] (docs/urdf.md).
     #[arg(long)]
     pub strict: bool,
+}
+
+/// The files `simulate` writes (`--format`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Formats {
+    pub mcap: bool,
+    pub rrd: bool,
+    pub parquet: bool,
+    pub ros2: bool,
+}
+
+impl Default for Formats {
+    /// `mcap,rrd`.
+    fn default() -> Self {
+        Self {
+            mcap: true,
+            rrd: true,
+            parquet: false,
+            ros2: false,
+        }
+    }
+}
+
+impl Formats {
+    /// `mcap,rrd,parquet,ros2`: a comma-separated list, at least one.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        let mut f = Self {
+            mcap: false,
+            rrd: false,
+            parquet: false,
+            ros2: false,
+        };
+        for name in s.split(',').map(str::trim) {
+            match name {
+                "mcap" => f.mcap = true,
+                "rrd" => f.rrd = true,
+                "parquet" => f.parquet = true,
+                "ros2" => f.ros2 = true,
+                other => {
+                    return Err(format!(
+                        "unknown format {other:?} (expected a comma-separated list of mcap, rrd, parquet, ros2)"
+                    ));
+                }
+            }
+        }
+        Ok(f)
+    }
+}
+
+/// The number of stepping threads: `requested`, else every core.
+pub fn thread_count(requested: Option<usize>) -> anyhow::Result<usize> {
+    match requested {
+        Some(0) => anyhow::bail!("--threads must be at least 1"),
+        Some(n) => Ok(n),
+        None => Ok(std::thread::available_parallelism().map_or(1, |n| n.get())),
+    }
+}
+
+/// How [`simulate_world`] runs and what it writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SimulateOptions {
+    pub rerun: RerunOptions,
+    pub formats: Formats,
+    /// Stepping threads (>= 1; the files do not depend on it).
+    pub threads: usize,
+    pub mcap_compression: ChunkCompression,
 }
 
 fn parse_jacobian(s: &str) -> Result<Jacobian, String> {
@@ -129,23 +208,24 @@ pub const FOXGLOVE_LAYOUT: &str = "docs/foxglove/tumble-layout.json";
 /// Where the Foxglove layout is: `./docs/foxglove/tumble-layout.json` if present, else the copy
 /// in the source tree the binary was built from.
 pub fn foxglove_layout_path() -> PathBuf {
-    let local = PathBuf::from(FOXGLOVE_LAYOUT);
+    repository_file(FOXGLOVE_LAYOUT)
+}
+
+/// `relative` in the working directory if it is there, else in the source tree the binary was
+/// built from.
+fn repository_file(relative: &str) -> PathBuf {
+    let local = PathBuf::from(relative);
     if local.is_file() {
         local
     } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(FOXGLOVE_LAYOUT)
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(relative)
     }
 }
 
 /// Where the default scene is: `./models/default.toml` if present, else the copy in the
 /// source tree the binary was built from.
 pub fn default_scene_path() -> PathBuf {
-    let local = PathBuf::from(DEFAULT_SCENE);
-    if local.is_file() {
-        local
-    } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_SCENE)
-    }
+    repository_file(DEFAULT_SCENE)
 }
 
 /// Reads the scene the arguments name and applies the overrides.
@@ -200,22 +280,55 @@ pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
 /// The files a simulation wrote.
 #[derive(Debug, Clone)]
 pub struct Outputs {
+    /// `STEM.mcap` (written when asked for, as by default).
     pub mcap: PathBuf,
+    /// `STEM.rrd` (written when asked for, as by default).
     pub rrd: PathBuf,
     /// `STEM.ros2.mcap`, when asked for.
     pub ros2: Option<PathBuf>,
+    /// Every file written, in the order mcap, rrd, ros2, trajectories and bodies Parquet.
+    pub written: Vec<PathBuf>,
     pub summary: RunSummary,
     pub bodies: usize,
 }
 
-/// Runs `scene` and writes `<stem>.mcap` and `<stem>.rrd`.
+/// Runs `scene` and writes `<stem>.mcap` and `<stem>.rrd` (on one thread).
 pub fn simulate(
     scene: &Scene,
     stem: &Path,
     rerun_options: &RerunOptions,
 ) -> anyhow::Result<Outputs> {
-    simulate_world(scene, &scene.build()?, stem, rerun_options, false)
+    let options = SimulateOptions {
+        rerun: *rerun_options,
+        formats: Formats::default(),
+        threads: 1,
+        mcap_compression: ChunkCompression::Zstd,
+    };
+    simulate_world(scene, &scene.build()?, stem, &options)
 }
+
+/// The files `formats` names for `stem`, in the order of [`Outputs::written`].
+pub fn output_paths(stem: &Path, formats: &Formats) -> Vec<PathBuf> {
+    let mut paths = Vec::new();
+    if formats.mcap {
+        paths.push(with_extension(stem, "mcap"));
+    }
+    if formats.rrd {
+        paths.push(with_extension(stem, "rrd"));
+    }
+    if formats.ros2 {
+        paths.push(with_extension(stem, crate::record::ros2::EXTENSION));
+    }
+    if formats.parquet {
+        paths.push(with_extension(stem, TRAJECTORIES_EXTENSION));
+        paths.push(with_extension(stem, BODIES_EXTENSION));
+    }
+    paths
+}
+
+/// `STEM.trajectories.parquet` and `STEM.bodies.parquet` (`--format parquet`).
+pub const TRAJECTORIES_EXTENSION: &str = "trajectories.parquet";
+pub const BODIES_EXTENSION: &str = "bodies.parquet";
 
 /// The warning for a step too large for some body's spin ([`crate::sim::limits`]), if any.
 pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
@@ -227,7 +340,7 @@ pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
     };
     Some(format!(
         "warning: dt = {} s is too large for body {:?}{others}: it turns at up to |Ω| = {:.4e} rad/s, \
-         h|Ω| = {:.3} rad per step, over the {} limit of {} rad for its inertia ratio {:.3e} (README \"Limits\"; {}). \
+         h|Ω| = {:.3} rad per step, over the {} limit of {} rad for its inertia ratio {:.3e} (docs/limits.md; {}). \
          Largest safe step: dt <= {:.3e} s",
         scene.sim.dt,
         world.layout.bodies[w.body].name,
@@ -245,53 +358,106 @@ pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
     ))
 }
 
-/// Runs the built `world` of `scene` and writes `<stem>.mcap` and `<stem>.rrd`, and with `ros2`
-/// `<stem>.ros2.mcap`. A run the guard stops ([`crate::sim::guard`]) still finishes the files
-/// (they end at the last good recorded step) and then returns a [`Diverged`] error.
+/// Runs the built `world` of `scene` and writes the files `options.formats` names under
+/// `stem`. A run the guard stops ([`crate::sim::guard`]) still finishes the files (they end at
+/// the last good recorded step) and then returns a [`Diverged`] error.
 pub fn simulate_world(
     scene: &Scene,
     world: &World,
     stem: &Path,
-    rerun_options: &RerunOptions,
-    ros2: bool,
+    options: &SimulateOptions,
 ) -> anyhow::Result<Outputs> {
+    // Before any file exists: an integrator the world cannot use is refused with nothing written.
+    let mut integrator = world.integrator(
+        scene.integrator(),
+        scene.sim.dt,
+        &scene.variational_settings(),
+    )?;
     if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create the output folder {}", dir.display()))?;
     }
+    let formats = options.formats;
     let mcap = with_extension(stem, "mcap");
     let rrd = with_extension(stem, "rrd");
-    let mcap_sink = McapSink::create_with(
-        &mcap,
-        &world.layout,
-        &McapOptions {
-            ellipsoids: rerun_options.ellipsoids,
-        },
-    )?;
-    for warning in mcap_sink.warnings() {
-        eprintln!("warning: {warning}");
-    }
-    let mut sinks: Vec<Box<dyn Sink>> = vec![
-        Box::new(mcap_sink),
-        Box::new(RerunSink::create(&rrd, &world.layout, rerun_options)?),
-    ];
-    let ros2 = ros2.then(|| with_extension(stem, crate::record::ros2::EXTENSION));
-    if let Some(path) = &ros2 {
-        match Ros2Sink::create(path, &world.layout) {
-            Ok(sink) => sinks.push(Box::new(sink)),
-            Err(e) => return crate::record::finish_all(sinks, Err(e), &[&mcap, &rrd]),
+    let ros2 = formats
+        .ros2
+        .then(|| with_extension(stem, crate::record::ros2::EXTENSION));
+    let written = output_paths(stem, &formats);
+    let outputs: Vec<&Path> = written.iter().map(PathBuf::as_path).collect();
+    // Each file is encoded on its own thread, beside the stepping (`record::pipelined`).
+    let mut sinks: Vec<Box<dyn Sink>> = Vec::new();
+    let add = |sinks: &mut Vec<Box<dyn Sink>>,
+               sink: anyhow::Result<Box<dyn Sink + Send>>,
+               name: &str|
+     -> anyhow::Result<()> {
+        let pipelined = sink.and_then(|sink| Pipelined::new(sink, name));
+        match pipelined {
+            Ok(sink) => {
+                sinks.push(Box::new(sink));
+                Ok(())
+            }
+            Err(e) => crate::record::finish_all(std::mem::take(sinks), Err(e), &outputs),
         }
+    };
+    if formats.mcap {
+        let sink = McapSink::create_with(
+            &mcap,
+            &world.layout,
+            &McapOptions {
+                ellipsoids: options.rerun.ellipsoids,
+                compression: options.mcap_compression,
+            },
+        )
+        .map(|sink| {
+            for warning in sink.warnings() {
+                eprintln!("warning: {warning}");
+            }
+            Box::new(sink) as Box<dyn Sink + Send>
+        });
+        add(&mut sinks, sink, "tumble-mcap")?;
     }
-    let mut outputs: Vec<&Path> = vec![&mcap, &rrd];
-    outputs.extend(ros2.as_deref());
-    let mut integrator = scene
-        .integrator()
-        .build(scene.sim.dt, &scene.variational_settings());
+    if formats.rrd {
+        let sink = RerunSink::create(&rrd, &world.layout, &options.rerun)
+            .map(|sink| Box::new(sink) as Box<dyn Sink + Send>);
+        add(&mut sinks, sink, "tumble-rrd")?;
+    }
+    if let Some(path) = &ros2 {
+        let sink = Ros2Sink::create(path, &world.layout)
+            .map(|sink| Box::new(sink) as Box<dyn Sink + Send>);
+        add(&mut sinks, sink, "tumble-ros2")?;
+    }
+    if formats.parquet {
+        let sink =
+            TrajectorySink::create(&with_extension(stem, TRAJECTORIES_EXTENSION), &world.layout)
+                .map(|sink| Box::new(sink) as Box<dyn Sink + Send>);
+        add(&mut sinks, sink, "tumble-parquet")?;
+        let sink = BodiesSink::new(&with_extension(stem, BODIES_EXTENSION), &world.layout)
+            .map(|sink| Box::new(sink) as Box<dyn Sink + Send>);
+        add(&mut sinks, sink, "tumble-bodies")?;
+    }
+    let (kind, dt, variational) = (
+        scene.integrator(),
+        scene.sim.dt,
+        scene.variational_settings(),
+    );
     let settings = crate::run::RunSettings {
         stop_on_interrupt: true,
         ..scene.run_settings()
     };
-    let result = crate::run::run(world, integrator.as_mut(), &settings, &mut sinks);
+    let result = if world.mechanisms.is_empty() {
+        crate::run::run_threaded(
+            world,
+            &|| kind.build(dt, &variational),
+            options.threads,
+            &settings,
+            &mut sinks,
+        )
+    } else {
+        // A mechanism's bodies are coupled by its joint rows: one integrator steps the scene
+        // (docs/mechanisms.md).
+        crate::run::run(world, integrator.as_mut(), &settings, &mut sinks)
+    };
     let summary = crate::record::finish_all(sinks, result, &outputs)?;
     if let Some(signal) = summary.interrupted {
         return Err(crate::interrupt::Interrupted {
@@ -327,6 +493,7 @@ pub fn simulate_world(
         mcap: mcap.clone(),
         rrd: rrd.clone(),
         ros2: ros2.clone(),
+        written: written.clone(),
         summary,
         bodies: world.bodies.len(),
     })
@@ -346,18 +513,20 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         let name = scene.source.file_stem().unwrap_or_default();
         Path::new("logs").join(name)
     });
-    let (mcap, rrd) = (with_extension(&stem, "mcap"), with_extension(&stem, "rrd"));
-    check_not_overwriting(&mcap, args.force)?;
-    check_not_overwriting(&rrd, args.force)?;
-    if args.ros2 {
-        check_not_overwriting(
-            &with_extension(&stem, crate::record::ros2::EXTENSION),
-            args.force,
-        )?;
+    let formats = Formats {
+        ros2: args.format.ros2 || args.ros2,
+        ..args.format
+    };
+    for path in output_paths(&stem, &formats) {
+        check_not_overwriting(&path, args.force)?;
     }
+    let threads = thread_count(args.threads)?;
     let world = scene.build()?;
     for warning in &world.warnings {
         eprintln!("warning: {warning}");
+    }
+    for note in &world.notes {
+        eprintln!("warning: {note}");
     }
     Estimate::run(
         world.bodies.len() as f64,
@@ -375,16 +544,25 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         &scene,
         &world,
         &stem,
-        &RerunOptions {
-            ellipsoids: !args.no_ellipsoids,
+        &SimulateOptions {
+            rerun: RerunOptions {
+                ellipsoids: !args.no_ellipsoids,
+            },
+            formats,
+            threads,
+            mcap_compression: args.mcap_compression,
         },
-        args.ros2,
     )?;
     let wall = started.elapsed().as_secs_f64();
     let s = &out.summary;
     println!(
-        "simulated {} bodies for {} steps of {} s ({} s) with {} in {wall:.2} s wall time",
-        out.bodies, s.steps, scene.sim.dt, scene.sim.duration, scene.sim.integrator
+        "simulated {} bodies for {} steps of {} s ({} s) with {} on {threads} thread{} in {wall:.2} s wall time",
+        out.bodies,
+        s.steps,
+        scene.sim.dt,
+        scene.sim.duration,
+        scene.sim.integrator,
+        if threads == 1 { "" } else { "s" }
     );
     let rel_energy =
         (s.energy_final - s.energy_initial) / s.energy_initial.abs().max(f64::MIN_POSITIVE);
@@ -417,21 +595,29 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         println!("peak memory (VmHWM) {}", human_bytes(peak as f64));
     }
     println!("wrote {} frames to", s.frames_recorded);
-    println!("  {}", out.mcap.display());
-    println!("  {}", out.rrd.display());
-    if let Some(ros2) = &out.ros2 {
-        println!("  {}", ros2.display());
+    for path in &out.written {
+        println!("  {}", path.display());
     }
     println!("view them with:");
-    println!(
-        "  rerun {}        (Rerun viewer 0.36/0.37: pip install rerun-sdk==0.36.3)",
-        out.rrd.display()
-    );
-    println!(
-        "  Foxglove: open {}, then import the layout {} (Layouts > Import): a 3D panel on \"world\" showing /scene, energy and momentum plots",
-        out.mcap.display(),
-        foxglove_layout_path().display()
-    );
+    if formats.rrd {
+        println!(
+            "  rerun {}        (Rerun viewer 0.36/0.37: pip install rerun-sdk==0.36.3)",
+            out.rrd.display()
+        );
+    }
+    if formats.mcap {
+        println!(
+            "  Foxglove: open {}, then import the layout {} (Layouts > Import): a 3D panel on \"world\" showing /scene, energy and momentum plots",
+            out.mcap.display(),
+            foxglove_layout_path().display()
+        );
+    }
+    if formats.parquet {
+        println!(
+            "  pandas: pd.read_parquet(\"{}\")   (columns: docs/scale.md, the dataset's trajectories table)",
+            with_extension(&stem, TRAJECTORIES_EXTENSION).display()
+        );
+    }
     if let Some(ros2) = &out.ros2 {
         println!(
             "  ROS 2: ros2 bag play {} --clock   (RViz2 with use_sim_time:=true, fixed frame \"world\"; docs/ros2.md)",

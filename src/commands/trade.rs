@@ -36,6 +36,10 @@ pub struct TradeArgs {
     /// Timed repeats per integrator and step size; the median is reported.
     #[arg(long, default_value_t = 5)]
     pub repeats: usize,
+    /// Threads of the timed stepping loop (default: all cores; a scene of at most 256 bodies is
+    /// stepped on one). The errors do not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
     /// Replace the output files if they exist (without it, an existing output is an error).
     #[arg(long)]
     pub force: bool,
@@ -108,6 +112,7 @@ pub fn settings_from_args(args: &TradeArgs) -> anyhow::Result<(Scene, TradeSetti
             duration_secs,
             drift_horizon_secs,
             repeats: args.repeats,
+            threads: crate::commands::simulate::thread_count(args.threads)?,
         },
     ))
 }

@@ -79,6 +79,12 @@ pub struct Options {
     pub stop_after_chunks: Option<u64>,
     /// Lift the size and time limits of [`crate::budget`] (`--allow-huge`).
     pub allow_huge: bool,
+    /// Tests only: send SIGINT to this process once this many chunks completed in this call
+    /// (`tumble dataset` reads it from the environment variable
+    /// `TUMBLE_TEST_SIGINT_AFTER_CHUNKS`). The signal takes the real path (handler, flag, clean
+    /// stop, exit 130) at a known chunk, where a signal sent by a test from outside would race
+    /// the run's end.
+    pub raise_sigint_after_chunks: Option<u64>,
 }
 
 /// Parquet bytes per trajectory row, for the up-front estimate (measured about 60 with zstd;
@@ -240,6 +246,11 @@ pub fn generate(spec: &DatasetSpec, opts: &Options) -> anyhow::Result<Summary> {
             s.manifest.add_chunk(record);
             s.stats = add_stats(s.stats, stats);
             s.chunks += 1;
+            #[cfg(unix)]
+            if opts.raise_sigint_after_chunks == Some(s.chunks) {
+                // Delivered to this thread before `raise` returns: the next loop turn sees it.
+                let _ = signal_hook::low_level::raise(signal_hook::consts::SIGINT);
+            }
             if opts.stop_after_chunks.is_some_and(|k| s.chunks >= k) {
                 stop.store(true, Ordering::SeqCst);
                 interrupted.store(true, Ordering::SeqCst);

@@ -48,6 +48,38 @@ impl RunParams {
     }
 }
 
+/// A 3-vector key: drawn from `dist` with the key's stream of `seed` (a run's or a copy's
+/// [`run_seed`]), else `value`.
+pub fn draw_vec3(seed: u64, key: &str, dist: &Option<Dist>, value: [f64; 3]) -> [f64; 3] {
+    match dist {
+        Some(d) => {
+            let v = d.sample(&mut Rng::for_key(seed, key));
+            [v[0], v[1], v[2]]
+        }
+        None => value,
+    }
+}
+
+/// The root orientation: drawn as `orientation` says from the `orientation` (uniform) or `rpy`
+/// stream of `seed`, else `R(rpy)`.
+pub fn draw_rotation(
+    seed: u64,
+    orientation: &OrientationDist,
+    rpy: [f64; 3],
+) -> UnitQuaternion<f64> {
+    match orientation {
+        OrientationDist::Template => rotation_from_rpy(rpy),
+        OrientationDist::Uniform => {
+            let [x, y, z, w] = Rng::for_key(seed, "orientation").unit_quaternion_xyzw();
+            UnitQuaternion::new_normalize(Quaternion::new(w, x, y, z))
+        }
+        OrientationDist::Rpy(d) => {
+            let r = d.sample(&mut Rng::for_key(seed, "rpy"));
+            rotation_from_rpy([r[0], r[1], r[2]])
+        }
+    }
+}
+
 /// Draws run `run` of `spec`: each varied key from its own stream of the run's seed.
 pub fn draw(spec: &DatasetSpec, run: u64) -> RunParams {
     let seed = run_seed(spec.seed, run);
@@ -57,13 +89,7 @@ pub fn draw(spec: &DatasetSpec, run: u64) -> RunParams {
         Some(d) => d.sample(&mut Rng::for_key(seed, key))[0],
         None => default,
     };
-    let vec3 = |key: &str, d: &Option<Dist>, default: [f64; 3]| match d {
-        Some(d) => {
-            let v = d.sample(&mut Rng::for_key(seed, key));
-            [v[0], v[1], v[2]]
-        }
-        None => default,
-    };
+    let vec3 = |key: &str, d: &Option<Dist>, default: [f64; 3]| draw_vec3(seed, key, d, default);
     let v = &spec.vary;
     let model = match &v.model {
         Some(choices) => Rng::for_key(seed, "model").below(choices.len() as u64) as usize,
@@ -77,17 +103,7 @@ pub fn draw(spec: &DatasetSpec, run: u64) -> RunParams {
         None => None,
     }
     .unwrap_or_else(|| t.integrator());
-    let rotation = match &v.orientation {
-        OrientationDist::Template => rotation_from_rpy(entry.rpy),
-        OrientationDist::Uniform => {
-            let [x, y, z, w] = Rng::for_key(seed, "orientation").unit_quaternion_xyzw();
-            UnitQuaternion::new_normalize(Quaternion::new(w, x, y, z))
-        }
-        OrientationDist::Rpy(d) => {
-            let r = d.sample(&mut Rng::for_key(seed, "rpy"));
-            rotation_from_rpy([r[0], r[1], r[2]])
-        }
-    };
+    let rotation = draw_rotation(seed, &v.orientation, entry.rpy);
     let q = rotation.quaternion().coords;
     RunParams {
         run,
@@ -134,23 +150,32 @@ pub struct ModelCache {
 impl ModelCache {
     /// Loads every model choice; an error names the spec and the choice.
     pub fn load(spec: &DatasetSpec) -> anyhow::Result<Self> {
-        let worlds =
-            spec.model_choices()
-                .iter()
-                .enumerate()
-                .map(|(i, urdf)| {
-                    let mut scene = spec.template.clone();
-                    let entry = &mut scene.models[0];
-                    entry.urdf = urdf.into();
-                    entry.position = [0.0; 3];
-                    entry.rpy = [0.0; 3];
-                    entry.linvel = [0.0; 3];
-                    entry.angvel = [0.0; 3];
-                    scene.build().map(Arc::new).with_context(|| {
-                        format!("{}: model choice {i} ({urdf})", spec.path.display())
-                    })
-                })
-                .collect::<anyhow::Result<_>>()?;
+        let worlds = spec
+            .model_choices()
+            .iter()
+            .enumerate()
+            .map(|(i, urdf)| {
+                let mut scene = spec.template.clone();
+                let entry = &mut scene.models[0];
+                entry.urdf = urdf.into();
+                entry.position = [0.0; 3];
+                entry.rpy = [0.0; 3];
+                entry.linvel = [0.0; 3];
+                entry.angvel = [0.0; 3];
+                let world = scene.build().with_context(|| {
+                    format!("{}: model choice {i} ({urdf})", spec.path.display())
+                })?;
+                if !world.mechanisms.is_empty() {
+                    anyhow::bail!(
+                        "{}: model choice {i} ({urdf}): bodies = \"articulated\" is not \
+                             supported in datasets yet (the drawn velocities are per body); use \
+                             \"links\" or \"rigid\"",
+                        spec.path.display()
+                    );
+                }
+                Ok(Arc::new(world))
+            })
+            .collect::<anyhow::Result<_>>()?;
         Ok(Self { worlds })
     }
 
@@ -175,6 +200,7 @@ impl ModelCache {
             bodies,
             attachments: base.attachments.clone(),
             warnings: Vec::new(),
+            ..Default::default()
         }
     }
 }

@@ -190,6 +190,13 @@ impl DatasetSpec {
             format!("{file}: in the [scene] template (keys are relative to [scene])")
         })?;
         template.text = text.to_string();
+        let entry = &template.models[0];
+        if entry.copies.is_some() || entry.seed.is_some() || !entry.draws.is_empty() {
+            bail!(
+                "{file}: [[scene.model]]: copies, seed and distributions do not belong in a dataset \
+                 template (a run is one model): put distributions in [vary], the seed in [dataset]"
+            );
+        }
 
         let positive = |key: &str, v: i64| -> anyhow::Result<u64> {
             if v < 1 {

@@ -105,7 +105,7 @@ impl TrajectoryColumns {
         id
     }
 
-    fn push(
+    pub fn push(
         &mut self,
         run: u64,
         frame: &Frame<'_>,
@@ -365,24 +365,35 @@ pub fn bodies_batch(
     models: &[String],
     layouts: &[&RecordingLayout],
 ) -> anyhow::Result<RecordBatch> {
+    bodies_rows(models.iter().zip(layouts).flat_map(|(path, layout)| {
+        layout
+            .bodies
+            .iter()
+            .enumerate()
+            .map(move |(i, b)| (path.clone(), i, b, layout.frames[b.frame].frame_id.clone()))
+    }))
+}
+
+/// A bodies table from `(model, body_index, body, link frame id)` rows.
+pub fn bodies_rows<'a>(
+    rows: impl IntoIterator<Item = (String, usize, &'a crate::record::BodyLayout, String)>,
+) -> anyhow::Result<RecordBatch> {
     let mut model = Vec::new();
     let mut body = Vec::new();
     let mut index = Vec::new();
     let mut link = Vec::new();
     let mut values: [Vec<f64>; 11] = Default::default();
-    for (path, layout) in models.iter().zip(layouts) {
-        for (i, b) in layout.bodies.iter().enumerate() {
-            model.push(path.clone());
-            body.push(b.name.clone());
-            index.push(i as i64);
-            link.push(layout.frames[b.frame].frame_id.clone());
-            let t = b.link_from_principal.translation.vector;
-            let q = b.link_from_principal.rotation.quaternion().coords;
-            let m = b.principal_moments;
-            let row = [b.mass, m.x, m.y, m.z, t.x, t.y, t.z, q.x, q.y, q.z, q.w];
-            for (column, v) in values.iter_mut().zip(row) {
-                column.push(v);
-            }
+    for (path, i, b, frame_id) in rows {
+        model.push(path);
+        body.push(b.name.clone());
+        index.push(i as i64);
+        link.push(frame_id);
+        let t = b.link_from_principal.translation.vector;
+        let q = b.link_from_principal.rotation.quaternion().coords;
+        let m = b.principal_moments;
+        let row = [b.mass, m.x, m.y, m.z, t.x, t.y, t.z, q.x, q.y, q.z, q.w];
+        for (column, v) in values.iter_mut().zip(row) {
+            column.push(v);
         }
     }
     let mut columns: Vec<ArrayRef> = vec![

@@ -83,6 +83,9 @@ pub struct Joint {
     /// The URDF `<axis>` as written, in the joint frame (normalised when used).
     pub axis: Vector3<f64>,
     pub mimic: Option<Mimic>,
+    /// The `<limit lower upper>` range of a revolute or prismatic joint (rad or m), when it
+    /// is a real interval (`upper > lower`; a missing `<limit>` reads as `[0, 0]`: no range).
+    pub limits: Option<[f64; 2]>,
 }
 
 /// Why a set of joints is not a tree, or a configuration cannot be applied.
@@ -317,6 +320,7 @@ mod tests {
             parent_from_joint: Isometry3::translation(x, 0.0, 0.0),
             axis: Vector3::z(),
             mimic: None,
+            limits: None,
         }
     }
 

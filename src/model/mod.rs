@@ -1,6 +1,7 @@
 //! What a body is: URDF models, their links' mass properties and their visual and collision
 //! geometry.
 
+pub mod articulation;
 pub mod description;
 pub mod geometry;
 pub mod kinematics;
@@ -25,6 +26,8 @@ pub struct Model {
     pub links: Vec<Link>,
     /// Index of the root link (the one that is no joint's child). Model frame = root link frame.
     pub root: usize,
+    /// The URDF joints, links referred to by index into `links`, in file order.
+    pub joints: Vec<kinematics::Joint>,
     /// The oddities the loader accepted, one per oddity, in file order (by the line their
     /// element starts on; see
     /// [`urdf::Strictness`]); empty for a file URDF defines fully.

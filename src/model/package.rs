@@ -16,7 +16,7 @@
 //!
 //! Package names may contain any character but `/` (hyphens included).
 //!
-//! Hostile paths (README "Hostile input"):
+//! Hostile paths (docs/reliability.md, "Hostile input"):
 //!
 //! - The path inside a package is normalised lexically (`.` and empty segments dropped, `..`
 //!   removes the segment before it); a `..` that would climb above the package root is refused

@@ -305,6 +305,12 @@ pub fn load_str_with(
                     multiplier: m.multiplier.unwrap_or(1.0),
                     offset: m.offset.unwrap_or(0.0),
                 }),
+            limits: matches!(
+                j.joint_type,
+                urdf_rs::JointType::Revolute | urdf_rs::JointType::Prismatic
+            )
+            .then_some([j.limit.lower, j.limit.upper])
+            .filter(|[lo, hi]| hi > lo),
         });
     }
     warnings.extend(lenient::mimics_of_missing_joints(
@@ -397,6 +403,7 @@ pub fn load_str_with(
         path: file(),
         links,
         root: root_index,
+        joints,
         warnings,
     })
 }

@@ -5,14 +5,18 @@
 //! Format (version [`LAYOUT_VERSION`]): `{"version": 1, "name": ..., "frames": [{"frame_id",
 //! "model", "link", "visuals": [{"name", "link_from_visual", "geometry", "rgba"}]}], "bodies":
 //! [{"name", "frame", "mass", "link_from_principal", "principal_moments"}], "topic_groups":
-//! [{"prefix", "frames": [start, end], "bodies": [start, end]}]}`. Poses are `{"translation": [x,
+//! [{"prefix", "frames": [start, end], "bodies": [start, end], "joints": [start, end],
+//! "mechanisms": [start, end]}], "joints": [{"name", "model", "kind", "limits"}],
+//! "mechanisms": [{"name", "bodies": [start, end], "joints": [start, end], "floating"}]}`
+//! (`joints` and `mechanisms` and the groups' `joints`/`mechanisms` ranges are absent from
+//! files written before articulated models existed; they read as empty). Poses are `{"translation": [x,
 //! y, z], "rotation_xyzw": [x, y, z, w]}` (metres; unit quaternion, Hamilton convention); geometry
 //! is `{"box": {"size": [..]}}`, `{"cylinder": {"radius", "length"}}`, `{"sphere": {"radius"}}`,
 //! `{"capsule": {"radius", "length"}}` or `{"mesh": {"uri", "path", "scale"}}` (the mesh path as
 //! resolved when recording; a replay elsewhere skips meshes it cannot find, with a warning).
 //! The recording's metadata map is not part of this JSON (it is the rest of the record).
 
-use super::{BodyLayout, FrameLayout, RecordingLayout, TopicGroup};
+use super::{BodyLayout, FrameLayout, JointLayout, MechanismLayout, RecordingLayout, TopicGroup};
 use crate::model::{Geometry, Visual};
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
@@ -31,6 +35,26 @@ struct LayoutJson {
     frames: Vec<FrameJson>,
     bodies: Vec<BodyJson>,
     topic_groups: Vec<GroupJson>,
+    #[serde(default)]
+    joints: Vec<JointJson>,
+    #[serde(default)]
+    mechanisms: Vec<MechanismJson>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct JointJson {
+    name: String,
+    model: String,
+    kind: String,
+    limits: Option<[f64; 2]>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct MechanismJson {
+    name: String,
+    bodies: [usize; 2],
+    joints: [usize; 2],
+    floating: bool,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -87,6 +111,10 @@ struct GroupJson {
     prefix: String,
     frames: [usize; 2],
     bodies: [usize; 2],
+    #[serde(default)]
+    joints: [usize; 2],
+    #[serde(default)]
+    mechanisms: [usize; 2],
 }
 
 #[derive(Serialize, Deserialize)]
@@ -209,6 +237,28 @@ pub fn to_json(layout: &RecordingLayout) -> String {
                 prefix: g.prefix.clone(),
                 frames: [g.frames.start, g.frames.end],
                 bodies: [g.bodies.start, g.bodies.end],
+                joints: [g.joints.start, g.joints.end],
+                mechanisms: [g.mechanisms.start, g.mechanisms.end],
+            })
+            .collect(),
+        joints: layout
+            .joints
+            .iter()
+            .map(|j| JointJson {
+                name: j.name.clone(),
+                model: j.model.clone(),
+                kind: j.kind.clone(),
+                limits: j.limits,
+            })
+            .collect(),
+        mechanisms: layout
+            .mechanisms
+            .iter()
+            .map(|m| MechanismJson {
+                name: m.name.clone(),
+                bodies: [m.bodies.start, m.bodies.end],
+                joints: [m.joints.start, m.joints.end],
+                floating: m.floating,
             })
             .collect(),
     };
@@ -268,12 +318,35 @@ pub fn from_json(text: &str) -> anyhow::Result<RecordingLayout> {
             principal_moments: b.principal_moments.into(),
         });
     }
+    let range_ok = |r: [usize; 2], len: usize| r[0] <= r[1] && r[1] <= len;
+    let joints: Vec<JointLayout> = json
+        .joints
+        .into_iter()
+        .map(|j| JointLayout {
+            name: j.name,
+            model: j.model,
+            kind: j.kind,
+            limits: j.limits,
+        })
+        .collect();
+    let mut mechanisms = Vec::with_capacity(json.mechanisms.len());
+    for m in json.mechanisms {
+        if !range_ok(m.bodies, bodies.len()) || !range_ok(m.joints, joints.len()) {
+            bail!("mechanism {:?} has ranges outside the layout", m.name);
+        }
+        mechanisms.push(MechanismLayout {
+            name: m.name,
+            bodies: m.bodies[0]..m.bodies[1],
+            joints: m.joints[0]..m.joints[1],
+            floating: m.floating,
+        });
+    }
     let mut topic_groups = Vec::with_capacity(json.topic_groups.len());
     for g in json.topic_groups {
-        let ok = g.frames[0] <= g.frames[1]
-            && g.frames[1] <= frames.len()
-            && g.bodies[0] <= g.bodies[1]
-            && g.bodies[1] <= bodies.len();
+        let ok = range_ok(g.frames, frames.len())
+            && range_ok(g.bodies, bodies.len())
+            && range_ok(g.joints, joints.len())
+            && range_ok(g.mechanisms, mechanisms.len());
         if !ok {
             bail!("topic group {:?} has ranges outside the layout", g.prefix);
         }
@@ -281,6 +354,8 @@ pub fn from_json(text: &str) -> anyhow::Result<RecordingLayout> {
             prefix: g.prefix,
             frames: g.frames[0]..g.frames[1],
             bodies: g.bodies[0]..g.bodies[1],
+            joints: g.joints[0]..g.joints[1],
+            mechanisms: g.mechanisms[0]..g.mechanisms[1],
         });
     }
     Ok(RecordingLayout {
@@ -289,6 +364,8 @@ pub fn from_json(text: &str) -> anyhow::Result<RecordingLayout> {
         bodies,
         metadata: Default::default(),
         topic_groups,
+        joints,
+        mechanisms,
         robot_descriptions: Vec::new(),
     })
 }

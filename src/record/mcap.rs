@@ -6,6 +6,8 @@
 //! |------------|----------------------------|------------------------------------------------------------|
 //! | `/tf`      | `foxglove.FrameTransforms` | one `FrameTransform` per link frame: `parent_frame_id = "world"`, `child_frame_id` = frame id, the pose `world_from_link` |
 //! | `/bodies`  | `tumble.BodyStates`        | per body: linear and angular velocity (world), angular momentum about the centre of mass (world), kinetic and potential energy; plus the totals |
+//! | `/joints`  | `tumble.JointStates`       | articulated models only: per joint its name, position and velocity ([`super::mechanism_proto`]) |
+//! | `/mechanisms` | `tumble.MechanismStates` | articulated models only: per model its momenta, centre of mass, energies and constraint residual |
 //!
 //! With [`RecordingLayout::topic_groups`] the two topics are repeated per group under its prefix
 //! (`/rk4/tf`, `/rk4/bodies`, ...), each holding only the group's frames and bodies.
@@ -25,9 +27,7 @@ use super::{Frame, RecordingLayout, Sink};
 use crate::fsutil::part_path;
 use anyhow::Context;
 use foxglove::Encode;
-use foxglove::messages::{
-    FrameTransform, FrameTransforms, Quaternion, SceneUpdate, Timestamp, Vector3,
-};
+use foxglove::messages::{FrameTransforms, SceneUpdate, Timestamp};
 use prost::Message;
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -38,6 +38,12 @@ use std::path::{Path, PathBuf};
 /// that a file cut short (a killed process, a full disk) loses little: every complete chunk is
 /// readable (`tumble convert`, `tumble info`); large enough that zstd still compresses well.
 pub const CHUNK_BYTES: u64 = 64 * 1024;
+
+/// Frames (or bodies) per slice of the `/scene` (`/inertia`) message built at a time.
+const SCENE_SLICE: usize = 1024;
+
+/// zstd level of the chunks.
+pub const ZSTD_LEVEL: u32 = 1;
 
 /// Topic of the link transforms.
 pub const TF_TOPIC: &str = "/tf";
@@ -107,10 +113,19 @@ pub mod proto {
 /// The `FileDescriptorSet` describing [`proto::BodyStates`], built from the message definitions
 /// above (kept in one place: the field numbers here must match the `prost` tags).
 pub fn body_states_descriptor() -> Vec<u8> {
+    use prost_types::FileDescriptorSet;
+    FileDescriptorSet {
+        file: body_states_files().to_vec(),
+    }
+    .encode_to_vec()
+}
+
+/// The files of [`body_states_descriptor`]: `google/protobuf/timestamp.proto` and
+/// `tumble/BodyStates.proto` (which defines `tumble.Vector3`; other tumble schemas depend on
+/// it rather than define it again, so one descriptor pool can hold them all).
+pub fn body_states_files() -> [prost_types::FileDescriptorProto; 2] {
     use prost_types::field_descriptor_proto::{Label, Type};
-    use prost_types::{
-        DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet,
-    };
+    use prost_types::{DescriptorProto, FieldDescriptorProto, FileDescriptorProto};
 
     fn field(
         name: &str,
@@ -200,29 +215,66 @@ pub fn body_states_descriptor() -> Vec<u8> {
         syntax: Some("proto3".into()),
         ..Default::default()
     };
-    FileDescriptorSet {
-        file: vec![timestamp_file, tumble_file],
-    }
-    .encode_to_vec()
+    [timestamp_file, tumble_file]
 }
 
 /// The channels of one topic group.
 struct ChannelGroup {
     tf_channel: u16,
     bodies_channel: u16,
+    /// `/joints` and `/mechanisms` ([`super::mechanism_proto`]), for groups with articulated
+    /// models.
+    joints_channel: Option<u16>,
+    mechanisms_channel: Option<u16>,
     group: super::TopicGroup,
 }
 
-/// What to write besides the trajectories.
+/// What to write besides the trajectories, and how.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct McapOptions {
     /// Write the `/inertia` topic (equivalent inertia ellipsoids).
     pub ellipsoids: bool,
+    /// How chunks are compressed (default zstd).
+    pub compression: ChunkCompression,
 }
 
 impl Default for McapOptions {
     fn default() -> Self {
-        Self { ellipsoids: true }
+        Self {
+            ellipsoids: true,
+            compression: ChunkCompression::Zstd,
+        }
+    }
+}
+
+/// Chunk compression (`simulate --mcap-compression`). Every MCAP reader reads all three.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ChunkCompression {
+    /// zstd level [`ZSTD_LEVEL`]: the smallest files (the default).
+    #[default]
+    Zstd,
+    /// LZ4 frames: a fraction of zstd's time on incompressible float data, larger files.
+    Lz4,
+    /// Uncompressed chunks: no compression time at all, the largest files.
+    None,
+}
+
+impl ChunkCompression {
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "zstd" => Ok(Self::Zstd),
+            "lz4" => Ok(Self::Lz4),
+            "none" => Ok(Self::None),
+            _ => Err(format!("expected zstd, lz4 or none, got {s:?}")),
+        }
+    }
+
+    fn mcap(self) -> Option<mcap::Compression> {
+        match self {
+            Self::Zstd => Some(mcap::Compression::Zstd),
+            Self::Lz4 => Some(mcap::Compression::Lz4),
+            Self::None => None,
+        }
     }
 }
 
@@ -235,18 +287,12 @@ pub struct McapSink {
     sequence: u32,
     frame_ids: Vec<String>,
     body_names: Vec<String>,
+    joint_names: Vec<String>,
+    mechanism_names: Vec<String>,
     buf: Vec<u8>,
-    /// The `/scene` and `/inertia` messages of each group, written with the first frame.
-    scene_updates: Vec<(u16, SceneUpdate)>,
+    /// The `/scene` and `/inertia` messages of each group (encoded), written with the first frame.
+    scene_updates: Vec<(u16, Vec<u8>)>,
     warnings: Vec<String>,
-}
-
-fn vec3(v: &nalgebra::Vector3<f64>) -> proto::Vector3 {
-    proto::Vector3 {
-        x: v.x,
-        y: v.y,
-        z: v.z,
-    }
 }
 
 /// Simulation time in ns as a Foxglove timestamp (seconds since t = 0).
@@ -275,6 +321,15 @@ impl McapSink {
             .profile("")
             .library(format!("tumble {}", crate::VERSION))
             .chunk_size(Some(CHUNK_BYTES))
+            // zstd level 1 (the fastest level: 64 KiB chunks of poses compress within a few
+            // per cent of level 3 at about twice the speed), one thread: the file does not
+            // depend on the machine's core count, and the sink runs on a thread of its own.
+            .compression(options.compression.mcap())
+            .compression_level(match options.compression {
+                ChunkCompression::Zstd => ZSTD_LEVEL,
+                _ => 0,
+            })
+            .compression_threads(0)
             .create(BufWriter::new(file))
             .with_context(|| format!("cannot write {}", part.display()))?;
         // The metadata record goes first. A metadata record cannot sit inside a chunk, so one
@@ -304,6 +359,23 @@ impl McapSink {
             &scene_schema.encoding,
             &scene_schema.data,
         )?;
+        let articulated = if layout.joints.is_empty() && layout.mechanisms.is_empty() {
+            None
+        } else {
+            use super::mechanism_proto as mp;
+            Some((
+                writer.add_schema(
+                    mp::JOINT_STATES_SCHEMA,
+                    "protobuf",
+                    &mp::joint_states_descriptor(),
+                )?,
+                writer.add_schema(
+                    mp::MECHANISM_STATES_SCHEMA,
+                    "protobuf",
+                    &mp::mechanism_states_descriptor(),
+                )?,
+            ))
+        };
         let mut groups = Vec::new();
         let mut scene_updates = Vec::new();
         let mut meshes = MeshCache::default();
@@ -324,19 +396,54 @@ impl McapSink {
             let scene_topic = format!("{}{SCENE_TOPIC}", group.prefix);
             let scene_channel =
                 writer.add_channel(scene_schema_id, &scene_topic, "protobuf", &no_metadata)?;
-            let frames = &layout.frames[group.frames.clone()];
-            let update = geometry_update(frames, t0, &mut meshes, &mut warnings);
+            // Encoded a slice of frames at a time: a `SceneUpdate`'s entities are a repeated
+            // field, so the concatenated encodings are the encoding of the whole message, and
+            // the entities (hundreds of bytes each as structs) never all exist at once.
+            let mut update = Vec::new();
+            for frames in layout.frames[group.frames.clone()].chunks(SCENE_SLICE) {
+                Message::encode(
+                    &geometry_update(frames, t0, &mut meshes, &mut warnings),
+                    &mut update,
+                )?;
+            }
             scene_updates.push((scene_channel, update));
             if options.ellipsoids {
                 let topic = format!("{}{INERTIA_TOPIC}", group.prefix);
                 let channel =
                     writer.add_channel(scene_schema_id, &topic, "protobuf", &no_metadata)?;
-                let bodies = &layout.bodies[group.bodies.clone()];
-                scene_updates.push((channel, inertia_update(&layout.frames, bodies, t0)));
+                let mut update = Vec::new();
+                for bodies in layout.bodies[group.bodies.clone()].chunks(SCENE_SLICE) {
+                    Message::encode(&inertia_update(&layout.frames, bodies, t0), &mut update)?;
+                }
+                scene_updates.push((channel, update));
+            }
+            let (mut joints_channel, mut mechanisms_channel) = (None, None);
+            if let Some((joints_schema, mechanisms_schema)) = articulated {
+                use super::mechanism_proto::{JOINTS_TOPIC, MECHANISMS_TOPIC};
+                if !group.joints.is_empty() {
+                    let topic = format!("{}{JOINTS_TOPIC}", group.prefix);
+                    joints_channel = Some(writer.add_channel(
+                        joints_schema,
+                        &topic,
+                        "protobuf",
+                        &no_metadata,
+                    )?);
+                }
+                if !group.mechanisms.is_empty() {
+                    let topic = format!("{}{MECHANISMS_TOPIC}", group.prefix);
+                    mechanisms_channel = Some(writer.add_channel(
+                        mechanisms_schema,
+                        &topic,
+                        "protobuf",
+                        &no_metadata,
+                    )?);
+                }
             }
             groups.push(ChannelGroup {
                 tf_channel,
                 bodies_channel,
+                joints_channel,
+                mechanisms_channel,
                 group,
             });
         }
@@ -348,6 +455,8 @@ impl McapSink {
             sequence: 0,
             frame_ids: layout.frames.iter().map(|f| f.frame_id.clone()).collect(),
             body_names: layout.bodies.iter().map(|b| b.name.clone()).collect(),
+            joint_names: layout.joints.iter().map(|j| j.name.clone()).collect(),
+            mechanism_names: layout.mechanisms.iter().map(|m| m.name.clone()).collect(),
             buf: Vec::new(),
             scene_updates,
             warnings,
@@ -374,11 +483,9 @@ impl McapSink {
 impl Sink for McapSink {
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
         let time_ns = u64::try_from(frame.time_ns).context("negative simulation time")?;
-        let stamp = foxglove_time(frame.time_ns);
         // The geometry, once, at the first recorded step (stamped t = 0 like its entities).
         for (channel, update) in std::mem::take(&mut self.scene_updates) {
-            self.buf.clear();
-            Message::encode(&update, &mut self.buf)?;
+            self.buf = update;
             self.write_message(channel, time_ns)?;
         }
         for g in 0..self.groups.len() {
@@ -386,91 +493,99 @@ impl Sink for McapSink {
                 (self.groups[g].tf_channel, self.groups[g].bodies_channel);
             let frames = self.groups[g].group.frames.clone();
             let bodies = self.groups[g].group.bodies.clone();
-            let transforms = FrameTransforms {
-                transforms: frame.world_from_link[frames.clone()]
-                    .iter()
-                    .zip(&self.frame_ids[frames])
-                    .map(|(pose, frame_id)| {
-                        let t = pose.translation.vector;
-                        let q = pose.rotation.quaternion().coords; // (x, y, z, w)
-                        FrameTransform {
-                            timestamp: Some(stamp),
-                            parent_frame_id: "world".into(),
-                            child_frame_id: frame_id.clone(),
-                            translation: Some(Vector3 {
-                                x: t.x,
-                                y: t.y,
-                                z: t.z,
-                            }),
-                            rotation: Some(Quaternion {
-                                x: q.x,
-                                y: q.y,
-                                z: q.z,
-                                w: q.w,
-                            }),
-                        }
-                    })
-                    .collect(),
-            };
             self.buf.clear();
-            Message::encode(&transforms, &mut self.buf)?;
+            super::mcap_encode::frame_transforms(
+                &mut self.buf,
+                time_ns,
+                "world",
+                &frame.world_from_link[frames.clone()],
+                &self.frame_ids[frames],
+            );
             self.write_message(tf_channel, time_ns)?;
 
             let states = &frame.bodies[bodies.clone()];
-            let message = proto::BodyStates {
-                timestamp: Some(prost_types::Timestamp {
-                    seconds: (time_ns / 1_000_000_000) as i64,
-                    nanos: (time_ns % 1_000_000_000) as i32,
-                }),
-                step: frame.step,
-                bodies: states
-                    .iter()
-                    .zip(&self.body_names[bodies])
-                    .map(|(b, name)| proto::BodyState {
-                        name: name.clone(),
-                        linear_velocity: Some(vec3(&b.linvel_world)),
-                        angular_velocity: Some(vec3(&b.angvel_world)),
-                        angular_momentum: Some(vec3(&b.angmom_world)),
-                        kinetic_energy: b.kinetic_energy,
-                        potential_energy: b.potential_energy,
-                    })
-                    .collect(),
-                total_energy: states
-                    .iter()
-                    .map(|b| b.kinetic_energy + b.potential_energy)
-                    .sum(),
-            };
+            let total_energy = states
+                .iter()
+                .map(|b| b.kinetic_energy + b.potential_energy)
+                .sum();
             self.buf.clear();
-            message.encode(&mut self.buf)?;
+            super::mcap_encode::body_states(
+                &mut self.buf,
+                time_ns,
+                frame.step,
+                states,
+                &self.body_names[bodies],
+                total_energy,
+            );
             self.write_message(bodies_channel, time_ns)?;
+            if let Some(channel) = self.groups[g].joints_channel {
+                let joints = self.groups[g].group.joints.clone();
+                let message = super::mechanism_proto::joint_states(
+                    time_ns,
+                    frame.step,
+                    &self.joint_names[joints.clone()],
+                    &frame.joints[joints],
+                );
+                self.buf.clear();
+                message.encode(&mut self.buf)?;
+                self.write_message(channel, time_ns)?;
+            }
+            if let Some(channel) = self.groups[g].mechanisms_channel {
+                let mechanisms = self.groups[g].group.mechanisms.clone();
+                let message = super::mechanism_proto::mechanism_states(
+                    time_ns,
+                    frame.step,
+                    &self.mechanism_names[mechanisms.clone()],
+                    &frame.mechanisms[mechanisms],
+                );
+                self.buf.clear();
+                message.encode(&mut self.buf)?;
+                self.write_message(channel, time_ns)?;
+            }
         }
         self.sequence = self.sequence.wrapping_add(1);
         Ok(())
     }
 
     fn finish(self: Box<Self>) -> anyhow::Result<()> {
-        let (part, path) = (self.part.clone(), self.path.clone());
-        self.complete()?;
-        std::fs::rename(&part, &path)
-            .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))
+        let McapSink {
+            writer, part, path, ..
+        } = *self;
+        finish_file(writer, &part, &path)
     }
 
     fn path(&self) -> Option<PathBuf> {
         Some(self.path.clone())
     }
 
-    fn complete(mut self: Box<Self>) -> anyhow::Result<()> {
-        self.writer
-            .finish()
-            .with_context(|| format!("cannot finish {}", self.part.display()))?;
+    fn complete(self: Box<Self>) -> anyhow::Result<()> {
         let McapSink { writer, part, .. } = *self;
-        let file = writer
-            .into_inner()
-            .into_inner()
-            .map_err(|e| e.into_error())
-            .with_context(|| format!("cannot write {}", part.display()))?;
-        file.sync_all()
-            .with_context(|| format!("cannot sync {}", part.display()))?;
-        Ok(())
+        complete_file(writer, &part)
     }
+}
+
+/// Ends an MCAP file written under `part` (summary, indexes, footer), flushes and syncs it; it
+/// stays under `part` (the caller renames it). Shared by every MCAP sink.
+pub fn complete_file(mut writer: mcap::Writer<BufWriter<File>>, part: &Path) -> anyhow::Result<()> {
+    writer
+        .finish()
+        .with_context(|| format!("cannot finish {}", part.display()))?;
+    let file = writer
+        .into_inner()
+        .into_inner()
+        .map_err(|e| e.into_error())
+        .with_context(|| format!("cannot write {}", part.display()))?;
+    file.sync_all()
+        .with_context(|| format!("cannot sync {}", part.display()))
+}
+
+/// [`complete_file`], then renames `part` onto `path`.
+pub fn finish_file(
+    writer: mcap::Writer<BufWriter<File>>,
+    part: &Path,
+    path: &Path,
+) -> anyhow::Result<()> {
+    complete_file(writer, part)?;
+    std::fs::rename(part, path)
+        .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))
 }

@@ -7,7 +7,12 @@
 pub mod cdr;
 pub mod layout_json;
 pub mod mcap;
+pub mod mcap_encode;
+pub mod mechanism_proto;
+pub mod parquet;
+pub mod pipelined;
 pub mod rerun;
+pub mod rerun_batched;
 pub mod rerun_blueprint;
 pub mod ros2;
 pub mod ros2_msgs;
@@ -34,9 +39,41 @@ pub struct RecordingLayout {
     /// holding only its frames and bodies (e.g. one group per integrator in `tumble trade`).
     /// Empty: one group with the empty prefix, i.e. the topics `/tf` and `/bodies`.
     pub topic_groups: Vec<TopicGroup>,
+    /// One entry per recorded joint coordinate of the articulated models, in the order of
+    /// [`Frame::joints`] (empty without articulated models).
+    pub joints: Vec<JointLayout>,
+    /// One entry per articulated model, in the order of [`Frame::mechanisms`].
+    pub mechanisms: Vec<MechanismLayout>,
     /// One per model of the scene, in scene order: its URDF prepared for publishing next to the
     /// frames ([`crate::model::description`]). Read by the ROS 2 sink (`/robot_description`).
     pub robot_descriptions: Vec<RobotDescription>,
+}
+
+/// A recorded joint of an articulated model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct JointLayout {
+    /// Name used in recordings: the URDF joint name, prefixed `name/` when the scene gave the
+    /// model a `name` (like frame ids).
+    pub name: String,
+    /// The model (as [`FrameLayout::model`]).
+    pub model: String,
+    /// The URDF joint type: `revolute`, `continuous` or `prismatic` (positions in rad, rad, m).
+    pub kind: String,
+    /// The URDF `<limit>` range, if any.
+    pub limits: Option<[f64; 2]>,
+}
+
+/// A recorded articulated model: which bodies and joints are its own.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MechanismLayout {
+    /// The model's name (as [`FrameLayout::model`]).
+    pub name: String,
+    /// Indices into [`RecordingLayout::bodies`].
+    pub bodies: std::ops::Range<usize>,
+    /// Indices into [`RecordingLayout::joints`].
+    pub joints: std::ops::Range<usize>,
+    /// Whether the base floats (the totals' momenta are then conserved without gravity).
+    pub floating: bool,
 }
 
 /// A model's URDF with its link names turned into the layout's frame ids and its meshes into
@@ -61,6 +98,10 @@ pub struct TopicGroup {
     pub frames: std::ops::Range<usize>,
     /// Indices into [`RecordingLayout::bodies`].
     pub bodies: std::ops::Range<usize>,
+    /// Indices into [`RecordingLayout::joints`].
+    pub joints: std::ops::Range<usize>,
+    /// Indices into [`RecordingLayout::mechanisms`].
+    pub mechanisms: std::ops::Range<usize>,
 }
 
 impl RecordingLayout {
@@ -71,6 +112,8 @@ impl RecordingLayout {
                 prefix: String::new(),
                 frames: 0..self.frames.len(),
                 bodies: 0..self.bodies.len(),
+                joints: 0..self.joints.len(),
+                mechanisms: 0..self.mechanisms.len(),
             }]
         } else {
             self.topic_groups.clone()
@@ -141,6 +184,35 @@ pub struct BodyState {
     pub potential_energy: f64,
 }
 
+/// One joint at a recorded step.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct JointState {
+    /// rad (continuous joints unwrapped) or m.
+    pub position: f64,
+    /// rad/s or m/s, from the projected velocities.
+    pub velocity: f64,
+}
+
+/// One articulated model's totals at a recorded step, world frame, SI units (from the momenta
+/// projected onto the velocity constraints).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MechanismState {
+    /// Total linear momentum, kg m/s.
+    pub linear_momentum: Vector3<f64>,
+    /// Total angular momentum about the model's centre of mass, kg m^2/s.
+    pub angular_momentum: Vector3<f64>,
+    /// The model's centre of mass, m.
+    pub com: Vector3<f64>,
+    /// J
+    pub kinetic_energy: f64,
+    /// J, zero at the world origin.
+    pub potential_energy: f64,
+    /// Largest anchor gap of any joint, m.
+    pub residual_m: f64,
+    /// Largest axis misalignment of any joint, rad.
+    pub residual_rad: f64,
+}
+
 /// One recorded step.
 #[derive(Debug, Clone, Copy)]
 pub struct Frame<'a> {
@@ -152,6 +224,11 @@ pub struct Frame<'a> {
     pub world_from_link: &'a [Isometry3<f64>],
     /// Per-body state, in the order of [`RecordingLayout::bodies`].
     pub bodies: &'a [BodyState],
+    /// Per-joint state, in the order of [`RecordingLayout::joints`] (empty without articulated
+    /// models).
+    pub joints: &'a [JointState],
+    /// Per articulated model, in the order of [`RecordingLayout::mechanisms`].
+    pub mechanisms: &'a [MechanismState],
 }
 
 /// Ends a recording run. After `result` is `Ok`, completes every sink under its `<path>.part`

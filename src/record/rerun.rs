@@ -36,6 +36,7 @@
 //! | `/plots/scene/energy`                         | `Scalars` [kinetic, potential, total] summed over all bodies (J), `SeriesLines` (static) | both timelines |
 //! | `/plots/scene/energy_change`                  | `Scalars` [(E − E₀)/\|E₀\|], E the total above, E₀ its first recorded value | both timelines |
 //! | `/plots/scene/angular_momentum_change`        | `Scalars` [max over bodies \|L − L₀\|/\|L₀\|] | both timelines |
+//! | `/plots/joints/…`, `/plots/mechanisms/<model>/…` | articulated models only: joint positions and velocities, each model's energy, momenta and constraint residual ([`joints`]) | both timelines |
 //!
 //! # Blueprint
 //!
@@ -47,7 +48,8 @@
 //! plus an `InstancePoses3D` for the visual origin) as Rerun 0.36's own URDF importer, so a URDF
 //! dropped into the viewer lines up with the recording. Differences from the importer: URDF
 //! capsules are centred on their origin (the importer leaves `Capsules3D`'s one end at the
-//! origin); DAE meshes and meshes whose file was not found are skipped with a warning (see
+//! origin); DAE meshes (which Rerun cannot read) are read by tumble and sent as `Mesh3D`
+//! (unit and node transforms applied, up axis ignored, as for mass properties); meshes whose file was not found are skipped with a warning (see
 //! [`RerunSink::warnings`]); a glTF file is embedded alone (external buffers are not).
 //! Colours come from the URDF material (linear RGBA), white when there is none, as in the importer.
 //!
@@ -77,12 +79,19 @@
 //! layout name plus a hash of the name and metadata: the same inputs give the same id, different
 //! scenes or settings do not get merged by the viewer.
 
+mod joints;
+
+pub use joints::{joint_position_entity_path, joint_velocity_entity_path, mechanism_entity_path};
+
+use super::rerun_batched::{Batches, Content, is_batched};
 use super::rerun_blueprint::{
     PlotView, SceneBounds, blueprint_chunks, blueprint_messages, default_plot_views,
 };
 use super::rrd_footer::{FooterHold, FooterWriter};
+use super::scene_update::MeshCache;
 use super::{BodyLayout, Frame, FrameLayout, RecordingLayout, Sink};
 use crate::fsutil::part_path;
+use crate::model::geometry::mesh::TriangleMesh;
 use crate::model::{Geometry, Visual};
 use anyhow::{Context, Result, anyhow, bail};
 use nalgebra::Isometry3;
@@ -246,12 +255,12 @@ fn f64c(x: f64) -> f64 {
     x + 0.0
 }
 
-fn f32x3(v: &nalgebra::Vector3<f64>) -> [f32; 3] {
+pub(super) fn f32x3(v: &nalgebra::Vector3<f64>) -> [f32; 3] {
     [f32c(v.x), f32c(v.y), f32c(v.z)]
 }
 
 /// Quaternion as `[x, y, z, w]` in f32.
-fn quat_xyzw(iso: &Isometry3<f64>) -> [f32; 4] {
+pub(super) fn quat_xyzw(iso: &Isometry3<f64>) -> [f32; 4] {
     let q = iso.rotation.quaternion();
     [f32c(q.i), f32c(q.j), f32c(q.k), f32c(q.w)]
 }
@@ -438,6 +447,8 @@ pub struct RerunSink {
     footer_hold: FooterHold,
     /// Entities of [`RerunSink::write_series`] whose series names were sent.
     series_named: BTreeSet<EntityPath>,
+    /// Collada meshes read so far (each file once).
+    meshes: MeshCache,
     /// The recording's store, from which the blueprint store's id derives.
     store_info: rerun::external::re_log_types::StoreInfo,
     /// Per frame: how far its geometry reaches from the frame origin, m (for [`SceneBounds`]).
@@ -449,7 +460,42 @@ pub struct RerunSink {
     /// First recorded total energy and angular momenta: the reference of the change plots.
     energy0: Option<f64>,
     angmom0: Vec<nalgebra::Vector3<f64>>,
+    /// The series of articulated models ([`joints`]).
+    joint_plots: joints::JointPlots,
+    /// Link frames and bodies of the layout.
+    frame_count: usize,
+    body_count: usize,
+    /// The big-scene layout ([`super::rerun_batched`]), when the layout is big.
+    batched: Option<Batches>,
     done: bool,
+}
+
+/// A triangle mesh as a Rerun `Mesh3D` (f32 positions, per-vertex normals averaged from the
+/// area-weighted face normals, so the viewer shades it).
+fn mesh3d(mesh: &TriangleMesh) -> rerun::Mesh3D {
+    let mut normals = vec![nalgebra::Vector3::<f64>::zeros(); mesh.vertices.len()];
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+        let n = (b - a).cross(&(c - a));
+        for &i in t {
+            normals[i as usize] += n;
+        }
+    }
+    rerun::Mesh3D::new(mesh.vertices.iter().map(f32x3))
+        .with_vertex_normals(normals.iter().map(|n| {
+            let len = n.norm();
+            // A vertex only on degenerate triangles has no normal: any unit vector will do.
+            f32x3(&if len > 0.0 {
+                n / len
+            } else {
+                nalgebra::Vector3::z()
+            })
+        }))
+        .with_triangle_indices(
+            mesh.triangles
+                .iter()
+                .map(|t| rerun::TriangleIndices::from(*t)),
+        )
 }
 
 /// `x`, or 1 when it is zero (the reference of a relative change that has none).
@@ -516,6 +562,7 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         last_id: 0,
         error: None,
     }));
+    let batched = is_batched(layout).then(|| Batches::new(layout, options.ellipsoids));
     // From here on, an early return drops `sink`, which removes the part file.
     let mut sink = RerunSink {
         rec: None,
@@ -524,12 +571,20 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         final_path: path.to_owned(),
         frames: Vec::new(),
         bodies: Vec::new(),
-        buffer: Buffer::new(layout.frames.len(), layout.bodies.len()),
-        batch_frames: batch_frames(layout.frames.len(), layout.bodies.len()),
+        buffer: if batched.is_some() {
+            Buffer::new(0, 0)
+        } else {
+            Buffer::new(layout.frames.len(), layout.bodies.len())
+        },
+        batch_frames: match &batched {
+            Some(b) => b.rows_per_send,
+            None => batch_frames(layout.frames.len(), layout.bodies.len()),
+        },
         last_time_ns: None,
         warnings: Vec::new(),
         footer_hold,
         series_named: BTreeSet::new(),
+        meshes: MeshCache::default(),
         store_info: rerun::external::re_log_types::StoreInfo::new(
             rerun::external::re_log_types::StoreId::recording("tumble", "tumble"),
             rerun::external::re_log_types::StoreSource::Unknown,
@@ -539,8 +594,14 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         plot_views: default_plot_views(),
         energy0: None,
         angmom0: Vec::new(),
+        joint_plots: joints::JointPlots::new(layout),
+        frame_count: layout.frames.len(),
+        body_count: layout.bodies.len(),
+        batched,
         done: false,
     };
+    let extra_views = sink.joint_plots.plot_views(layout);
+    sink.plot_views.extend(extra_views);
     lock(&state).encoder = Some(encoder.context("cannot write the .rrd header")?);
 
     let app_id = rerun::ApplicationId::try_new(application_id(&layout.name))
@@ -571,14 +632,29 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
 }
 
 /// A static chunk with one row holding all the given archetypes.
-fn static_chunk(entity: EntityPath, archetypes: &[&dyn AsComponents]) -> Result<Chunk> {
+pub(super) fn static_chunk(entity: EntityPath, archetypes: &[&dyn AsComponents]) -> Result<Chunk> {
     let batches: Vec<SerializedComponentBatch> = archetypes
         .iter()
         .flat_map(|a| a.as_serialized_batches())
         .collect();
+    static_batches_chunk(entity, batches)
+}
+
+/// A static chunk with one row holding the given component batches.
+pub(super) fn static_batches_chunk(
+    entity: EntityPath,
+    batches: Vec<SerializedComponentBatch>,
+) -> Result<Chunk> {
     Ok(Chunk::builder(entity)
         .with_serialized_batches(RowId::new(), TimePoint::default(), batches)
         .build()?)
+}
+
+/// A visual's shape ([`RerunSink::visual_shape`]).
+pub(super) struct Shape {
+    pub batches: Vec<SerializedComponentBatch>,
+    /// The mesh scale, for meshes.
+    pub scale: Option<[f32; 3]>,
 }
 
 fn instance_pose(iso: &Isometry3<f64>, scale: Option<[f32; 3]>) -> rerun::InstancePoses3D {
@@ -630,6 +706,10 @@ impl RerunSink {
             ],
         )?)?;
         self.write_metadata(layout)?;
+        if self.batched.is_some() {
+            self.write_batched_layout(layout)?;
+            return self.write_scene_plot_names(layout);
+        }
 
         let mut used = BTreeSet::new();
         for frame in &layout.frames {
@@ -697,6 +777,11 @@ impl RerunSink {
             )?)?;
             self.bodies.push(track);
         }
+        self.write_scene_plot_names(layout)
+    }
+
+    /// The static series names of the scene-level plots.
+    fn write_scene_plot_names(&mut self, layout: &RecordingLayout) -> Result<()> {
         if !layout.bodies.is_empty() {
             self.send(static_chunk(
                 scene_energy_entity_path(),
@@ -711,7 +796,43 @@ impl RerunSink {
                 &[&rerun::SeriesLines::new().with_names(["max |L − L₀|/|L₀|"])],
             )?)?;
         }
+        for chunk in self.joint_plots.static_chunks()? {
+            self.send(chunk)?;
+        }
         Ok(())
+    }
+
+    /// The static part of the batched layout: each batch's shape ([`super::rerun_batched`]).
+    fn write_batched_layout(&mut self, layout: &RecordingLayout) -> Result<()> {
+        let batches = self.batched.take().context("no batched layout")?;
+        let result = (|| -> Result<()> {
+            for batch in &batches.list {
+                let frame = &layout.frames[batch.first_frame];
+                let shape = match batch.content {
+                    Content::Visual { index } => {
+                        match self.visual_shape(&batch.entity, &frame.visuals[index])? {
+                            Some(shape) => shape.batches,
+                            None => continue,
+                        }
+                    }
+                    Content::Inertia { body } => {
+                        let radii = layout.bodies[body].inertia_ellipsoid_radii();
+                        rerun::Ellipsoids3D::from_half_sizes([f32x3(&radii)])
+                            .with_colors([rerun::Rgba32::from_unmultiplied_rgba(255, 160, 0, 255)])
+                            .with_fill_mode(rerun::FillMode::MajorWireframe)
+                            .as_serialized_batches()
+                    }
+                };
+                // In the world frame: an entity without a `CoordinateFrame` sits in its implicit
+                // frame `tf#/<path>`, which is not connected to "world".
+                let mut batches = rerun::CoordinateFrame::new(WORLD_FRAME).as_serialized_batches();
+                batches.extend(shape);
+                self.send(static_batches_chunk(batch.entity.clone(), batches)?)?;
+            }
+            Ok(())
+        })();
+        self.batched = Some(batches);
+        result
     }
 
     fn write_metadata(&mut self, layout: &RecordingLayout) -> Result<()> {
@@ -746,99 +867,116 @@ impl RerunSink {
         frame: &FrameLayout,
         visual: &Visual,
     ) -> Result<()> {
+        let Some(shape) = self.visual_shape(&entity, visual)? else {
+            return Ok(());
+        };
         let frame_id = rerun::CoordinateFrame::new(frame.frame_id.as_str());
+        let pose = instance_pose(&visual.link_from_visual, shape.scale);
+        let mut batches = frame_id.as_serialized_batches();
+        batches.extend(pose.as_serialized_batches());
+        batches.extend(shape.batches);
+        self.send(static_batches_chunk(entity, batches)?)
+    }
+
+    /// The component batches drawing `visual` at its own origin (the caller places it: by a
+    /// `CoordinateFrame` and its origin as an instance pose, or by per-step instance poses in
+    /// the batched layout), and the mesh scale the instance pose must carry. `None`, with a
+    /// warning, for a mesh that cannot be shown.
+    pub(super) fn visual_shape(
+        &mut self,
+        entity: &EntityPath,
+        visual: &Visual,
+    ) -> Result<Option<Shape>> {
         let colors = [color(visual.rgba)];
-        let origin = &visual.link_from_visual;
-        let chunk = match &visual.geometry {
-            Geometry::Box { size } => static_chunk(
-                entity,
-                &[
-                    &frame_id,
-                    &instance_pose(origin, None),
-                    &rerun::Boxes3D::from_sizes([f32x3(size)]).with_colors(colors),
-                ],
-            )?,
-            Geometry::Sphere { radius } => static_chunk(
-                entity,
-                &[
-                    &frame_id,
-                    &instance_pose(origin, None),
-                    &rerun::Ellipsoids3D::from_radii([*radius as f32]).with_colors(colors),
-                ],
-            )?,
-            Geometry::Cylinder { radius, length } => static_chunk(
-                entity,
-                &[
-                    &frame_id,
-                    &instance_pose(origin, None),
-                    &rerun::Cylinders3D::from_lengths_and_radii([*length as f32], [*radius as f32])
-                        .with_colors(colors),
-                ],
-            )?,
-            Geometry::Capsule { radius, length } => static_chunk(
-                entity,
-                &[
-                    &frame_id,
-                    &instance_pose(origin, None),
-                    // Rerun's capsule runs from the origin to +z; URDF's is centred.
-                    &rerun::Capsules3D::from_lengths_and_radii([*length as f32], [*radius as f32])
-                        .with_translations([[0.0, 0.0, -0.5 * *length as f32]])
-                        .with_colors(colors),
-                ],
-            )?,
+        let primitive = |a: &dyn AsComponents| Shape {
+            batches: a.as_serialized_batches(),
+            scale: None,
+        };
+        let shape = match &visual.geometry {
+            Geometry::Box { size } => {
+                primitive(&rerun::Boxes3D::from_sizes([f32x3(size)]).with_colors(colors))
+            }
+            Geometry::Sphere { radius } => {
+                primitive(&rerun::Ellipsoids3D::from_radii([*radius as f32]).with_colors(colors))
+            }
+            Geometry::Cylinder { radius, length } => primitive(
+                &rerun::Cylinders3D::from_lengths_and_radii([*length as f32], [*radius as f32])
+                    .with_colors(colors),
+            ),
+            // Rerun's capsule runs from the origin to +z; URDF's is centred.
+            Geometry::Capsule { radius, length } => primitive(
+                &rerun::Capsules3D::from_lengths_and_radii([*length as f32], [*radius as f32])
+                    .with_translations([[0.0, 0.0, -0.5 * *length as f32]])
+                    .with_colors(colors),
+            ),
             Geometry::Mesh { uri, path, scale } => {
                 let Some(path) = path else {
                     self.warn(format!(
                         "{entity}: mesh {uri:?} was not found or is not a readable regular file (`tumble inspect` says which), left out of the Rerun recording"
                     ));
-                    return Ok(());
+                    return Ok(None);
                 };
                 if let Err(err) = crate::input::check(path, crate::input::MESH_MAX_BYTES) {
                     self.warn(format!(
                         "{entity}: cannot read mesh {}: {err}, left out of the Rerun recording",
                         path.display()
                     ));
-                    return Ok(());
+                    return Ok(None);
                 }
                 let ext = path
                     .extension()
                     .and_then(|e| e.to_str())
                     .unwrap_or("")
                     .to_ascii_lowercase();
-                if !matches!(ext.as_str(), "stl" | "obj" | "glb" | "gltf") {
-                    self.warn(format!(
-                        "{entity}: mesh {uri:?} has a format Rerun cannot show (.{ext}), left out of the Rerun recording"
-                    ));
-                    return Ok(());
-                }
-                // Bounded, regular files only (`crate::input`), then as `from_file_path` would.
-                let read = crate::input::read_bytes(path, crate::input::MESH_MAX_BYTES).map(|b| {
-                    rerun::Asset3D::from_file_contents(
-                        b,
-                        rerun::components::MediaType::guess_from_path(path),
-                    )
-                });
-                let asset = match read {
-                    Ok(asset) => asset.with_albedo_factor(color(visual.rgba)),
-                    Err(err) => {
+                let batches = if ext == "dae" {
+                    // Rerun reads no Collada: tumble's own reader gives the triangles (its
+                    // `<unit>` and node transforms applied, `<up_axis>` ignored as RViz does), sent
+                    // as a `Mesh3D`.
+                    let mesh = match self.meshes.get(path) {
+                        Ok(mesh) => mesh,
+                        Err(err) => {
+                            self.warn(format!("{entity}: {err}, left out of the Rerun recording"));
+                            return Ok(None);
+                        }
+                    };
+                    mesh3d(&mesh)
+                        .with_albedo_factor(color(visual.rgba))
+                        .as_serialized_batches()
+                } else {
+                    if !matches!(ext.as_str(), "stl" | "obj" | "glb" | "gltf") {
                         self.warn(format!(
-                            "{entity}: cannot read mesh {}: {err}, left out of the Rerun recording",
-                            path.display()
+                            "{entity}: mesh {uri:?} has a format Rerun cannot show (.{ext}), left out of the Rerun recording"
                         ));
-                        return Ok(());
+                        return Ok(None);
+                    }
+                    // Bounded, regular files only (`crate::input`), then as `from_file_path` would.
+                    let read =
+                        crate::input::read_bytes(path, crate::input::MESH_MAX_BYTES).map(|b| {
+                            rerun::Asset3D::from_file_contents(
+                                b,
+                                rerun::components::MediaType::guess_from_path(path),
+                            )
+                        });
+                    match read {
+                        Ok(asset) => asset
+                            .with_albedo_factor(color(visual.rgba))
+                            .as_serialized_batches(),
+                        Err(err) => {
+                            self.warn(format!(
+                                "{entity}: cannot read mesh {}: {err}, left out of the Rerun recording",
+                                path.display()
+                            ));
+                            return Ok(None);
+                        }
                     }
                 };
-                static_chunk(
-                    entity,
-                    &[
-                        &frame_id,
-                        &instance_pose(origin, Some(f32x3(scale))),
-                        &asset,
-                    ],
-                )?
+                Shape {
+                    batches,
+                    scale: Some(f32x3(scale)),
+                }
             }
         };
-        self.send(chunk)
+        Ok(Some(shape))
     }
 
     fn write_inertia(
@@ -874,6 +1012,26 @@ impl RerunSink {
                 TimeColumn::new_sequence(STEP_TIMELINE, buffer.step.iter().copied()),
             ]
         };
+        if let Some(batched) = &self.batched {
+            for (b, batch) in batched.list.iter().enumerate() {
+                let per_row = batch.frames.len();
+                let mut poses = rerun::InstancePoses3D::update_fields()
+                    .with_translations(batched.translations[b].iter().copied())
+                    .with_quaternions(
+                        batched.quaternions[b]
+                            .iter()
+                            .map(|q| rerun::Quaternion::from_xyzw(*q)),
+                    );
+                if let Some(scale) = batch.scale {
+                    poses = poses.with_scales(std::iter::repeat_n(scale, n * per_row));
+                }
+                rec.send_columns(
+                    batch.entity.clone(),
+                    times(),
+                    poses.columns(std::iter::repeat_n(per_row, n))?,
+                )?;
+            }
+        }
         for (i, track) in self.frames.iter().enumerate() {
             let transforms = rerun::Transform3D::update_fields()
                 .with_many_translation(buffer.translation[i].iter().copied())
@@ -904,7 +1062,7 @@ impl RerunSink {
                     .columns_of_unit_batches()?,
             )?;
         }
-        if !self.bodies.is_empty() {
+        if self.body_count > 0 {
             rec.send_columns(
                 scene_energy_entity_path(),
                 times(),
@@ -924,11 +1082,19 @@ impl RerunSink {
                     .columns_of_unit_batches()?,
             )?;
         }
+        let rec = self
+            .rec
+            .as_ref()
+            .ok_or_else(|| anyhow!("the Rerun recording is closed"))?;
+        self.joint_plots.send(rec, &times, n)?;
         // Wait until the stream's forwarding thread has encoded what was sent: a producer faster
         // than the encoder would otherwise queue chunks without bound.
         rec.flush_blocking()
             .with_context(|| format!("writing {}", self.part_path.display()))?;
         self.buffer.clear();
+        if let Some(batched) = &mut self.batched {
+            batched.clear();
+        }
         self.check_sink()
     }
 
@@ -1037,18 +1203,18 @@ impl RerunSink {
 
 impl Sink for RerunSink {
     fn write(&mut self, frame: &Frame<'_>) -> Result<()> {
-        if frame.world_from_link.len() != self.frames.len() {
+        if frame.world_from_link.len() != self.frame_count {
             bail!(
                 "frame has {} link poses, the layout {}",
                 frame.world_from_link.len(),
-                self.frames.len()
+                self.frame_count
             );
         }
-        if frame.bodies.len() != self.bodies.len() {
+        if frame.bodies.len() != self.body_count {
             bail!(
                 "frame has {} body states, the layout {}",
                 frame.bodies.len(),
-                self.bodies.len()
+                self.body_count
             );
         }
         if let Some(last) = self.last_time_ns
@@ -1062,30 +1228,51 @@ impl Sink for RerunSink {
         buffer
             .step
             .push(i64::try_from(frame.step).context("step does not fit an i64")?);
+        let per_body = self.batched.is_none();
+        if let Some(batched) = &mut self.batched {
+            batched.push(frame);
+        }
         for (i, pose) in frame.world_from_link.iter().enumerate() {
-            buffer.translation[i].push(f32x3(&pose.translation.vector));
-            buffer.quaternion[i].push(quat_xyzw(pose));
+            if per_body {
+                buffer.translation[i].push(f32x3(&pose.translation.vector));
+                buffer.quaternion[i].push(quat_xyzw(pose));
+            }
             self.bounds
                 .add(&pose.translation.vector, self.frame_reach[i]);
         }
-        if self.angmom0.is_empty() {
-            self.angmom0 = frame.bodies.iter().map(|b| b.angmom_world).collect();
-        }
-        let angmom_change = frame
-            .bodies
-            .iter()
-            .zip(&self.angmom0)
-            .map(|(b, l0)| (b.angmom_world - l0).norm() / nonzero(l0.norm()))
-            .fold(0.0, f64::max);
+        let angmom_change = if self.joint_plots.is_empty() {
+            if self.angmom0.is_empty() {
+                self.angmom0 = frame.bodies.iter().map(|b| b.angmom_world).collect();
+            }
+            frame
+                .bodies
+                .iter()
+                .zip(&self.angmom0)
+                .map(|(b, l0)| (b.angmom_world - l0).norm() / nonzero(l0.norm()))
+                .fold(0.0, f64::max)
+        } else {
+            self.joint_plots.push(frame)?;
+            let angmom = self.joint_plots.conserved_angmom(frame);
+            if self.angmom0.is_empty() {
+                self.angmom0 = angmom.clone();
+            }
+            angmom
+                .iter()
+                .zip(&self.angmom0)
+                .map(|(l, l0)| (l - l0).norm() / nonzero(l0.norm()))
+                .fold(0.0, f64::max)
+        };
         let (mut kinetic, mut potential) = (0.0, 0.0);
         for (i, body) in frame.bodies.iter().enumerate() {
-            let total = body.kinetic_energy + body.potential_energy;
-            buffer.energy[i].extend([
-                f64c(body.kinetic_energy),
-                f64c(body.potential_energy),
-                f64c(total),
-            ]);
-            buffer.angular_momentum[i].push(f64c(body.angmom_world.norm()));
+            if per_body {
+                let total = body.kinetic_energy + body.potential_energy;
+                buffer.energy[i].extend([
+                    f64c(body.kinetic_energy),
+                    f64c(body.potential_energy),
+                    f64c(total),
+                ]);
+                buffer.angular_momentum[i].push(f64c(body.angmom_world.norm()));
+            }
             kinetic += body.kinetic_energy;
             potential += body.potential_energy;
         }

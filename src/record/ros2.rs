@@ -281,29 +281,19 @@ impl Sink for Ros2Sink {
     }
 
     fn finish(self: Box<Self>) -> anyhow::Result<()> {
-        let (part, path) = (self.part.clone(), self.path.clone());
-        self.complete()?;
-        std::fs::rename(&part, &path)
-            .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))
+        let Ros2Sink {
+            writer, part, path, ..
+        } = *self;
+        super::mcap::finish_file(writer, &part, &path)
     }
 
     fn path(&self) -> Option<PathBuf> {
         Some(self.path.clone())
     }
 
-    fn complete(mut self: Box<Self>) -> anyhow::Result<()> {
-        self.writer
-            .finish()
-            .with_context(|| format!("cannot finish {}", self.part.display()))?;
+    fn complete(self: Box<Self>) -> anyhow::Result<()> {
         let Ros2Sink { writer, part, .. } = *self;
-        let file = writer
-            .into_inner()
-            .into_inner()
-            .map_err(|e| e.into_error())
-            .with_context(|| format!("cannot write {}", part.display()))?;
-        file.sync_all()
-            .with_context(|| format!("cannot sync {}", part.display()))?;
-        Ok(())
+        super::mcap::complete_file(writer, &part)
     }
 }
 

@@ -16,8 +16,8 @@
 //! `TriangleListPrimitive` with the file's vertices scaled by the mesh `scale` (mirrored meshes
 //! re-wound) and an index list. Meshes go in as triangle lists, not `ModelPrimitive` files:
 //! Foxglove shows STL/OBJ model data rotated +90° about x under its default "mesh up axis", a
-//! triangle list has no such ambiguity. Collada files are read with their `<unit>` and
-//! `<up_axis>` applied ([`crate::model::geometry::mesh_io`]). Colours are the URDF material's,
+//! triangle list has no such ambiguity. Collada files are read as for mass properties: `<unit>` and node
+//! transforms applied, `<up_axis>` ignored as RViz does ([`crate::model::geometry::mesh_io`]). Colours are the URDF material's,
 //! else light grey. A mesh that cannot be read is left out with a warning; each distinct file is
 //! read once per recording ([`MeshCache`]).
 

@@ -100,6 +100,8 @@ pub fn convert(mcap: &Path, rrd: &Path, options: &RerunOptions) -> anyhow::Resul
                 time_ns: step.time_ns,
                 world_from_link: &step.world_from_link,
                 bodies: &step.bodies,
+                joints: &step.joints,
+                mechanisms: &step.mechanisms,
             };
             for sink in sinks.iter_mut() {
                 sink.write(&frame)?;

@@ -597,6 +597,8 @@ pub fn diff(
                     time_ns,
                     world_from_link: &overlay,
                     bodies: &[],
+                    joints: &[],
+                    mechanisms: &[],
                 })?;
                 batch_t.push(time_ns);
                 batch_step.push(index as i64);

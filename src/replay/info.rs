@@ -28,6 +28,26 @@ pub struct BodyInfo {
     pub principal_moments: [f64; 3],
 }
 
+/// A recorded joint of an articulated model.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct JointInfo {
+    pub name: String,
+    /// `revolute`, `continuous` or `prismatic`.
+    pub kind: String,
+    /// The URDF range, rad or m.
+    pub limits: Option<[f64; 2]>,
+}
+
+/// A recorded articulated model.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct MechanismInfo {
+    pub name: String,
+    /// `floating` or `fixed`.
+    pub base: String,
+    pub bodies: usize,
+    pub joints: usize,
+}
+
 /// What `tumble info` reports (also its `--json` output).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct RecordingInfo {
@@ -50,6 +70,9 @@ pub struct RecordingInfo {
     /// Frame ids (from the layout, else from the first `/tf` message).
     pub frames: Vec<String>,
     pub bodies: Vec<BodyInfo>,
+    /// Joints and models of the articulated models (empty without them).
+    pub joints: Vec<JointInfo>,
+    pub mechanisms: Vec<MechanismInfo>,
     pub topics: Vec<TopicInfo>,
     pub messages: u64,
     /// Footer, summary and closing magic present.
@@ -70,7 +93,11 @@ const LONG_KEYS: [&str; 3] = ["scene", "settings_json", LAYOUT_KEY];
 /// Topics with one message per recorded step: every group's `/tf` and `/bodies` (a step is
 /// complete, and replayable by [`super::steps::StepReader`], when all of them hold it).
 fn is_step_topic(topic: &str) -> bool {
-    topic.ends_with(TF_TOPIC) || topic.ends_with(BODIES_TOPIC)
+    use crate::record::mechanism_proto::{JOINTS_TOPIC, MECHANISMS_TOPIC};
+    topic.ends_with(TF_TOPIC)
+        || topic.ends_with(BODIES_TOPIC)
+        || topic.ends_with(JOINTS_TOPIC)
+        || topic.ends_with(MECHANISMS_TOPIC)
 }
 
 /// Recorded steps whose messages were all read, and their time span (ns): the `/bodies`
@@ -174,6 +201,30 @@ pub fn info(path: &Path) -> anyhow::Result<RecordingInfo> {
         ),
         None => (tf_frames, Vec::new()),
     };
+    let (joints, mechanisms) = match &layout {
+        Some(layout) => (
+            layout
+                .joints
+                .iter()
+                .map(|j| JointInfo {
+                    name: j.name.clone(),
+                    kind: j.kind.clone(),
+                    limits: j.limits,
+                })
+                .collect(),
+            layout
+                .mechanisms
+                .iter()
+                .map(|m| MechanismInfo {
+                    name: m.name.clone(),
+                    base: if m.floating { "floating" } else { "fixed" }.into(),
+                    bodies: m.bodies.len(),
+                    joints: m.joints.len(),
+                })
+                .collect(),
+        ),
+        None => (Vec::new(), Vec::new()),
+    };
     let get = |key: &str| metadata_all.get(key).cloned();
     let (recovered_steps, step_span_ns) = complete_steps(&topics, &step_times);
     let truncation = super::convert::truncation_warning(
@@ -200,6 +251,8 @@ pub fn info(path: &Path) -> anyhow::Result<RecordingInfo> {
         },
         frames,
         bodies,
+        joints,
+        mechanisms,
         topics: topics.into_values().collect(),
         messages,
         complete,
@@ -264,6 +317,25 @@ pub fn text(info: &RecordingInfo) -> String {
                 b.principal_moments[2],
                 b.frame
             ));
+        }
+    }
+    if !info.mechanisms.is_empty() {
+        out.push_str(&format!(
+            "{} articulated models, {} joints:\n",
+            info.mechanisms.len(),
+            info.joints.len()
+        ));
+        for m in &info.mechanisms {
+            out.push_str(&format!(
+                "  {:<24} {} base, {} bodies, {} joints\n",
+                m.name, m.base, m.bodies, m.joints
+            ));
+        }
+        for j in &info.joints {
+            let range = j.limits.map_or(String::new(), |[lo, hi]| {
+                format!(", URDF range [{lo}, {hi}]")
+            });
+            out.push_str(&format!("  joint {:<18} {}{range}\n", j.name, j.kind));
         }
     }
     out.push_str("topics:\n");

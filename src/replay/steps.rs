@@ -1,6 +1,7 @@
 //! A tumble MCAP recording read back step by step: the layout from the `tumble` metadata record
 //! ([`crate::record::layout_json`]), then one [`RecordedStep`] per recorded step, rebuilt from the
-//! `/tf` and `/bodies` messages of every topic group (see [`crate::record::mcap`]).
+//! `/tf` and `/bodies` messages of every topic group (see [`crate::record::mcap`]), and with
+//! articulated models their `/joints` and `/mechanisms` ([`crate::record::mechanism_proto`]).
 //!
 //! A step is handed out only when every frame's pose and every body's state at that time were
 //! read; a step missing some (the file was cut between its messages) is dropped and counted in
@@ -9,7 +10,8 @@
 use super::stream::{Item, McapStream, Message, StreamEnd};
 use crate::record::layout_json::{LAYOUT_KEY, from_json};
 use crate::record::mcap::{BODIES_TOPIC, METADATA_NAME, TF_TOPIC, proto};
-use crate::record::{BodyState, RecordingLayout};
+use crate::record::mechanism_proto as mp;
+use crate::record::{BodyState, JointState, MechanismState, RecordingLayout};
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use prost::Message as _;
@@ -27,6 +29,10 @@ pub struct RecordedStep {
     pub world_from_link: Vec<Isometry3<f64>>,
     /// In the order of the layout's bodies.
     pub bodies: Vec<BodyState>,
+    /// In the order of the layout's joints (articulated models).
+    pub joints: Vec<JointState>,
+    /// In the order of the layout's mechanisms.
+    pub mechanisms: Vec<MechanismState>,
 }
 
 /// Fails for a ROS 2 recording (header profile `ros2`, [`crate::record::ros2`]): its messages
@@ -82,15 +88,19 @@ struct Pending {
     step: Option<u64>,
     poses: Vec<Option<Isometry3<f64>>>,
     bodies: Vec<Option<BodyState>>,
+    joints: Vec<Option<JointState>>,
+    mechanisms: Vec<Option<MechanismState>>,
 }
 
 impl Pending {
-    fn new(time_ns: u64, frames: usize, bodies: usize) -> Self {
+    fn new(time_ns: u64, layout: &RecordingLayout) -> Self {
         Self {
             time_ns,
             step: None,
-            poses: vec![None; frames],
-            bodies: vec![None; bodies],
+            poses: vec![None; layout.frames.len()],
+            bodies: vec![None; layout.bodies.len()],
+            joints: vec![None; layout.joints.len()],
+            mechanisms: vec![None; layout.mechanisms.len()],
         }
     }
 
@@ -100,6 +110,8 @@ impl Pending {
             time_ns: i64::try_from(self.time_ns).ok()?,
             world_from_link: self.poses.into_iter().collect::<Option<Vec<_>>>()?,
             bodies: self.bodies.into_iter().collect::<Option<Vec<_>>>()?,
+            joints: self.joints.into_iter().collect::<Option<Vec<_>>>()?,
+            mechanisms: self.mechanisms.into_iter().collect::<Option<Vec<_>>>()?,
         })
     }
 }
@@ -111,6 +123,8 @@ pub struct StepReader {
     layout: RecordingLayout,
     frame_index: HashMap<String, usize>,
     body_index: HashMap<String, usize>,
+    joint_index: HashMap<String, usize>,
+    mechanism_index: HashMap<String, usize>,
     pending: Option<Pending>,
     steps_read: u64,
     incomplete: u64,
@@ -166,12 +180,19 @@ impl StepReader {
             .enumerate()
             .map(|(i, b)| (b.name.clone(), i))
             .collect();
+        let index = |names: Vec<String>| -> HashMap<String, usize> {
+            names.into_iter().enumerate().map(|(i, n)| (n, i)).collect()
+        };
+        let joint_index = index(layout.joints.iter().map(|j| j.name.clone()).collect());
+        let mechanism_index = index(layout.mechanisms.iter().map(|m| m.name.clone()).collect());
         Ok(Self {
             path: path.to_owned(),
             stream,
             layout,
             frame_index,
             body_index,
+            joint_index,
+            mechanism_index,
             pending: None,
             steps_read: 0,
             incomplete: 0,
@@ -240,7 +261,6 @@ impl StepReader {
                     None => None,
                 });
             };
-            let (frames, bodies) = (self.layout.frames.len(), self.layout.bodies.len());
             let mut finished = None;
             match &self.pending {
                 Some(p) if p.time_ns == log_time => {}
@@ -250,7 +270,7 @@ impl StepReader {
                     p.time_ns
                 ),
                 _ => {
-                    finished = self.pending.replace(Pending::new(log_time, frames, bodies));
+                    finished = self.pending.replace(Pending::new(log_time, &self.layout));
                 }
             }
             self.decode_into(&topic, &data)?;
@@ -302,6 +322,47 @@ impl StepReader {
                     kinetic_energy: b.kinetic_energy,
                     potential_energy: b.potential_energy,
                 });
+            }
+        } else if topic.ends_with(mp::JOINTS_TOPIC) {
+            let message = mp::JointStates::decode(data).with_context(|| {
+                format!(
+                    "{}: a {topic} message is not a {}",
+                    path.display(),
+                    mp::JOINT_STATES_SCHEMA
+                )
+            })?;
+            pending.step = Some(message.step);
+            for j in message.joints {
+                let i = *self.joint_index.get(&j.name).with_context(|| {
+                    format!(
+                        "{}: {topic} names joint {:?}, which the layout does not have",
+                        path.display(),
+                        j.name
+                    )
+                })?;
+                pending.joints[i] = Some(JointState {
+                    position: j.position,
+                    velocity: j.velocity,
+                });
+            }
+        } else if topic.ends_with(mp::MECHANISMS_TOPIC) {
+            let message = mp::MechanismStates::decode(data).with_context(|| {
+                format!(
+                    "{}: a {topic} message is not a {}",
+                    path.display(),
+                    mp::MECHANISM_STATES_SCHEMA
+                )
+            })?;
+            pending.step = Some(message.step);
+            for m in &message.mechanisms {
+                let i = *self.mechanism_index.get(&m.name).with_context(|| {
+                    format!(
+                        "{}: {topic} names model {:?}, which the layout does not have",
+                        path.display(),
+                        m.name
+                    )
+                })?;
+                pending.mechanisms[i] = Some(mp::from_proto(m));
             }
         }
         Ok(())

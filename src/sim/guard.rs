@@ -23,6 +23,10 @@ pub enum Cause {
     NonFinite { what: &'static str },
     /// The rotational kinetic energy grew to `ratio` times its initial value (> the limit).
     EnergyGrowth { ratio: f64, limit: f64 },
+    /// An articulated model's kinetic energy (relative to its centre of mass with a floating
+    /// base) grew to `ratio` times its reference (the initial value plus the potential energy
+    /// the model could release), over the limit.
+    MechanismEnergyGrowth { ratio: f64, limit: f64 },
 }
 
 impl fmt::Display for Cause {
@@ -37,6 +41,12 @@ impl fmt::Display for Cause {
                 f,
                 "its rotational kinetic energy grew to {ratio:.3e} times the initial value \
                  (limit sim.divergence_energy_ratio = {limit}): the integrator is unstable at this step size"
+            ),
+            Cause::MechanismEnergyGrowth { ratio, limit } => write!(
+                f,
+                "its articulated model's kinetic energy grew to {ratio:.3e} times its initial value \
+                 plus the potential energy it can release (limit sim.divergence_energy_ratio = \
+                 {limit}): the step is unstable at this step size"
             ),
         }
     }
@@ -59,6 +69,37 @@ pub struct Guard {
     initial_energy: Vec<f64>,
     /// `Some(max_substeps)` when a Newton failure stops the run (substepping on).
     stop_on_newton_failure: Option<u32>,
+    mechanisms: Vec<MechanismWatch>,
+}
+
+/// The energy guard of one articulated model (its bodies' own energies are not conserved:
+/// they exchange it through the joints).
+#[derive(Debug, Clone)]
+struct MechanismWatch {
+    bodies: std::ops::Range<usize>,
+    /// Measure the kinetic energy relative to the centre of mass (floating base).
+    relative: bool,
+    /// The reference energy, J: initial kinetic energy plus the potential energy the model
+    /// can release (fixed base: `Σ m_i |g| 2 R`, `R` the largest distance of a centre of mass
+    /// from the base anchor plus the model's length scale; floating base in uniform gravity:
+    /// none, the internal motion does not feel it). Zero: no energy check (only finiteness).
+    reference: f64,
+}
+
+fn mechanism_kinetic_energy(bodies: &Bodies, range: std::ops::Range<usize>, relative: bool) -> f64 {
+    let mut t = 0.0;
+    let mut p = nalgebra::Vector3::zeros();
+    let mut m = 0.0;
+    for i in range {
+        t += bodies.kinetic_energy(i);
+        p += bodies.linvel_world[i] * bodies.mass[i];
+        m += bodies.mass[i];
+    }
+    if relative {
+        t - p.norm_squared() / (2.0 * m)
+    } else {
+        t
+    }
 }
 
 impl Guard {
@@ -73,6 +114,42 @@ impl Guard {
             energy_limit: initial_energy.iter().map(|t| t * energy_ratio).collect(),
             initial_energy,
             stop_on_newton_failure,
+            mechanisms: Vec::new(),
+        }
+    }
+
+    /// Watches articulated models by their total kinetic energy instead of their bodies' own
+    /// rotational energies (see [`MechanismWatch`]).
+    pub fn watch_mechanisms(
+        &mut self,
+        mechanisms: &[std::sync::Arc<crate::sim::mechanism::Mechanism>],
+        bodies: &Bodies,
+        gravity: &nalgebra::Vector3<f64>,
+    ) {
+        use crate::sim::mechanism::Base;
+        for m in mechanisms {
+            let range = m.bodies();
+            for i in range.clone() {
+                self.energy_limit[i] = f64::INFINITY;
+            }
+            let relative = m.base == Base::Floating;
+            let mut reference = mechanism_kinetic_energy(bodies, range.clone(), relative);
+            if m.base == Base::Fixed {
+                let anchor = m.joints[0].world_pose.com
+                    + m.joints[0].world_pose.rot * m.joints[0].rows.anchor_parent;
+                let reach = range
+                    .clone()
+                    .map(|i| (bodies.com_world[i] - anchor).norm())
+                    .fold(0.0, f64::max)
+                    + m.length_scale;
+                let mass: f64 = range.clone().map(|i| bodies.mass[i]).sum();
+                reference += mass * gravity.norm() * 2.0 * reach;
+            }
+            self.mechanisms.push(MechanismWatch {
+                bodies: range,
+                relative,
+                reference,
+            });
         }
     }
 
@@ -109,6 +186,23 @@ impl Guard {
             body,
             step,
             cause: self.classify(bodies, body),
+        });
+        let state = state.or_else(|| {
+            self.mechanisms.iter().find_map(|w| {
+                if w.reference <= 0.0 {
+                    return None;
+                }
+                let t = mechanism_kinetic_energy(bodies, w.bodies.clone(), w.relative);
+                let ratio = t / w.reference;
+                (ratio > self.energy_ratio || ratio.is_nan()).then_some(Divergence {
+                    body: w.bodies.start,
+                    step,
+                    cause: Cause::MechanismEnergyGrowth {
+                        ratio,
+                        limit: self.energy_ratio,
+                    },
+                })
+            })
         });
         match (newton, state) {
             (Some(a), Some(b)) => Some(if b.body < a.body { b } else { a }),

@@ -1,8 +1,7 @@
 //! Step-size limits: how far each integrator may turn a body per step, `h|Ω|` in radians, with
 //! `|Ω|` the largest angular speed on the body's exact orbit ([`spin_rate_max`]).
 //!
-//! The limits are read off the stability map (`tumble stability`, [`crate::stability`], README
-//! "Limits"; the committed map is `docs/stability/`): for each integrator, the largest `h|Ω|` of
+//! The limits are read off the stability map (`tumble stability`, [`crate::stability`], docs/limits.md; the committed map is `docs/stability/`): for each integrator, the largest `h|Ω|` of
 //! the map's grid up to which every cell (every inertia ratio from 1 to 1e-6, the flat disk,
 //! both spin axes) runs about 10 turns (at most 20 000 steps) without substepping or failure
 //! and keeps the rotational energy within [`ENERGY_ERROR_BOUND`] of its initial value.

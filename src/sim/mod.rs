@@ -5,6 +5,8 @@ pub mod bodies;
 pub mod guard;
 pub mod integrators;
 pub mod limits;
+pub mod mechanism;
+pub mod partition;
 pub mod reference;
 pub mod so3;
 pub mod workload;

@@ -57,7 +57,9 @@ pub fn run_cell(kind: IntegratorKind, cell: Cell) -> Row {
             row.status = match stop.cause {
                 // The unconverged step's state is not a result: keep the error so far.
                 Cause::NewtonFailed { .. } => Status::NewtonFailed,
-                Cause::NonFinite { .. } | Cause::EnergyGrowth { .. } => {
+                Cause::NonFinite { .. }
+                | Cause::EnergyGrowth { .. }
+                | Cause::MechanismEnergyGrowth { .. } => {
                     let t = bodies.rotational_energy(0);
                     row.energy_err_max = if t.is_finite() {
                         row.energy_err_max.max(relative_error(t))

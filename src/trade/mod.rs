@@ -42,6 +42,10 @@ pub struct TradeSettings {
     pub drift_horizon_secs: f64,
     /// Timed repeats per integrator and step size (the median is reported).
     pub repeats: usize,
+    /// Threads of the timed stepping loop: a batch of more than
+    /// [`crate::sim::partition::MIN_BODIES_PER_PARTITION`] bodies is split as `simulate
+    /// --threads` splits it, and `ns_per_body_step` is the wall time per body-step on them.
+    pub threads: usize,
 }
 
 /// Everything `tumble trade` measured.

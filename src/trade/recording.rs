@@ -38,6 +38,8 @@ pub fn layout(world: &World, kinds: &[IntegratorKind], dt: f64) -> RecordingLayo
         let prefix = kind.name();
         let frames_start = layout.frames.len();
         let bodies_start = layout.bodies.len();
+        let joints_start = layout.joints.len();
+        let mechanisms_start = layout.mechanisms.len();
         for f in &world.layout.frames {
             let mut f = f.clone();
             f.frame_id = format!("{prefix}/{}", f.frame_id);
@@ -50,10 +52,25 @@ pub fn layout(world: &World, kinds: &[IntegratorKind], dt: f64) -> RecordingLayo
             b.frame += frames_start;
             layout.bodies.push(b);
         }
+        for j in &world.layout.joints {
+            let mut j = j.clone();
+            j.name = format!("{prefix}/{}", j.name);
+            j.model = prefix.to_string();
+            layout.joints.push(j);
+        }
+        for m in &world.layout.mechanisms {
+            let mut m = m.clone();
+            m.name = format!("{prefix}/{}", m.name);
+            m.bodies = m.bodies.start + bodies_start..m.bodies.end + bodies_start;
+            m.joints = m.joints.start + joints_start..m.joints.end + joints_start;
+            layout.mechanisms.push(m);
+        }
         layout.topic_groups.push(TopicGroup {
             prefix: format!("/{prefix}"),
             frames: frames_start..layout.frames.len(),
             bodies: bodies_start..layout.bodies.len(),
+            joints: joints_start..layout.joints.len(),
+            mechanisms: mechanisms_start..layout.mechanisms.len(),
         });
     }
     layout
@@ -103,6 +120,8 @@ pub fn record(
     let mut stopped = None;
     let mut poses = Vec::with_capacity(layout.frames.len());
     let mut states = Vec::with_capacity(layout.bodies.len());
+    let mut joint_states = Vec::with_capacity(layout.joints.len());
+    let mut mechanism_states = Vec::with_capacity(layout.mechanisms.len());
     let mut result = Ok(());
     for step in 0..=steps {
         if step > 0 {
@@ -122,18 +141,24 @@ pub fn record(
         }
         poses.clear();
         states.clear();
+        joint_states.clear();
+        mechanism_states.clear();
         let mut time_ns = 0;
         for (bodies, _, frames, _) in &mut runs {
             let frame = frames.frame(bodies, &gravity, step, dt);
             time_ns = frame.time_ns;
             poses.extend_from_slice(frame.world_from_link);
             states.extend_from_slice(frame.bodies);
+            joint_states.extend_from_slice(frame.joints);
+            mechanism_states.extend_from_slice(frame.mechanisms);
         }
         let frame = Frame {
             step,
             time_ns,
             world_from_link: &poses,
             bodies: &states,
+            joints: &joint_states,
+            mechanisms: &mechanism_states,
         };
         if let Some(e) = sinks.iter_mut().find_map(|s| s.write(&frame).err()) {
             result = Err(e);

@@ -30,7 +30,7 @@ impl Potential {
     }
 
     /// The coefficient `α` of `h^2 g` in the position update.
-    fn alpha(self) -> f64 {
+    pub fn alpha(self) -> f64 {
         match self {
             Potential::Symmetric => 0.5,
             Potential::EndPoint => 0.0,

@@ -189,6 +189,88 @@ pub fn solve_xi(
     }
 }
 
+/// One body's rotational free step evaluated at a trial `ξ`, for solvers that own the Newton
+/// loop (the articulated step, [`crate::sim::mechanism`]): the residual `g(ξ) = (J/h) ξ - T(ξ)^T M`
+/// (`f/h` of the module doc), its analytic Jacobian `∂g/∂ξ`, and what [`RotationEval::advance`]
+/// needs. The same arithmetic, in the same order, as the batched step (`evaluate`,
+/// `analytic_jacobian`, `advance`), so no formula is written twice.
+#[derive(Debug, Clone, Copy)]
+pub struct RotationEval {
+    eval: Eval<Lanes<1>>,
+    xi: V3<Lanes<1>>,
+    m: V3<Lanes<1>>,
+    j_over_h: V3<Lanes<1>>,
+}
+
+impl RotationEval {
+    /// Evaluates at `xi` for the body-frame momentum `angmom_body` (`M`, the momentum after
+    /// the constraint impulse in the articulated step) and the step `dt_secs` (may be negative).
+    #[inline]
+    pub fn new(
+        inertia_body: &Vector3<f64>,
+        angmom_body: &Vector3<f64>,
+        dt_secs: f64,
+        xi: &Vector3<f64>,
+    ) -> Self {
+        let j_over_h = V3::<Lanes<1>>::gather(&[*inertia_body]).scale(Lanes::splat(1.0 / dt_secs));
+        let m = V3::gather(&[*angmom_body]);
+        let x = V3::gather(&[*xi]);
+        let eval = evaluate(j_over_h, m, x, coefficients(x.dot(x)));
+        Self {
+            eval,
+            xi: x,
+            m,
+            j_over_h,
+        }
+    }
+
+    /// `g(ξ) = (J/h) ξ - T(ξ)^T M`, kg m^2/s.
+    #[inline]
+    pub fn residual(&self) -> Vector3<f64> {
+        self.eval.f.lane(0)
+    }
+
+    /// The analytic `∂g/∂ξ = J/h - ∂(T(ξ)^T M)/∂ξ`.
+    #[inline]
+    pub fn jacobian(&self) -> Matrix3<f64> {
+        let cols = analytic_jacobian(self.j_over_h, self.m, self.xi, &self.eval);
+        Matrix3::from_columns(&cols.map(|c| c.lane(0)))
+    }
+
+    /// The coefficient functions at `ξ`.
+    #[inline]
+    pub fn coefficients(&self) -> Coefficients {
+        let k = self.eval.k;
+        Coefficients {
+            a: k.a.0[0],
+            b: k.b.0[0],
+            c: k.c.0[0],
+            db_over_theta: k.db_over_theta.0[0],
+            dc_over_theta: k.dc_over_theta.0[0],
+            half_cos: k.half_cos.0[0],
+            half_sin_over_theta: k.half_sin_over_theta.0[0],
+        }
+    }
+
+    /// `T(ξ)^T = I - B ξ^ + C ξ^2`, the map from `δξ` to the body-frame variation of
+    /// `R exp(ξ)` (`δ(R exp ξ) = R exp(ξ) (T(ξ)^T δξ)^`).
+    #[inline]
+    pub fn t_transpose(&self) -> Matrix3<f64> {
+        let k = self.coefficients();
+        let xh = so3::hat(&self.xi.lane(0));
+        Matrix3::identity() - xh * k.b + xh * xh * k.c
+    }
+
+    /// `R exp(ξ)` (renormalised as in the batched step) and `exp(ξ)^T M`.
+    #[inline]
+    pub fn advance(&self, q: &UnitQuaternion<f64>) -> (UnitQuaternion<f64>, Vector3<f64>) {
+        let (quat, m) = advance(Quat::gather(&[*q]), self.m, self.xi, &self.eval);
+        let mut out = [*q];
+        quat.scatter(&mut out);
+        (out[0], m.lane(0))
+    }
+}
+
 /// Solves the 3x3 system `a x = b` by the adjugate (Cramer); `None` when `a` is singular.
 #[inline]
 pub fn solve3(a: &Matrix3<f64>, b: &Vector3<f64>) -> Option<Vector3<f64>> {
@@ -894,7 +976,22 @@ impl Integrator for Variational {
     }
 
     fn init(&mut self, bodies: &Bodies) {
-        self.xi = (0..bodies.len())
+        self.init_range(bodies, 0..bodies.len());
+    }
+
+    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
+        if self.xi.len() != bodies.len() {
+            self.init(bodies);
+        }
+        self.step_range(bodies, 0..bodies.len(), gravity)
+    }
+}
+
+impl Variational {
+    /// [`Integrator::init`] for the bodies `range` of the batch only (the articulated stepper
+    /// steps free bodies between mechanisms this way).
+    pub fn init_range(&mut self, bodies: &Bodies, range: std::ops::Range<usize>) {
+        self.xi = range
             .map(|i| {
                 let guess = bodies.angvel_body(i) * self.dt_secs;
                 solve_xi(
@@ -910,18 +1007,24 @@ impl Integrator for Variational {
         self.fresh = true;
     }
 
-    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
-        if self.xi.len() != bodies.len() {
-            self.init(bodies);
-        }
+    /// [`Integrator::step`] for the bodies `range` of the batch only, after
+    /// [`Variational::init_range`] with the same range (failed bodies are reported by their
+    /// batch index).
+    pub fn step_range(
+        &mut self,
+        bodies: &mut Bodies,
+        range: std::ops::Range<usize>,
+        gravity: &Vector3<f64>,
+    ) -> StepStats {
+        let offset = range.start;
         let predict_xi = !std::mem::replace(&mut self.fresh, false);
         let dt = self.dt_secs;
         let settings = &self.settings;
         let mut stats = StepStats::default();
-        let (j_l, j_r) = bodies.inertia_body.as_chunks::<LANES>();
-        let (ij_l, ij_r) = bodies.inv_inertia_body.as_chunks::<LANES>();
-        let (m_l, m_r) = bodies.angmom_body.as_chunks_mut::<LANES>();
-        let (q_l, q_r) = bodies.world_from_body.as_chunks_mut::<LANES>();
+        let (j_l, j_r) = bodies.inertia_body[range.clone()].as_chunks::<LANES>();
+        let (ij_l, ij_r) = bodies.inv_inertia_body[range.clone()].as_chunks::<LANES>();
+        let (m_l, m_r) = bodies.angmom_body[range.clone()].as_chunks_mut::<LANES>();
+        let (q_l, q_r) = bodies.world_from_body[range.clone()].as_chunks_mut::<LANES>();
         let (xi_l, xi_r) = self.xi.as_chunks_mut::<LANES>();
         let chunks = j_l.iter().zip(ij_l).zip(m_l).zip(q_l).zip(xi_l);
         for (c, ((((j, ij), m), q), xi)) in chunks.enumerate() {
@@ -934,7 +1037,7 @@ impl Integrator for Variational {
                 dt,
                 predict_xi,
                 settings,
-                c * LANES,
+                offset + c * LANES,
                 &mut stats,
             );
         }
@@ -949,13 +1052,13 @@ impl Integrator for Variational {
                 dt,
                 predict_xi,
                 settings,
-                j_l.len() * LANES + r,
+                offset + j_l.len() * LANES + r,
                 &mut stats,
             );
         }
         step_translation(
-            &mut bodies.com_world,
-            &mut bodies.linvel_world,
+            &mut bodies.com_world[range.clone()],
+            &mut bodies.linvel_world[range],
             dt,
             gravity,
             settings.potential,

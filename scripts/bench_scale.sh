@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# The big-scene benchmark quoted in docs/scale.md: swarms of 1000, 10 000 and 100 000 bodies
+# (models/swarm.toml's three shapes and distributions, copies scaled), dt = 1 ms, recorded at
+# 100 Hz, each run 1e7 body-steps (10 s, 1 s, 0.1 s). Prints per size:
+#   startup_s        wall time of `simulate --duration 0` (load and check URDFs, build, open and
+#                    finish both files with one frame each: start-up plus finish)
+#   bare_ns          `tumble bench --bodies N --threads 1`: ns per body-step, no recording
+#   e2e_ns_T1/_T2    (wall(simulate) - startup) / body-steps with both files, 1 and 2 threads
+#   mcap_B, rrd_B    bytes per recorded pose (file size / (bodies x recorded steps))
+#   peak_MiB         peak resident memory of the 2-thread simulate (VmHWM)
+#   bench_scaling    `tumble bench --threads 2`: 1 -> 2 thread speedup of the bare stepping
+# then a control: two 1-thread benches at once against one alone (ratio near 1.0: two free
+# cores; near 2.0: the machine had one, so no thread count can scale there).
+# Usage: bash scripts/bench_scale.sh [SIZES...]   (default 1000 10000 100000; OUT=dir for the files)
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+cargo build --release --quiet
+T=target/release/tumble
+sizes=("$@")
+[ ${#sizes[@]} -gt 0 ] || sizes=(1000 10000 100000)
+out="${OUT:-$(mktemp -d)}"
+mkdir -p "$out"
+cleanup() { [ -n "${OUT:-}" ] || rm -rf "$out"; }
+trap cleanup EXIT
+cp models/box.urdf models/t_handle.urdf models/disc.urdf "$out/"
+secs() { awk '/ s wall time/ {for (i = 1; i <= NF; i++) if ($i == "wall") print $(i - 2)}'; }
+printf '%-8s %10s %8s %10s %10s %8s %8s %9s %8s\n' bodies startup_s bare_ns e2e_ns_T1 e2e_ns_T2 mcap_B rrd_B peak_MiB scaling
+for n in "${sizes[@]}"; do
+  boxes=$((n * 4 / 10)); handles=$((n * 3 / 10)); discs=$((n - boxes - handles))
+  duration=$(awk -v n="$n" 'BEGIN {print 1e4 / n}')   # 1e7 body-steps at dt = 1 ms
+  sed -e "s/^copies = 4000$/copies = $boxes/" -e "0,/^copies = 3000$/s//copies = $handles/" \
+      -e "0,/^copies = 3000$/s//copies = $discs/" models/swarm.toml >"$out/swarm_$n.toml"
+  [ "$(grep -c '^copies = ' "$out/swarm_$n.toml")" = 3 ] && grep -q "^copies = $discs$" "$out/swarm_$n.toml"
+  start0=$(date +%s.%N)
+  "$T" simulate "$out/swarm_$n.toml" --duration 0 --out "$out/s0" --force --threads 1 >/dev/null
+  startup=$(awk -v a="$start0" -v b="$(date +%s.%N)" 'BEGIN {printf "%.3f", b - a}')
+  bare=$("$T" bench --bodies "$n" --steps $((10000000 / n)) --repeats 3 --threads 1 | tail -1 | cut -d= -f2)
+  scaling=$("$T" bench --bodies "$n" --steps $((10000000 / n)) --repeats 3 --threads 2 | sed -nE 's/.*scaling 1 -> 2 threads: ([0-9.]+)x/\1/p')
+  e2e=()
+  for threads in 1 2; do
+    t0=$(date +%s.%N)
+    "$T" simulate "$out/swarm_$n.toml" --duration "$duration" --out "$out/s$threads" --force --threads "$threads" >"$out/log$threads"
+    wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN {print b - a}')
+    e2e+=("$(awk -v w="$wall" -v s="$startup" -v n="$n" 'BEGIN {printf "%.1f", (w - s) * 1e9 / 1e7}')")
+  done
+  frames=$(awk '/^wrote/ {print $2}' "$out/log2")
+  mcap=$(stat -c %s "$out/s2.mcap"); rrd=$(stat -c %s "$out/s2.rrd")
+  cmp -s "$out/s1.mcap" "$out/s2.mcap" && cmp -s "$out/s1.rrd" "$out/s2.rrd" || { echo "threads 1 and 2 differ" >&2; exit 1; }
+  peak=$(awk '/peak memory \(VmHWM\)/ {v = $4; u = $5; if (u == "GiB") v *= 1024; if (u == "KiB") v /= 1024; print v}' "$out/log2")
+  printf '%-8s %10s %8s %10s %10s %8.1f %8.1f %9s %8s\n' "$n" "$startup" "$bare" "${e2e[0]}" "${e2e[1]}" \
+    "$(awk -v b="$mcap" -v n="$n" -v f="$frames" 'BEGIN {print b / (n * f)}')" \
+    "$(awk -v b="$rrd" -v n="$n" -v f="$frames" 'BEGIN {print b / (n * f)}')" "${peak:-?}" "${scaling:-?}x"
+done
+alone=$( { "$T" bench --bodies 10000 --steps 300 --repeats 3 --threads 1 | tail -1 | cut -d= -f2; } )
+"$T" bench --bodies 10000 --steps 300 --repeats 3 --threads 1 | tail -1 | cut -d= -f2 >"$out/pair_b" &
+pair=$("$T" bench --bodies 10000 --steps 300 --repeats 3 --threads 1 | tail -1 | cut -d= -f2)
+wait
+awk -v a="$alone" -v p="$pair" -v q="$(cat "$out/pair_b")" 'BEGIN {printf "control: two 1-thread benches at once %.1f and %.1f ns per body-step, one alone %.1f: ratio %.2f (1.0 = two free cores)\n", p, q, a, (p + q) / 2 / a}'
+echo "load average: $(cut -d' ' -f1-3 /proc/loadavg)"

@@ -1,0 +1,288 @@
+//! The MCAP topics of articulated models: `/joints` (`tumble.JointStates`) and `/mechanisms`
+//! (`tumble.MechanismStates`), one message per recorded step each, written only when the
+//! recording has articulated models (per topic group, under its prefix like `/tf`).
+//!
+//! ```text
+//! message JointState      { string name = 1; double position = 2; double velocity = 3; }
+//! message JointStates     { google.protobuf.Timestamp timestamp = 1; uint64 step = 2;
+//!                           repeated JointState joints = 3; }
+//! message MechanismState  { string name = 1; Vector3 linear_momentum = 2;
+//!                           Vector3 angular_momentum = 3; Vector3 com = 4;
+//!                           double kinetic_energy = 5; double potential_energy = 6;
+//!                           double energy = 7; double residual_m = 8; double residual_rad = 9; }
+//! message MechanismStates { google.protobuf.Timestamp timestamp = 1; uint64 step = 2;
+//!                           repeated MechanismState mechanisms = 3; }
+//! ```
+//!
+//! `name` is the joint's recorded name (the URDF joint name, `name/`-prefixed like frame ids)
+//! or the model's; positions in rad (continuous joints unwrapped) or m, rates in rad/s or m/s;
+//! momenta and energies from the momenta projected onto the velocity constraints, world frame,
+//! SI units; `angular_momentum` is about the model's centre of mass `com`; `residual_m` the
+//! largest anchor gap of any joint (m), `residual_rad` the largest axis misalignment (rad).
+//! Each schema is a self-contained `FileDescriptorSet` (`tumble.Vector3` from
+//! `tumble/BodyStates.proto`, which it includes, as `/bodies` does).
+
+use prost::Message as _;
+use prost_types::field_descriptor_proto::{Label, Type};
+use prost_types::{DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet};
+
+/// Topic of the joint coordinates.
+pub const JOINTS_TOPIC: &str = "/joints";
+/// Topic of the per-model totals.
+pub const MECHANISMS_TOPIC: &str = "/mechanisms";
+/// Schema names.
+pub const JOINT_STATES_SCHEMA: &str = "tumble.JointStates";
+pub const MECHANISM_STATES_SCHEMA: &str = "tumble.MechanismStates";
+
+/// `tumble.JointState`
+#[derive(Clone, PartialEq, prost::Message)]
+pub struct JointState {
+    #[prost(string, tag = "1")]
+    pub name: String,
+    #[prost(double, tag = "2")]
+    pub position: f64,
+    #[prost(double, tag = "3")]
+    pub velocity: f64,
+}
+
+/// `tumble.JointStates`
+#[derive(Clone, PartialEq, prost::Message)]
+pub struct JointStates {
+    #[prost(message, optional, tag = "1")]
+    pub timestamp: Option<prost_types::Timestamp>,
+    #[prost(uint64, tag = "2")]
+    pub step: u64,
+    #[prost(message, repeated, tag = "3")]
+    pub joints: Vec<JointState>,
+}
+
+/// `tumble.MechanismState`
+#[derive(Clone, PartialEq, prost::Message)]
+pub struct MechanismState {
+    #[prost(string, tag = "1")]
+    pub name: String,
+    #[prost(message, optional, tag = "2")]
+    pub linear_momentum: Option<super::mcap::proto::Vector3>,
+    #[prost(message, optional, tag = "3")]
+    pub angular_momentum: Option<super::mcap::proto::Vector3>,
+    #[prost(message, optional, tag = "4")]
+    pub com: Option<super::mcap::proto::Vector3>,
+    #[prost(double, tag = "5")]
+    pub kinetic_energy: f64,
+    #[prost(double, tag = "6")]
+    pub potential_energy: f64,
+    #[prost(double, tag = "7")]
+    pub energy: f64,
+    #[prost(double, tag = "8")]
+    pub residual_m: f64,
+    #[prost(double, tag = "9")]
+    pub residual_rad: f64,
+}
+
+/// `tumble.MechanismStates`
+#[derive(Clone, PartialEq, prost::Message)]
+pub struct MechanismStates {
+    #[prost(message, optional, tag = "1")]
+    pub timestamp: Option<prost_types::Timestamp>,
+    #[prost(uint64, tag = "2")]
+    pub step: u64,
+    #[prost(message, repeated, tag = "3")]
+    pub mechanisms: Vec<MechanismState>,
+}
+
+fn field(name: &str, number: i32, ty: Type, type_name: Option<&str>) -> FieldDescriptorProto {
+    FieldDescriptorProto {
+        name: Some(name.into()),
+        number: Some(number),
+        label: Some(Label::Optional as i32),
+        r#type: Some(ty as i32),
+        type_name: type_name.map(str::to_string),
+        ..Default::default()
+    }
+}
+
+fn repeated(name: &str, number: i32, type_name: &str) -> FieldDescriptorProto {
+    FieldDescriptorProto {
+        label: Some(Label::Repeated as i32),
+        ..field(name, number, Type::Message, Some(type_name))
+    }
+}
+
+fn message(name: &str, fields: Vec<FieldDescriptorProto>) -> DescriptorProto {
+    DescriptorProto {
+        name: Some(name.into()),
+        field: fields,
+        ..Default::default()
+    }
+}
+
+fn descriptor(file: &str, messages: Vec<DescriptorProto>) -> Vec<u8> {
+    let [timestamp, body_states] = super::mcap::body_states_files();
+    let own = FileDescriptorProto {
+        name: Some(file.into()),
+        package: Some("tumble".into()),
+        dependency: vec![
+            "google/protobuf/timestamp.proto".into(),
+            "tumble/BodyStates.proto".into(),
+        ],
+        message_type: messages,
+        syntax: Some("proto3".into()),
+        ..Default::default()
+    };
+    FileDescriptorSet {
+        file: vec![timestamp, body_states, own],
+    }
+    .encode_to_vec()
+}
+
+fn stamp_and_step() -> [FieldDescriptorProto; 2] {
+    [
+        field(
+            "timestamp",
+            1,
+            Type::Message,
+            Some(".google.protobuf.Timestamp"),
+        ),
+        field("step", 2, Type::Uint64, None),
+    ]
+}
+
+/// The `FileDescriptorSet` of [`JointStates`] (field numbers as the `prost` tags above).
+pub fn joint_states_descriptor() -> Vec<u8> {
+    let [ts, step] = stamp_and_step();
+    descriptor(
+        "tumble/JointStates.proto",
+        vec![
+            message(
+                "JointState",
+                vec![
+                    field("name", 1, Type::String, None),
+                    field("position", 2, Type::Double, None),
+                    field("velocity", 3, Type::Double, None),
+                ],
+            ),
+            message(
+                "JointStates",
+                vec![ts, step, repeated("joints", 3, ".tumble.JointState")],
+            ),
+        ],
+    )
+}
+
+/// The `FileDescriptorSet` of [`MechanismStates`].
+pub fn mechanism_states_descriptor() -> Vec<u8> {
+    let [ts, step] = stamp_and_step();
+    let v3 = |name: &str, n| field(name, n, Type::Message, Some(".tumble.Vector3"));
+    let f64_field = |name: &str, n| field(name, n, Type::Double, None);
+    descriptor(
+        "tumble/MechanismStates.proto",
+        vec![
+            message(
+                "MechanismState",
+                vec![
+                    field("name", 1, Type::String, None),
+                    v3("linear_momentum", 2),
+                    v3("angular_momentum", 3),
+                    v3("com", 4),
+                    f64_field("kinetic_energy", 5),
+                    f64_field("potential_energy", 6),
+                    f64_field("energy", 7),
+                    f64_field("residual_m", 8),
+                    f64_field("residual_rad", 9),
+                ],
+            ),
+            message(
+                "MechanismStates",
+                vec![
+                    ts,
+                    step,
+                    repeated("mechanisms", 3, ".tumble.MechanismState"),
+                ],
+            ),
+        ],
+    )
+}
+
+/// The protobuf `Timestamp` of a simulation time in ns.
+pub fn timestamp(time_ns: u64) -> prost_types::Timestamp {
+    prost_types::Timestamp {
+        seconds: (time_ns / 1_000_000_000) as i64,
+        nanos: (time_ns % 1_000_000_000) as i32,
+    }
+}
+
+fn vec3(v: &nalgebra::Vector3<f64>) -> Option<super::mcap::proto::Vector3> {
+    Some(super::mcap::proto::Vector3 {
+        x: v.x,
+        y: v.y,
+        z: v.z,
+    })
+}
+
+/// The `/joints` message of a group's joints.
+pub fn joint_states(
+    time_ns: u64,
+    step: u64,
+    names: &[String],
+    states: &[super::JointState],
+) -> JointStates {
+    JointStates {
+        timestamp: Some(timestamp(time_ns)),
+        step,
+        joints: names
+            .iter()
+            .zip(states)
+            .map(|(name, s)| JointState {
+                name: name.clone(),
+                position: s.position,
+                velocity: s.velocity,
+            })
+            .collect(),
+    }
+}
+
+/// The `/mechanisms` message of a group's models.
+pub fn mechanism_states(
+    time_ns: u64,
+    step: u64,
+    names: &[String],
+    states: &[super::MechanismState],
+) -> MechanismStates {
+    MechanismStates {
+        timestamp: Some(timestamp(time_ns)),
+        step,
+        mechanisms: names
+            .iter()
+            .zip(states)
+            .map(|(name, s)| MechanismState {
+                name: name.clone(),
+                linear_momentum: vec3(&s.linear_momentum),
+                angular_momentum: vec3(&s.angular_momentum),
+                com: vec3(&s.com),
+                kinetic_energy: s.kinetic_energy,
+                potential_energy: s.potential_energy,
+                energy: s.kinetic_energy + s.potential_energy,
+                residual_m: s.residual_m,
+                residual_rad: s.residual_rad,
+            })
+            .collect(),
+    }
+}
+
+/// Back from a decoded message to the recorded state.
+pub fn from_proto(m: &MechanismState) -> super::MechanismState {
+    let v = |v: &Option<super::mcap::proto::Vector3>| {
+        v.as_ref().map_or_else(nalgebra::Vector3::zeros, |v| {
+            nalgebra::Vector3::new(v.x, v.y, v.z)
+        })
+    };
+    super::MechanismState {
+        linear_momentum: v(&m.linear_momentum),
+        angular_momentum: v(&m.angular_momentum),
+        com: v(&m.com),
+        kinetic_energy: m.kinetic_energy,
+        potential_energy: m.potential_energy,
+        residual_m: m.residual_m,
+        residual_rad: m.residual_rad,
+    }
+}

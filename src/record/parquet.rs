@@ -1,0 +1,180 @@
+//! `simulate --format parquet`: the dataset's tables for this one run, so a big run can be read
+//! in pandas or DuckDB.
+//!
+//! | file | content |
+//! |---|---|
+//! | `STEM.trajectories.parquet` | the dataset's `trajectories` table ([`crate::dataset::tables`]): one row per recorded step and body, `run = 0` |
+//! | `STEM.bodies.parquet` | the dataset's `bodies.parquet` table: one row per body; its `model` column holds the body's model label (`box_0042`, or the URDF robot name) |
+//!
+//! Same writer settings as the dataset's files ([`crate::dataset::parquet::writer_properties`]:
+//! zstd level 1, row groups of 128 Ki rows; same rows, same bytes). Both are written under
+//! `<path>.part` and published by [`super::finish_all`] with the other files of the run.
+
+use super::{Frame, RecordingLayout, Sink};
+use crate::dataset::parquet::{ROW_GROUP_ROWS, writer_properties};
+use crate::dataset::tables::{TrajectoryColumns, bodies_rows, trajectories_schema};
+use crate::fsutil::part_path;
+use anyhow::Context;
+use nalgebra::Isometry3;
+use parquet::arrow::ArrowWriter;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+/// Renames `<path>.part` onto `path`.
+fn publish(path: &Path) -> anyhow::Result<()> {
+    let part = part_path(path);
+    std::fs::rename(&part, path)
+        .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))
+}
+
+/// Writes `STEM.trajectories.parquet`.
+pub struct TrajectorySink {
+    writer: Option<ArrowWriter<BufWriter<File>>>,
+    path: PathBuf,
+    /// Per body: its frame and `link_from_principal` (the row's pose is its principal frame).
+    bodies: Vec<(usize, Isometry3<f64>)>,
+    name_ids: Vec<u32>,
+    rows: TrajectoryColumns,
+}
+
+impl TrajectorySink {
+    /// Creates `<path>.part`.
+    pub fn create(path: &Path, layout: &RecordingLayout) -> anyhow::Result<Self> {
+        let part = part_path(path);
+        let file =
+            File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
+        let writer = ArrowWriter::try_new(
+            BufWriter::with_capacity(1 << 20, file),
+            trajectories_schema(),
+            Some(writer_properties(true)?),
+        )
+        .with_context(|| format!("cannot start {}", part.display()))?;
+        let mut rows = TrajectoryColumns::default();
+        let name_ids = layout.bodies.iter().map(|b| rows.intern(&b.name)).collect();
+        Ok(Self {
+            writer: Some(writer),
+            path: path.to_path_buf(),
+            bodies: layout
+                .bodies
+                .iter()
+                .map(|b| (b.frame, b.link_from_principal))
+                .collect(),
+            name_ids,
+            rows,
+        })
+    }
+
+    fn flush(&mut self) -> anyhow::Result<()> {
+        if self.rows.is_empty() {
+            return Ok(());
+        }
+        let batch = self.rows.take_batch()?;
+        let writer = self.writer.as_mut().context("the file is closed")?;
+        writer
+            .write(&batch)
+            .with_context(|| format!("cannot write {}", part_path(&self.path).display()))
+    }
+}
+
+impl Sink for TrajectorySink {
+    fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
+        for ((&(link, link_from_principal), state), &id) in
+            self.bodies.iter().zip(frame.bodies).zip(&self.name_ids)
+        {
+            let pose = frame.world_from_link[link] * link_from_principal;
+            self.rows.push(0, frame, id, &pose, state);
+        }
+        if self.rows.len() >= ROW_GROUP_ROWS {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    fn finish(self: Box<Self>) -> anyhow::Result<()> {
+        let path = self.path.clone();
+        self.complete()?;
+        publish(&path)
+    }
+
+    fn path(&self) -> Option<PathBuf> {
+        Some(self.path.clone())
+    }
+
+    fn complete(mut self: Box<Self>) -> anyhow::Result<()> {
+        self.flush()?;
+        let part = part_path(&self.path);
+        let writer = self.writer.take().context("the file is closed")?;
+        let file = writer
+            .into_inner()
+            .with_context(|| format!("cannot finish {}", part.display()))?
+            .into_inner()
+            .map_err(|e| e.into_error())
+            .with_context(|| format!("cannot write {}", part.display()))?;
+        file.sync_all()
+            .with_context(|| format!("cannot sync {}", part.display()))
+    }
+}
+
+impl Drop for TrajectorySink {
+    fn drop(&mut self) {
+        if self.writer.take().is_some() {
+            std::fs::remove_file(part_path(&self.path)).ok();
+        }
+    }
+}
+
+/// Writes `STEM.bodies.parquet` when the run completes (its rows do not change).
+pub struct BodiesSink {
+    path: PathBuf,
+    batch: arrow_array::RecordBatch,
+}
+
+impl BodiesSink {
+    /// The table's rows: body `i` of the layout, its model column the body's model label.
+    pub fn new(path: &Path, layout: &RecordingLayout) -> anyhow::Result<Self> {
+        let batch = bodies_rows(layout.bodies.iter().enumerate().map(|(i, b)| {
+            let frame = &layout.frames[b.frame];
+            (frame.model.clone(), i, b, frame.frame_id.clone())
+        }))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            batch,
+        })
+    }
+}
+
+impl Sink for BodiesSink {
+    fn write(&mut self, _frame: &Frame<'_>) -> anyhow::Result<()> {
+        Ok(())
+    }
+
+    fn finish(self: Box<Self>) -> anyhow::Result<()> {
+        let path = self.path.clone();
+        self.complete()?;
+        publish(&path)
+    }
+
+    fn path(&self) -> Option<PathBuf> {
+        Some(self.path.clone())
+    }
+
+    fn complete(self: Box<Self>) -> anyhow::Result<()> {
+        let part = part_path(&self.path);
+        let file =
+            File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
+        let mut writer = ArrowWriter::try_new(
+            BufWriter::new(file),
+            crate::dataset::tables::bodies_schema(),
+            Some(writer_properties(false)?),
+        )?;
+        writer.write(&self.batch)?;
+        let file = writer
+            .into_inner()?
+            .into_inner()
+            .map_err(|e| e.into_error())
+            .with_context(|| format!("cannot write {}", part.display()))?;
+        file.sync_all()
+            .with_context(|| format!("cannot sync {}", part.display()))
+    }
+}

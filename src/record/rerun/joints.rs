@@ -1,0 +1,265 @@
+//! The Rerun series of articulated models (recorded only when the layout has them):
+//!
+//! | entity | `Scalars` (series names, static `SeriesLines`) |
+//! |---|---|
+//! | `/plots/joints/position/<joint>` | [position] rad or m (continuous joints unwrapped) |
+//! | `/plots/joints/velocity/<joint>` | [velocity] rad/s or m/s |
+//! | `/plots/mechanisms/<model>/energy` | [kinetic, potential, total] J |
+//! | `/plots/mechanisms/<model>/energy_change` | [(E − E₀)/\|E₀\|] |
+//! | `/plots/mechanisms/<model>/linear_momentum` | [x, y, z] kg m/s, world |
+//! | `/plots/mechanisms/<model>/angular_momentum` | [x, y, z] kg m²/s about the model's centre of mass, world |
+//! | `/plots/mechanisms/<model>/constraint_residual` | [gap (m), misalignment (rad)] |
+//!
+//! `<joint>` and `<model>` are the layout's names split at `/` (one path part each), as for
+//! bodies. The values are the frame's: projected momenta, joint coordinates read back from the
+//! poses ([`crate::sim::mechanism::project`]). With articulated models, the scene's angular
+//! momentum change plot (`/plots/scene/angular_momentum_change`) is taken over the quantities
+//! that are conserved: every free body's angular momentum and every floating model's total
+//! (a mechanism's bodies exchange momentum through their joints; a fixed base takes some).
+
+use super::{ENERGY_SERIES, EntityPath, EntityPathPart, Frame, RecordingLayout, Result};
+use super::{PlotView, TimeColumn, nonzero, static_chunk};
+use rerun::RecordingStream;
+use rerun::log::Chunk;
+
+fn path(parts: &[&str], name: &str) -> EntityPath {
+    let mut p: Vec<EntityPathPart> = parts.iter().map(|s| EntityPathPart::new(*s)).collect();
+    p.extend(
+        name.split('/')
+            .filter(|s| !s.is_empty())
+            .map(EntityPathPart::new),
+    );
+    EntityPath::new(p)
+}
+
+/// Entity of a joint's position series.
+pub fn joint_position_entity_path(joint: &str) -> EntityPath {
+    path(&["plots", "joints", "position"], joint)
+}
+
+/// Entity of a joint's velocity series.
+pub fn joint_velocity_entity_path(joint: &str) -> EntityPath {
+    path(&["plots", "joints", "velocity"], joint)
+}
+
+/// Entity of one of a model's series (`energy`, `energy_change`, `linear_momentum`,
+/// `angular_momentum`, `constraint_residual`).
+pub fn mechanism_entity_path(model: &str, series: &str) -> EntityPath {
+    let mut p = path(&["plots", "mechanisms"], model);
+    p = p.join(&EntityPath::new(vec![EntityPathPart::new(series)]));
+    p
+}
+
+/// The model series, their names, values per row.
+const MECHANISM_SERIES: [(&str, &[&str]); 5] = [
+    ("energy", &ENERGY_SERIES),
+    ("energy_change", &["(E − E₀)/|E₀|"]),
+    ("linear_momentum", &["x", "y", "z"]),
+    ("angular_momentum", &["x", "y", "z"]),
+    ("constraint_residual", &["gap (m)", "misalignment (rad)"]),
+];
+
+/// Buffered columns and entities of the articulated series.
+pub(super) struct JointPlots {
+    positions: Vec<EntityPath>,
+    velocities: Vec<EntityPath>,
+    /// Per model, per [`MECHANISM_SERIES`] entry: the entity.
+    models: Vec<Vec<EntityPath>>,
+    /// Per model: its bodies (batch indices) and whether its base floats.
+    model_bodies: Vec<(std::ops::Range<usize>, bool)>,
+    /// `[joint]` values of the buffered rows.
+    position: Vec<Vec<f64>>,
+    velocity: Vec<Vec<f64>>,
+    /// `[model][series]` flattened values of the buffered rows.
+    series: Vec<Vec<Vec<f64>>>,
+    energy0: Vec<Option<f64>>,
+    in_mechanism: Vec<bool>,
+}
+
+impl JointPlots {
+    pub(super) fn new(layout: &RecordingLayout) -> Self {
+        let mut in_mechanism = vec![false; layout.bodies.len()];
+        for m in &layout.mechanisms {
+            for i in m.bodies.clone() {
+                if let Some(b) = in_mechanism.get_mut(i) {
+                    *b = true;
+                }
+            }
+        }
+        Self {
+            positions: layout
+                .joints
+                .iter()
+                .map(|j| joint_position_entity_path(&j.name))
+                .collect(),
+            velocities: layout
+                .joints
+                .iter()
+                .map(|j| joint_velocity_entity_path(&j.name))
+                .collect(),
+            models: layout
+                .mechanisms
+                .iter()
+                .map(|m| {
+                    MECHANISM_SERIES
+                        .iter()
+                        .map(|(s, _)| mechanism_entity_path(&m.name, s))
+                        .collect()
+                })
+                .collect(),
+            model_bodies: layout
+                .mechanisms
+                .iter()
+                .map(|m| (m.bodies.clone(), m.floating))
+                .collect(),
+            position: vec![Vec::new(); layout.joints.len()],
+            velocity: vec![Vec::new(); layout.joints.len()],
+            series: vec![vec![Vec::new(); MECHANISM_SERIES.len()]; layout.mechanisms.len()],
+            energy0: vec![None; layout.mechanisms.len()],
+            in_mechanism,
+        }
+    }
+
+    pub(super) fn is_empty(&self) -> bool {
+        self.positions.is_empty() && self.models.is_empty()
+    }
+
+    /// The static series names.
+    pub(super) fn static_chunks(&self) -> Result<Vec<Chunk>> {
+        let mut chunks = Vec::new();
+        for (p, v) in self.positions.iter().zip(&self.velocities) {
+            chunks.push(static_chunk(
+                p.clone(),
+                &[&rerun::SeriesLines::new().with_names(["position"])],
+            )?);
+            chunks.push(static_chunk(
+                v.clone(),
+                &[&rerun::SeriesLines::new().with_names(["velocity"])],
+            )?);
+        }
+        for entities in &self.models {
+            for (entity, (_, names)) in entities.iter().zip(MECHANISM_SERIES) {
+                chunks.push(static_chunk(
+                    entity.clone(),
+                    &[&rerun::SeriesLines::new().with_names(names.iter().copied())],
+                )?);
+            }
+        }
+        Ok(chunks)
+    }
+
+    /// Buffers one frame's values. `frame.joints`/`frame.mechanisms` must match the layout.
+    pub(super) fn push(&mut self, frame: &Frame<'_>) -> Result<()> {
+        if frame.joints.len() != self.positions.len() || frame.mechanisms.len() != self.models.len()
+        {
+            anyhow::bail!(
+                "frame has {} joint and {} model states, the layout {} and {}",
+                frame.joints.len(),
+                frame.mechanisms.len(),
+                self.positions.len(),
+                self.models.len()
+            );
+        }
+        for (j, s) in frame.joints.iter().enumerate() {
+            self.position[j].push(s.position + 0.0);
+            self.velocity[j].push(s.velocity + 0.0);
+        }
+        for (k, m) in frame.mechanisms.iter().enumerate() {
+            let e = m.kinetic_energy + m.potential_energy;
+            let e0 = *self.energy0[k].get_or_insert(e);
+            let s = &mut self.series[k];
+            s[0].extend([m.kinetic_energy, m.potential_energy, e]);
+            s[1].push((e - e0) / nonzero(e0.abs()) + 0.0);
+            s[2].extend(m.linear_momentum.iter().map(|x| x + 0.0));
+            s[3].extend(m.angular_momentum.iter().map(|x| x + 0.0));
+            s[4].extend([m.residual_m, m.residual_rad]);
+        }
+        Ok(())
+    }
+
+    /// The angular momenta conserved in this frame (see the module doc).
+    pub(super) fn conserved_angmom(&self, frame: &Frame<'_>) -> Vec<nalgebra::Vector3<f64>> {
+        let mut out: Vec<_> = self
+            .model_bodies
+            .iter()
+            .zip(frame.mechanisms)
+            .filter(|((_, floating), _)| *floating)
+            .map(|(_, m)| m.angular_momentum)
+            .collect();
+        out.extend(
+            frame
+                .bodies
+                .iter()
+                .zip(&self.in_mechanism)
+                .filter(|(_, m)| !**m)
+                .map(|(b, _)| b.angmom_world),
+        );
+        out
+    }
+
+    /// Sends the buffered rows (`times` builds the two time columns) and clears them.
+    pub(super) fn send(
+        &mut self,
+        rec: &RecordingStream,
+        times: &dyn Fn() -> [TimeColumn; 2],
+        rows: usize,
+    ) -> Result<()> {
+        if rows == 0 {
+            return Ok(());
+        }
+        for (j, (p, v)) in self.positions.iter().zip(&self.velocities).enumerate() {
+            rec.send_columns(
+                p.clone(),
+                times(),
+                rerun::Scalars::new(self.position[j].iter().copied()).columns_of_unit_batches()?,
+            )?;
+            rec.send_columns(
+                v.clone(),
+                times(),
+                rerun::Scalars::new(self.velocity[j].iter().copied()).columns_of_unit_batches()?,
+            )?;
+            self.position[j].clear();
+            self.velocity[j].clear();
+        }
+        for (k, entities) in self.models.iter().enumerate() {
+            for (i, (entity, (_, names))) in entities.iter().zip(MECHANISM_SERIES).enumerate() {
+                rec.send_columns(
+                    entity.clone(),
+                    times(),
+                    rerun::Scalars::new(self.series[k][i].iter().copied())
+                        .columns(std::iter::repeat_n(names.len(), rows))?,
+                )?;
+                self.series[k][i].clear();
+            }
+        }
+        Ok(())
+    }
+
+    /// The blueprint's plots for articulated models: each model's energy change and constraint
+    /// residual, and all joint positions.
+    pub(super) fn plot_views(&self, layout: &RecordingLayout) -> Vec<PlotView> {
+        let mut views = Vec::new();
+        if !self.positions.is_empty() {
+            views.push(PlotView::new(
+                "joint positions (rad, m)",
+                &["+ /plots/joints/position/**"],
+            ));
+        }
+        for m in &layout.mechanisms {
+            let change = format!("+ {}", mechanism_entity_path(&m.name, "energy_change"));
+            let residual = format!(
+                "+ {}",
+                mechanism_entity_path(&m.name, "constraint_residual")
+            );
+            views.push(PlotView::new(
+                &format!("{}: energy change (E − E₀)/|E₀|", m.name),
+                &[change.as_str()],
+            ));
+            views.push(PlotView::new(
+                &format!("{}: constraint residual", m.name),
+                &[residual.as_str()],
+            ));
+        }
+        views
+    }
+}

@@ -1,0 +1,263 @@
+//! The big-scene layout of the Rerun recording: every copy of a shape in one entity.
+//!
+//! Rerun keeps per entity a set of chunks, columns and their indexes, in the viewer and in the
+//! `.rrd` footer (a manifest row per chunk and column): the per-body layout of [`super::rerun`]
+//! (an entity per link frame, per visual, per ellipsoid, two per-body plots) has about six
+//! entities per body, so 10 000 bodies make 60 000 entities: the footer overflows the
+//! flatbuffer verifier's table limit (`TooManyTables`, the file is lost) and the viewer crawls.
+//! Rerun's guidance for many objects is to log them as batches in few entities; above
+//! [`BATCHED_MIN_FRAMES`] link frames the sink does that:
+//!
+//! | entity                                               | archetypes | time |
+//! |------------------------------------------------------|------------|------|
+//! | `/<group>/visual_geometries/<link>/<visual>`         | the shape at its own origin (`Boxes3D`, `Ellipsoids3D`, `Cylinders3D`, `Capsules3D`, `Asset3D`, `Mesh3D`) | static |
+//! | same                                                 | `InstancePoses3D`: one pose `world_from_visual` per member frame (f32 translation, quaternion xyzw; mesh scale) | both timelines |
+//! | `/<group>/inertia/<link>`                            | `Ellipsoids3D` (equivalent uniform ellipsoid, wireframe) | static |
+//! | same                                                 | `InstancePoses3D`: `world_from_principal` of every member body | both timelines |
+//! | `/plots/scene/...`                                   | as in the per-body layout | both timelines |
+//!
+//! A *group* is the set of link frames with the same link name and identical visual geometry
+//! (every copy of a `[[model]]`, and every table using the same URDF): each visual of the group
+//! is drawn once per member by instancing ("if there are more instance poses than boxes, the
+//! last box is repeated", Rerun's `Boxes3D` documentation; the same for the other shapes and
+//! meshes). Bodies with the same mass properties in a group share an ellipsoid entity. The
+//! group's name is its first frame's model label, with a copy index `_<digits>` removed when
+//! the group has more than one member (`box_0000` → `box`); a second group with the same
+//! name and link gets `_2`, `_3`, ... There are no named link frames, no per-body plots and no
+//! `Transform3D` in this layout: the poses of a single copy are in the MCAP file (`/tf`), the
+//! per-body series in `/bodies`. Entities are in member order, so the bytes depend on the
+//! layout and the frames alone, as in the per-body layout.
+
+use super::{BodyLayout, Frame, FrameLayout, RecordingLayout};
+use nalgebra::Isometry3;
+use rerun::{EntityPath, EntityPathPart};
+use std::collections::{BTreeSet, HashMap};
+
+/// Recordings with more link frames than this use the batched layout.
+pub const BATCHED_MIN_FRAMES: usize = 256;
+
+/// Bytes of buffered poses per batch sent (see [`Batches::rows_per_send`]).
+pub const BATCHED_SEND_BYTES: usize = 4 << 20;
+
+/// Whether `layout` is recorded in the batched layout.
+pub fn is_batched(layout: &RecordingLayout) -> bool {
+    layout.frames.len() > BATCHED_MIN_FRAMES
+}
+
+/// What one batched entity holds.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Content {
+    /// Visual `index` of the group's link.
+    Visual { index: usize },
+    /// The inertia ellipsoid of the group's bodies with these mass properties.
+    Inertia { body: usize },
+}
+
+/// One entity holding every instance of a shape.
+#[derive(Debug, Clone)]
+pub struct Batch {
+    pub entity: EntityPath,
+    /// A frame of the group (whose visuals or body describe the shape).
+    pub first_frame: usize,
+    pub content: Content,
+    /// The member frames: one instance each, at `world_from_link · offset`.
+    pub frames: Vec<u32>,
+    /// The instance's pose in its link frame (visual origin, or principal frame); `None`: identity.
+    pub offset: Option<Isometry3<f64>>,
+    /// Mesh scale, sent with every pose (an `InstancePoses3D` row replaces the whole pose).
+    pub scale: Option<[f32; 3]>,
+}
+
+/// The batched entities and their buffered poses.
+pub struct Batches {
+    pub list: Vec<Batch>,
+    /// Per batch, per buffered row and member: translation, quaternion xyzw (f32).
+    pub translations: Vec<Vec<[f32; 3]>>,
+    pub quaternions: Vec<Vec<[f32; 4]>>,
+    /// Rows to buffer before sending (about [`BATCHED_SEND_BYTES`]).
+    pub rows_per_send: usize,
+}
+
+fn entity(parts: &[&str]) -> EntityPath {
+    EntityPath::new(parts.iter().map(|p| EntityPathPart::new(*p)).collect())
+}
+
+/// `label` without a trailing `_<digits>`.
+fn without_copy_index(label: &str) -> &str {
+    match label.rsplit_once('_') {
+        Some((base, index))
+            if !base.is_empty()
+                && !index.is_empty()
+                && index.bytes().all(|b| b.is_ascii_digit()) =>
+        {
+            base
+        }
+        _ => label,
+    }
+}
+
+/// A stable text key of a frame's shape: link name and visuals.
+fn shape_key(frame: &FrameLayout) -> String {
+    format!("{}\u{0}{:?}", frame.link, frame.visuals)
+}
+
+/// A stable text key of a body's ellipsoid.
+fn inertia_key(body: &BodyLayout) -> String {
+    format!(
+        "{:?}{:?}{:?}",
+        body.mass, body.principal_moments, body.link_from_principal
+    )
+}
+
+impl Batches {
+    /// Groups `layout`'s frames and bodies (see the module doc); `ellipsoids` adds the inertia
+    /// entities.
+    pub fn new(layout: &RecordingLayout, ellipsoids: bool) -> Self {
+        // Groups in order of their first frame.
+        let mut group_of: HashMap<String, usize> = HashMap::new();
+        let mut groups: Vec<Vec<u32>> = Vec::new();
+        let mut frame_group = Vec::with_capacity(layout.frames.len());
+        for (i, frame) in layout.frames.iter().enumerate() {
+            let next = groups.len();
+            let g = *group_of.entry(shape_key(frame)).or_insert(next);
+            if g == next {
+                groups.push(Vec::new());
+            }
+            groups[g].push(i as u32);
+            frame_group.push(g);
+        }
+        let mut used = BTreeSet::new();
+        let names: Vec<String> = groups
+            .iter()
+            .map(|members| {
+                let frame = &layout.frames[members[0] as usize];
+                let base = if members.len() > 1 {
+                    without_copy_index(&frame.model)
+                } else {
+                    frame.model.as_str()
+                };
+                let mut name = base.to_string();
+                let mut k = 1;
+                while !used.insert((name.clone(), frame.link.clone())) {
+                    k += 1;
+                    name = format!("{base}_{k}");
+                }
+                name
+            })
+            .collect();
+        let mut list = Vec::new();
+        for (g, members) in groups.iter().enumerate() {
+            let first = members[0] as usize;
+            let frame = &layout.frames[first];
+            let mut leaves = BTreeSet::new();
+            for (index, visual) in frame.visuals.iter().enumerate() {
+                let mut leaf = match &visual.name {
+                    Some(name) if !name.is_empty() => name.clone(),
+                    _ => format!("visual_{index}"),
+                };
+                if !leaves.insert(leaf.clone()) {
+                    leaf = format!("{leaf}_{index}");
+                    leaves.insert(leaf.clone());
+                }
+                let scale = match &visual.geometry {
+                    crate::model::Geometry::Mesh { scale, .. } => {
+                        Some([scale.x as f32, scale.y as f32, scale.z as f32])
+                    }
+                    _ => None,
+                };
+                let origin = visual.link_from_visual;
+                list.push(Batch {
+                    entity: entity(&[&names[g], "visual_geometries", &frame.link, &leaf]),
+                    first_frame: first,
+                    content: Content::Visual { index },
+                    frames: members.clone(),
+                    offset: (origin != Isometry3::identity()).then_some(origin),
+                    scale,
+                });
+            }
+        }
+        if ellipsoids {
+            // Per group, bodies with the same mass properties share an entity, in body order.
+            let mut batch_of: HashMap<(usize, String), usize> = HashMap::new();
+            let mut per_group: HashMap<usize, usize> = HashMap::new();
+            for (b, body) in layout.bodies.iter().enumerate() {
+                let g = frame_group[body.frame];
+                let key = (g, inertia_key(body));
+                let index = match batch_of.get(&key) {
+                    Some(&index) => index,
+                    None => {
+                        let count = per_group.entry(g).or_insert(0);
+                        *count += 1;
+                        let link = &layout.frames[body.frame].link;
+                        let leaf = match *count {
+                            1 => link.clone(),
+                            k => format!("{link}_{k}"),
+                        };
+                        list.push(Batch {
+                            entity: entity(&[&names[g], "inertia", &leaf]),
+                            first_frame: body.frame,
+                            content: Content::Inertia { body: b },
+                            frames: Vec::new(),
+                            offset: Some(body.link_from_principal),
+                            scale: None,
+                        });
+                        batch_of.insert(key, list.len() - 1);
+                        list.len() - 1
+                    }
+                };
+                list[index].frames.push(body.frame as u32);
+            }
+        }
+        let instances: usize = list.iter().map(|b| b.frames.len()).sum();
+        let rows_per_send = (BATCHED_SEND_BYTES / (28 * instances.max(1) + 64)).clamp(1, 4096);
+        let n = list.len();
+        Self {
+            list,
+            translations: vec![Vec::new(); n],
+            quaternions: vec![Vec::new(); n],
+            rows_per_send,
+        }
+    }
+
+    /// Appends the poses of `frame` (one row per batch).
+    pub fn push(&mut self, frame: &Frame<'_>) {
+        for (b, batch) in self.list.iter().enumerate() {
+            let (t, q) = (&mut self.translations[b], &mut self.quaternions[b]);
+            t.reserve(batch.frames.len());
+            q.reserve(batch.frames.len());
+            for &f in &batch.frames {
+                let world_from_link = &frame.world_from_link[f as usize];
+                let pose = match &batch.offset {
+                    Some(offset) => world_from_link * offset,
+                    None => *world_from_link,
+                };
+                t.push(super::rerun::f32x3(&pose.translation.vector));
+                q.push(super::rerun::quat_xyzw(&pose));
+            }
+        }
+    }
+
+    pub fn clear(&mut self) {
+        for v in &mut self.translations {
+            v.clear();
+        }
+        for v in &mut self.quaternions {
+            v.clear();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn copy_indices_are_removed_from_group_names() {
+        assert_eq!(without_copy_index("box_0042"), "box");
+        assert_eq!(without_copy_index("my_arm_7"), "my_arm");
+        assert_eq!(without_copy_index("box"), "box");
+        assert_eq!(without_copy_index("box_"), "box_");
+        assert_eq!(without_copy_index("_12"), "_12");
+        assert_eq!(without_copy_index("v2_x"), "v2_x");
+    }
+}

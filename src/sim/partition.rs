@@ -1,0 +1,304 @@
+//! A batch split into contiguous partitions, stepped side by side (`--threads`).
+//!
+//! Free bodies do not interact, and every integrator steps each body from that body's state
+//! alone (the variational step's 4-body lanes round exactly as one body does,
+//! `batched_lanes_match_one_body_steps_bit_for_bit`), so a body's trajectory is the same bits
+//! however the batch is cut: partition `k` of `n` holds bodies `[k·c, (k+1)·c)`, `c = ⌈N/n⌉`,
+//! with its own integrator instance and [`Guard`], and the partitions are stepped on a rayon
+//! pool, several steps at a time ([`Partitions::advance`]: up to the next recorded step), so
+//! the threads meet once per recorded frame, not once per step. What the partitions report is
+//! merged as one batch would report it: [`StepStats`] merged over the partitions (counts add,
+//! maxima, the lowest failing body), and the run's [`Divergence`] is the earliest step's lowest
+//! body, as the one-batch [`Guard::check`] picks. So the recordings are byte-identical for every
+//! thread count (tested by `tests/scale.rs`).
+
+use super::guard::{Divergence, Guard};
+use super::{Bodies, BodyInit, Integrator, StepStats};
+use nalgebra::{Isometry3, Vector3};
+use rayon::prelude::*;
+
+/// Fewest bodies a partition gets (smaller batches use fewer partitions: the threads' meeting
+/// costs a few microseconds per window).
+pub const MIN_BODIES_PER_PARTITION: usize = 256;
+
+/// Number of partitions for `bodies` bodies on `threads` threads.
+pub fn partition_count(bodies: usize, threads: usize) -> usize {
+    threads
+        .max(1)
+        .min(bodies.div_ceil(MIN_BODIES_PER_PARTITION))
+        .max(1)
+}
+
+/// One partition.
+pub struct Part<'a> {
+    /// Global index of its first body.
+    pub first: usize,
+    pub bodies: Bodies,
+    integrator: &'a mut dyn Integrator,
+    guard: Guard,
+    /// Statistics of each step of the current window (failed bodies in global indices).
+    stats: Vec<StepStats>,
+    /// The first divergence in the current window (global body index).
+    stop: Option<Divergence>,
+}
+
+/// The partitions of a batch, and the pool that steps them.
+pub struct Partitions<'a> {
+    pub parts: Vec<Part<'a>>,
+    /// Bodies per partition (the last may have fewer).
+    chunk: usize,
+    len: usize,
+    pool: Option<rayon::ThreadPool>,
+}
+
+/// Read access to the partitions' bodies from the pool's threads.
+pub struct View<'a> {
+    parts: Vec<(&'a Bodies, usize)>,
+    chunk: usize,
+    len: usize,
+    pool: Option<&'a rayon::ThreadPool>,
+}
+
+impl View<'_> {
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Body `i`: its partition's bodies and its index there.
+    #[inline]
+    pub fn body(&self, i: usize) -> (&Bodies, usize) {
+        let (bodies, first) = self.parts[i / self.chunk];
+        (bodies, i - first)
+    }
+
+    /// Pose of body `i`'s principal frame in the world.
+    #[inline]
+    pub fn world_from_body(&self, i: usize) -> Isometry3<f64> {
+        let (bodies, j) = self.body(i);
+        bodies.world_from_body(j)
+    }
+
+    /// Runs `f` on the pool (or here, with one partition).
+    pub fn install<R: Send>(&self, f: impl FnOnce() -> R + Send) -> R {
+        match self.pool {
+            Some(pool) => pool.install(f),
+            None => f(),
+        }
+    }
+}
+
+/// What a window of steps did.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Window {
+    /// Merged statistics of the steps up to the last good one (the stopping step included).
+    pub stats: StepStats,
+    /// The earliest divergence (lowest body among those at that step).
+    pub stop: Option<Divergence>,
+}
+
+impl<'a> Partitions<'a> {
+    /// Splits `inits` into `integrators.len()` partitions (each integrator is initialised on
+    /// its partition) with one guard each; steps them on a pool of that many threads when
+    /// there is more than one.
+    pub fn new(
+        inits: &[BodyInit],
+        integrators: Vec<&'a mut dyn Integrator>,
+        divergence_energy_ratio: f64,
+        stop_on_newton_failure: Option<u32>,
+    ) -> anyhow::Result<Self> {
+        let n = integrators.len().max(1);
+        let chunk = inits.len().div_ceil(n).max(1);
+        let parts: Vec<Part<'a>> = integrators
+            .into_iter()
+            .enumerate()
+            .map(|(k, integrator)| {
+                let range = (k * chunk).min(inits.len())..((k + 1) * chunk).min(inits.len());
+                let bodies = Bodies::new(&inits[range.clone()]);
+                integrator.init(&bodies);
+                let guard = Guard::new(&bodies, divergence_energy_ratio, stop_on_newton_failure);
+                Part {
+                    first: range.start,
+                    bodies,
+                    integrator,
+                    guard,
+                    stats: Vec::new(),
+                    stop: None,
+                }
+            })
+            .collect();
+        let pool = if parts.len() > 1 {
+            Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(parts.len())
+                    .thread_name(|i| format!("tumble-step-{i}"))
+                    .build()?,
+            )
+        } else {
+            None
+        };
+        Ok(Self {
+            parts,
+            chunk,
+            len: inits.len(),
+            pool,
+        })
+    }
+
+    /// Number of bodies.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The step size of the integrators, s.
+    pub fn dt(&self) -> f64 {
+        self.parts.first().map_or(0.0, |p| p.integrator.dt())
+    }
+
+    /// Body `i`: its partition's bodies and its index there.
+    #[inline]
+    pub fn body(&self, i: usize) -> (&Bodies, usize) {
+        let part = &self.parts[i / self.chunk];
+        (&part.bodies, i - part.first)
+    }
+
+    /// Pose of body `i`'s principal frame in the world.
+    #[inline]
+    pub fn world_from_body(&self, i: usize) -> Isometry3<f64> {
+        let (bodies, j) = self.body(i);
+        bodies.world_from_body(j)
+    }
+
+    /// The bodies, shareable between threads.
+    pub fn view(&self) -> View<'_> {
+        View {
+            parts: self.parts.iter().map(|p| (&p.bodies, p.first)).collect(),
+            chunk: self.chunk,
+            len: self.len,
+            pool: self.pool.as_ref(),
+        }
+    }
+
+    /// Steps every partition from step `from + 1` to step `to` (each stops at its first
+    /// divergence) and merges what they report.
+    pub fn advance(&mut self, from: u64, to: u64, gravity: &Vector3<f64>) -> Window {
+        let step_part = |part: &mut Part<'_>| {
+            part.stats.clear();
+            part.stop = None;
+            for step in from + 1..=to {
+                let local = part.integrator.step(&mut part.bodies, gravity);
+                let mut global = local;
+                global.failed_body = local.failed_body.map(|b| b + part.first);
+                part.stats.push(global);
+                if let Some(d) = part.guard.check(&part.bodies, &local, step) {
+                    part.stop = Some(Divergence {
+                        body: d.body + part.first,
+                        ..d
+                    });
+                    break;
+                }
+            }
+        };
+        match &self.pool {
+            Some(pool) => pool.install(|| self.parts.par_iter_mut().for_each(step_part)),
+            None => self.parts.iter_mut().for_each(step_part),
+        }
+        let stop = self
+            .parts
+            .iter()
+            .filter_map(|p| p.stop)
+            .min_by_key(|d| (d.step, d.body));
+        let last = stop.map_or(to, |d| d.step);
+        let stats = self
+            .parts
+            .iter()
+            .flat_map(|p| p.stats.iter().take((last - from) as usize))
+            .fold(StepStats::default(), |a, s| a.merge(*s));
+        Window { stats, stop }
+    }
+
+    /// Σ over the bodies in index order of `f(bodies, j)` (the order one batch would sum in).
+    pub fn sum(&self, f: impl Fn(&Bodies, usize) -> f64) -> f64 {
+        let mut total = 0.0;
+        for part in &self.parts {
+            for j in 0..part.bodies.len() {
+                total += f(&part.bodies, j);
+            }
+        }
+        total
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::IntegratorKind;
+    use crate::sim::workload::free_body_batch;
+
+    #[test]
+    fn partition_counts_respect_the_minimum_size() {
+        assert_eq!(partition_count(10, 8), 1);
+        assert_eq!(partition_count(256, 2), 1);
+        assert_eq!(partition_count(257, 2), 2);
+        assert_eq!(partition_count(10_000, 2), 2);
+        assert_eq!(partition_count(10_000, 0), 1);
+        assert_eq!(partition_count(0, 4), 1);
+    }
+
+    /// Every integrator: 3 partitions step the same bits as one batch (free bodies, per-body
+    /// steps), including a remainder partition that is not a multiple of the 4-body lanes.
+    #[test]
+    fn partitions_step_the_same_bits_as_one_batch() {
+        let inits = free_body_batch(1003);
+        let g = Vector3::new(0.0, 0.0, -9.81);
+        for &kind in IntegratorKind::ALL {
+            let settings = Default::default();
+            let mut one = kind.build(0.002, &settings);
+            let mut whole = Partitions::new(&inits, vec![one.as_mut()], 100.0, Some(1024)).unwrap();
+            let mut three: Vec<_> = (0..3).map(|_| kind.build(0.002, &settings)).collect();
+            let mut split = Partitions::new(
+                &inits,
+                three
+                    .iter_mut()
+                    .map(|b| &mut **b as &mut dyn Integrator)
+                    .collect(),
+                100.0,
+                Some(1024),
+            )
+            .unwrap();
+            assert_eq!(split.parts.len(), 3);
+            let (a, b) = (whole.advance(0, 25, &g), split.advance(0, 25, &g));
+            assert_eq!(a.stats, b.stats, "{}", kind.name());
+            assert_eq!(a.stop, b.stop, "{}", kind.name());
+            for i in 0..inits.len() {
+                let (wb, wj) = whole.body(i);
+                let (sb, sj) = split.body(i);
+                assert_eq!(
+                    wb.world_from_body(wj),
+                    sb.world_from_body(sj),
+                    "{} {i}",
+                    kind.name()
+                );
+                assert_eq!(
+                    wb.angmom_body[wj],
+                    sb.angmom_body[sj],
+                    "{} {i}",
+                    kind.name()
+                );
+                assert_eq!(
+                    wb.linvel_world[wj],
+                    sb.linvel_world[sj],
+                    "{} {i}",
+                    kind.name()
+                );
+            }
+        }
+    }
+}

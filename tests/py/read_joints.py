@@ -1,0 +1,58 @@
+"""Reads the articulated-model topics of a tumble MCAP file with the official Python `mcap`
+reader and `mcap-protobuf-support` (readers nobody on the tumble team wrote), plus /tf and the
+/bodies totals, and prints JSON:
+
+{"joints": {name: [[log_time_ns, step, position, velocity], ...]},
+ "mechanisms": {name: [[log_time_ns, step, px, py, pz, lx, ly, lz, cx, cy, cz,
+                        kinetic, potential, energy, residual_m, residual_rad], ...]},
+ "total_energy": [[log_time_ns, step, total_energy of /bodies], ...],
+ "frames": {child_frame_id: [[log_time_ns, tx, ty, tz, qx, qy, qz, qw], ...]},
+ "schemas": {topic: schema_name}, "times_agree": bool}
+"""
+import json
+import sys
+
+from mcap.reader import make_reader
+from mcap_protobuf.decoder import DecoderFactory
+
+
+def stamp_ns(ts):
+    if hasattr(ts, "seconds"):
+        return ts.seconds * 1_000_000_000 + ts.nanos
+    return ts.sec * 1_000_000_000 + ts.nsec
+
+
+def main(path):
+    joints, mechanisms, total, frames, schemas = {}, {}, [], {}, {}
+    times_agree = True
+    with open(path, "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for schema, channel, message, decoded in reader.iter_decoded_messages():
+            schemas[channel.topic] = schema.name
+            t = message.log_time
+            if channel.topic.endswith("/joints"):
+                times_agree &= stamp_ns(decoded.timestamp) == t
+                for j in decoded.joints:
+                    joints.setdefault(j.name, []).append([t, decoded.step, j.position, j.velocity])
+            elif channel.topic.endswith("/mechanisms"):
+                times_agree &= stamp_ns(decoded.timestamp) == t
+                for m in decoded.mechanisms:
+                    p, l, c = m.linear_momentum, m.angular_momentum, m.com
+                    mechanisms.setdefault(m.name, []).append(
+                        [t, decoded.step, p.x, p.y, p.z, l.x, l.y, l.z, c.x, c.y, c.z,
+                         m.kinetic_energy, m.potential_energy, m.energy, m.residual_m,
+                         m.residual_rad])
+            elif channel.topic.endswith("/bodies"):
+                total.append([t, decoded.step, decoded.total_energy])
+            elif channel.topic.endswith("/tf"):
+                for tf in decoded.transforms:
+                    tr, q = tf.translation, tf.rotation
+                    frames.setdefault(tf.child_frame_id, []).append(
+                        [t, tr.x, tr.y, tr.z, q.x, q.y, q.z, q.w])
+    json.dump({"joints": joints, "mechanisms": mechanisms, "total_energy": total,
+               "frames": frames, "schemas": schemas, "times_agree": bool(times_agree)},
+              sys.stdout)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
