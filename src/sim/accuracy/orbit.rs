@@ -154,8 +154,18 @@ impl Orbit {
         let two_pi = 2.0 * std::f64::consts::PI;
         // A scale for the tolerances: the period of a spin at |Ω| = G A_max.
         let t_scale = two_pi / (self.g * self.a.max());
-        let period = integrate(&|psi| self.rates(psi, eps, k).0, 0.0, two_pi, 1e-15 * t_scale);
-        let phi = integrate(&|psi| self.rates(psi, eps, k).1, 0.0, two_pi, 1e-15 * two_pi);
+        let period = integrate(
+            &|psi| self.rates(psi, eps, k).0,
+            0.0,
+            two_pi,
+            1e-15 * t_scale,
+        );
+        let phi = integrate(
+            &|psi| self.rates(psi, eps, k).1,
+            0.0,
+            two_pi,
+            1e-15 * two_pi,
+        );
         (period, phi)
     }
 }
@@ -197,7 +207,10 @@ mod tests {
             (Vector3::new(1.0, 2.0, 3.0), Vector3::new(0.3, 0.8, 2.0)),
             (Vector3::new(1.0, 2.0, 3.0), Vector3::new(-2.0, 0.5, -0.4)),
             (Vector3::new(3.0, 1.0, 2.0), Vector3::new(0.05, 0.03, 3.0)),
-            (Vector3::new(1e-3, 0.9995, 1.0), Vector3::new(0.5, 0.002, 0.001)),
+            (
+                Vector3::new(1e-3, 0.9995, 1.0),
+                Vector3::new(0.5, 0.002, 0.001),
+            ),
         ] {
             let m = j.component_mul(&w);
             let orbit = Orbit::new(&j, &m).unwrap();
@@ -234,7 +247,10 @@ mod tests {
             assert!((p_c - p).abs() < 1e-12 * p);
             let g = m.norm();
             let want = phi + 4.0 * c * g.powi(3) * p;
-            assert!((phi_c - want).abs() < 1e-10 * want.abs(), "{phi_c} vs {want}");
+            assert!(
+                (phi_c - want).abs() < 1e-10 * want.abs(),
+                "{phi_c} vs {want}"
+            );
         }
     }
 }
