@@ -42,7 +42,7 @@
 use crate::sim::integrators::VariationalSettings;
 use crate::sim::limits::spin_rate_max;
 use crate::sim::reference::Asymmetric;
-use crate::sim::{Bodies, BodyInit, Integrator, IntegratorKind};
+use crate::sim::{Bodies, BodyInit, IntegratorKind};
 use nalgebra::{Isometry3, Vector3};
 
 /// Largest per-substep `h ν` (rad, [`time_scale`]) a factor is chosen at.

@@ -22,10 +22,12 @@ use crate::sim::{Bodies, Integrator, IntegratorKind, StepStats};
 use nalgebra::Vector3;
 
 /// How each body's substep factor is chosen.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum FactorRule {
     /// The same factor for every body.
     Uniform(u32),
+    /// Given factors, one per body of the batch.
+    PerBody(std::sync::Arc<Vec<u32>>),
     /// The smallest factor whose predicted orientation error over `duration_secs` is at most
     /// `tol_rad` ([`ErrorModel::factor`]).
     Tolerance {
@@ -40,18 +42,23 @@ impl FactorRule {
     /// `angmom_body`, for `kind` at step `dt_secs`.
     pub fn factor(
         &self,
+        body: usize,
         kind: IntegratorKind,
         settings: &VariationalSettings,
         inertia_body: &Vector3<f64>,
         angmom_body: &Vector3<f64>,
         dt_secs: f64,
     ) -> Factor {
-        match *self {
-            FactorRule::Uniform(k) => Factor {
+        match self {
+            &FactorRule::Uniform(k) => Factor {
                 k: k.max(1),
                 predicted_rad: f64::NAN,
             },
-            FactorRule::Tolerance {
+            FactorRule::PerBody(ks) => Factor {
+                k: ks.get(body).copied().unwrap_or(1).max(1),
+                predicted_rad: f64::NAN,
+            },
+            &FactorRule::Tolerance {
                 model,
                 tol_rad,
                 duration_secs,
@@ -118,6 +125,21 @@ impl Substepped {
         Self::new(kind, dt_secs, settings, FactorRule::Uniform(k))
     }
 
+    /// Body `i` of the batch with `factors[i]` substeps.
+    pub fn with_factors(
+        kind: IntegratorKind,
+        dt_secs: f64,
+        settings: &VariationalSettings,
+        factors: Vec<u32>,
+    ) -> Self {
+        Self::new(
+            kind,
+            dt_secs,
+            settings,
+            FactorRule::PerBody(std::sync::Arc::new(factors)),
+        )
+    }
+
     /// The factor of each body of the batch last initialised.
     pub fn factors(&self) -> &[u32] {
         &self.factors
@@ -160,6 +182,7 @@ impl Integrator for Substepped {
             .map(|i| {
                 self.rule
                     .factor(
+                        i,
                         self.kind,
                         &self.settings,
                         &bodies.inertia_body[i],
