@@ -468,12 +468,12 @@ impl Scene {
                 s.divergence_energy_ratio
             );
         }
-        if let Some(tol) = s.accuracy {
-            if !(tol.is_finite() && (1e-12..=1.0).contains(&tol)) {
-                bail!(
-                    "{file}: sim.accuracy must be a tolerance in radians between 1e-12 and 1 (got {tol})"
-                );
-            }
+        if let Some(tol) = s.accuracy
+            && !(tol.is_finite() && (1e-12..=1.0).contains(&tol))
+        {
+            bail!(
+                "{file}: sim.accuracy must be a tolerance in radians between 1e-12 and 1 (got {tol})"
+            );
         }
         finite3(&format!("{file}: sim.gravity"), &s.gravity)?;
         if IntegratorKind::from_name(&s.integrator).is_none() {

@@ -115,6 +115,10 @@ pub struct SimulateArgs {
     /// keeps dt); the summary prints the factors and an a posteriori check (docs/accuracy.md).
     #[arg(long, value_name = "TOL")]
     pub accuracy: Option<f64>,
+    /// Test-only: scales the error model's predictions (a scale below 1 makes it too
+    /// optimistic, so the a posteriori check must warn).
+    #[arg(long, hide = true, default_value_t = 1.0)]
+    pub accuracy_model_scale: f64,
     /// Threads stepping the bodies (default: all cores). The files do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
@@ -182,13 +186,15 @@ pub fn thread_count(requested: Option<usize>) -> anyhow::Result<usize> {
 }
 
 /// How [`simulate_world`] runs and what it writes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SimulateOptions {
     pub rerun: RerunOptions,
     pub formats: Formats,
     /// Stepping threads (>= 1; the files do not depend on it).
     pub threads: usize,
     pub mcap_compression: ChunkCompression,
+    /// The error model of `--accuracy` (scale 1 as validated).
+    pub accuracy_model: crate::sim::accuracy::ErrorModel,
 }
 
 fn parse_jacobian(s: &str) -> Result<Jacobian, String> {
@@ -333,6 +339,7 @@ fn accuracy_plan(
     scene: &Scene,
     world: &World,
     tol: f64,
+    model: &crate::sim::accuracy::ErrorModel,
     threads: usize,
 ) -> anyhow::Result<crate::sim::accuracy::Plan> {
     let file = scene.source.display();
@@ -358,7 +365,7 @@ fn accuracy_plan(
         crate::sim::accuracy::Plan::new(
             kind,
             &variational,
-            &crate::sim::accuracy::ErrorModel::default(),
+            model,
             &world.bodies,
             scene.sim.dt,
             duration,
@@ -378,6 +385,7 @@ pub fn simulate(
         formats: Formats::default(),
         threads: 1,
         mcap_compression: ChunkCompression::Zstd,
+        accuracy_model: Default::default(),
     };
     simulate_world(scene, &scene.build()?, stem, &options)
 }
@@ -451,7 +459,13 @@ pub fn simulate_world(
     // `--accuracy`: refused before any file exists when it cannot apply; the plan (each body's
     // pilot) is computed on the stepping threads.
     let plan = match scene.sim.accuracy {
-        Some(tol) => Some(accuracy_plan(scene, world, tol, options.threads)?),
+        Some(tol) => Some(accuracy_plan(
+            scene,
+            world,
+            tol,
+            &options.accuracy_model,
+            options.threads,
+        )?),
         None => None,
     };
     if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -746,6 +760,9 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             formats,
             threads,
             mcap_compression: args.mcap_compression,
+            accuracy_model: crate::sim::accuracy::ErrorModel {
+                scale: args.accuracy_model_scale,
+            },
         },
     )?;
     let wall = started.elapsed().as_secs_f64();
