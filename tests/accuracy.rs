@@ -75,12 +75,14 @@ fn angmom_body(b: &BodyInit) -> Vector3<f64> {
 
 /// The validation table of docs/accuracy.md: predicted against achieved error (k = 1) on states
 /// the pilot never saw (seed 2), `h W` = 0.01, 0.1, 0.5, `T` = 50 s. Prints one line per case
-/// (`kind r J_mid hW predicted achieved ratio`); not run by default (about a minute):
+/// (`kind r J_mid hW predicted achieved ratio`) and draws docs/accuracy/validation.png; not run
+/// by default (about a minute):
 /// `cargo test --release --test accuracy -- --ignored validation_table --nocapture`.
 #[test]
 #[ignore]
 fn validation_table() {
     let model = ErrorModel::default();
+    let mut points = Vec::new();
     for kind in [
         IntegratorKind::Variational,
         IntegratorKind::Variational4,
@@ -104,10 +106,18 @@ fn validation_table() {
                         j.y,
                         e / pred
                     );
+                    points.push(tumble::plot::accuracy::Point {
+                        integrator: kind.name().into(),
+                        predicted: pred,
+                        achieved: e,
+                    });
                 }
             }
         }
     }
+    let png = common::root().join("docs/accuracy/validation.png");
+    std::fs::create_dir_all(png.parent().unwrap()).unwrap();
+    tumble::plot::accuracy::validation(&png, &points).unwrap();
 }
 
 /// Issue 17's acceptance test: across inertia ratios 1..1e-3 (physical shapes, states of seed 3:

@@ -9,35 +9,41 @@
 //! keeps `|M|` and `π` exactly, so only `K_p` on the momentum sphere matters): the body-frame
 //! momentum loop is deformed by `O(h^p)` (a bounded orientation error) and its two frequencies
 //! (the loop's and the precession about `π`) are shifted by `O(h^p)`, so the phase error grows
-//! linearly in time. For a body with largest angular speed `W = |Ω|max` on its exact orbit
-//! ([`spin_rate_max`]) the error over a run of `T` seconds at step `h` is therefore
+//! linearly in time. With `ν` the body's fastest time scale on its exact orbit ([`time_scale`]:
+//! its largest `|Ω|` plus the body-frame turning rate of `Ω`) the error over a run of `T` seconds
+//! at step `h` is
 //!
-//! `e(h, T) = C (h W)^p (W T + B)` (leading term in `h`; `B` rad the bounded part),
+//! `e(h, T) = C (h ν)^p (ν T + B)` (leading term in `h`; `B` rad the bounded part),
 //!
 //! and everything but `C` is known from the body. `C` depends on the body's shape **and** its
-//! state: measured over the fitting set of `tests/accuracy.rs` (inertia ratios 1e-3 to 0.9, 30
-//! shapes and spins per ratio) it spans four decades at a fixed ratio (a rod spinning about a
-//! transverse axis is 100x worse than the median rod; spins near a principal axis are nearly
-//! exact), so a table `C(r)` would be 100-1000x pessimistic for most bodies. Instead `C` is
-//! measured per body, before the run, by a **pilot**: the body alone, from its own initial state,
-//! at the pilot step `h_1 = PILOT_H_OMEGA / W` and at `h_1 / 2` over a pilot time `T_1` (one
-//! loop of its momentum when it can be computed, clamped to `[20, 400] / W`, never longer than
-//! the run), with the error of the `h_1` run estimated by Richardson extrapolation,
-//! `e_1(t) = |θ_{h1}(t) - θ_{h1/2}(t)| 2^p / (2^p - 1)`, at 16 sample times. The linear growth
-//! then carries it to the run's length: `E = max_s e_1(t_s) (W T + B) / (W t_s + B)` over the
-//! samples of the pilot's second half (every sample when the pilot is the whole run), and
+//! state: measured over a fitting set (inertia ratios 1e-3 to 0.9, 30 shapes and spins per
+//! ratio) a table `C(r)` spans four decades at a fixed ratio (a rod spinning about a transverse
+//! axis is 100x worse than the median rod; spins near a principal axis are nearly exact), so it
+//! would be 100-1000x pessimistic for most bodies. Instead `C` is measured per body, before the
+//! run, by a **pilot**: the body alone, from its own initial state, at the pilot step
+//! `h_1 = pilot_h_omega / max(ν, |M| / J_min)` (the second term: the stiffness of the step's
+//! equation, a rod's spin about its axis is set by its smallest moment) and at `h_1 / 2`, over a
+//! pilot time `T_1` (one loop of its momentum when it can be computed, clamped to `[20, 400] / ν`,
+//! never longer than the run; at most [`PILOT_STEPS_MAX`] steps), with the error of the `h_1` run
+//! estimated by Richardson extrapolation, `e_1(t) = |θ_{h1}(t) - θ_{h1/2}(t)| 2^p / (2^p - 1)`,
+//! at 16 sample times. The linear growth carries it to the run's length:
+//! `E = max_s e_1(t_s) (ν T + B) / (ν t_s + B)` over the samples of the pilot's second half
+//! (every sample when the pilot is the whole run), and
 //!
 //! `e(h, T) = E (h / h_1)^p`.
 //!
-//! The pilot costs `≈ 1.5 T_1 W / PILOT_H_OMEGA` single-body steps (600 for a typical body,
-//! 12 000 at most), independent of `dt` and `T`. An isotropic body (moments equal to 1e-12) is
-//! integrated exactly by every scheme of the family (`ξ = h Ω` solves the step): `e = 0`, no
-//! pilot; so is a body at rest.
+//! The pilot costs `1.5 T_1 / h_1` single-body steps (about 600 for a typical body, 30 000 at
+//! most), independent of `dt` and `T`. An isotropic body (moments equal to 1e-12) is integrated
+//! exactly by every scheme of the family (`ξ = h Ω` solves the step): `e = 0`, no pilot; so is a
+//! body at rest.
 //!
-//! Validity: the `h^p` law holds in the asymptotic range; at `h W` up to [`H_OMEGA_VALID`] it
-//! overestimates (the measured error grows more slowly than `h^p` there), and no factor is chosen
-//! with `h W / k` above it. Validation (different states than any fit, `tests/accuracy.rs`,
-//! docs/accuracy.md): achieved over predicted error across ratios 1..1e-3 and `h W` 1e-3..3.
+//! Validity: the `h^p` law holds in the asymptotic range; up to `h ν` = [`H_OMEGA_VALID`] it
+//! overestimates (the error grows more slowly than `h^p` there, and saturates at O(1) rad), and
+//! no factor is chosen with `h ν / k` above it. Validation on states no pilot saw
+//! (`tests/accuracy.rs`, docs/accuracy.md, `docs/accuracy/validation.png`): achieved over
+//! predicted error 0.63-1.34 wherever the prediction is below 0.1 rad, for the three orders.
+//! Bodies breaking the triangle inequality (`J_i > J_j + J_k`, not physical) get pessimistic
+//! predictions.
 
 use crate::sim::integrators::VariationalSettings;
 use crate::sim::limits::spin_rate_max;
@@ -52,7 +58,7 @@ pub const H_OMEGA_VALID: f64 = 0.5;
 pub const BOUNDED_TERM: f64 = 2.0;
 
 /// The factor is chosen so that `SAFETY` times the predicted error meets the tolerance: the
-/// validation's largest achieved / predicted ratio is 1.27 (docs/accuracy.md).
+/// validation's largest achieved / predicted ratio is 1.34 (docs/accuracy.md).
 pub const SAFETY: f64 = 2.0;
 
 /// Largest substep factor chosen.
