@@ -138,6 +138,18 @@ fn rerun_series_and_convert() {
         assert_eq!(residual[k][1..], model[k][14..16]);
         assert_eq!(energy[k][1..], model[k][11..14]);
     }
+    // The legend of a plot of several joints tells them apart: each series is named after its
+    // joint (a plot holds every joint's position, another every velocity).
+    let names = common::run_py("read_series_names.py", &[&rrd]);
+    for joint in ["shoulder", "elbow"] {
+        for kind in ["position", "velocity"] {
+            assert_eq!(
+                names[format!("/plots/joints/{kind}/{joint}")],
+                serde_json::json!([joint]),
+                "{kind} {joint}"
+            );
+        }
+    }
     let converted = dir.path().join("converted.rrd");
     let run = common::tumble(
         &[

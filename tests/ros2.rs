@@ -529,3 +529,107 @@ fn convert_and_diff_refuse_a_ros2_recording_clearly() {
     assert!(!dir.path().join("c.rrd").exists());
     assert!(!dir.path().join("c.rrd.part").exists());
 }
+
+/// Articulated models' joints on `/joint_states` (`sensor_msgs/msg/JointState`): in both
+/// decoders, one message per recorded step, the names prefixed as the frame ids (and as the
+/// rewritten description names the joints, which `robot_state_publisher` matches), positions and
+/// velocities bit for bit those of the protobuf `/joints` topic (read by the official `mcap`
+/// reader), stamps equal to the log times, `effort` empty; a free body beside them changes
+/// nothing, and a file without articulated models has no such channel (the test above).
+#[test]
+fn joint_states_carry_the_articulated_models_joints() {
+    let dir = tempfile::tempdir().unwrap();
+    let models = common::root().join("models");
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            r#"[sim]
+dt = 0.001
+duration = 0.1
+log_every = 10
+
+[[model]]
+urdf = "{dp}"
+name = "dp"
+copies = 2
+seed = 4
+bodies = "articulated"
+base = "fixed"
+position = {{ uniform = [[-1.0, 0.0, 2.0], [1.0, 0.0, 2.0]] }}
+joints = {{ shoulder = 2.0, elbow = 0.5 }}
+joint_velocities = {{ elbow = -1.0 }}
+
+[[model]]
+urdf = "{bx}"
+position = [3.0, 0.0, 1.0]
+angvel = [0.3, 4.0, 0.2]
+"#,
+            dp = models.join("double_pendulum.urdf").display(),
+            bx = models.join("box.urdf").display(),
+        ),
+    )
+    .unwrap();
+    let stem = dir.path().join("out/run");
+    let out = common::tumble(
+        &[
+            "simulate",
+            scene.to_str().unwrap(),
+            "--out",
+            stem.to_str().unwrap(),
+            "--ros2",
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", common::text(&out.stderr));
+    let py = common::run_py("read_ros2.py", &[&dir.path().join("out/run.ros2.mcap")]);
+    let pb = common::run_py("read_joints.py", &[&dir.path().join("out/run.mcap")]);
+    let channel = &py["channels"]["/joint_states"];
+    assert_eq!(channel["schema"], "sensor_msgs/msg/JointState");
+    assert_eq!(channel["message_encoding"], "cdr");
+    let qos = &py["rosbags_qos"]["/joint_states"][0];
+    assert_eq!((&qos["durability"], &qos["depth"]), (&2.into(), &10.into()));
+    // 0.1 s / 1 ms = 100 steps, every 10th and the initial state.
+    assert_eq!(
+        py["statistics"]["channel_message_counts"]["/joint_states"],
+        11
+    );
+    let names = ["dp_0/elbow", "dp_0/shoulder", "dp_1/elbow", "dp_1/shoulder"];
+    let protobuf = rows(&pb["joints"]);
+    assert_eq!(protobuf.keys().collect::<Vec<_>>(), names);
+    for decoder in ["mcap_ros2", "rosbags"] {
+        let joints = &py[decoder]["joints"];
+        let got: Vec<&String> = joints.as_object().unwrap().keys().collect();
+        assert_eq!(got, names, "{decoder}");
+        for name in names {
+            let ros = joints[name].as_array().unwrap();
+            let pb_rows = &protobuf[name];
+            assert_eq!(ros.len(), 11, "{decoder} {name}");
+            for (r, p) in ros.iter().zip(pb_rows) {
+                // ROS [t, stamp, position, velocity, effort len, frame_id];
+                // protobuf [t, step, position, velocity].
+                let t = r[0].as_f64().unwrap();
+                assert_eq!(t, p[0], "{decoder} {name}");
+                assert_eq!(r[1].as_f64().unwrap(), t, "{decoder} {name}: stamp");
+                assert_eq!(r[2].as_f64().unwrap(), p[2], "{decoder} {name}: position");
+                assert_eq!(r[3].as_f64().unwrap(), p[3], "{decoder} {name}: velocity");
+                assert_eq!((&r[4], &r[5]), (&0.into(), &"".into()), "{decoder} {name}");
+            }
+        }
+        // The initial state is the scene's (read back from the poses: measured 0 and 2e-16 off).
+        for (name, q, v) in [("dp_1/shoulder", 2.0, 0.0), ("dp_1/elbow", 0.5, -1.0)] {
+            let first = &joints[name][0];
+            assert!((first[2].as_f64().unwrap() - q).abs() < 1e-12, "{first}");
+            assert!((first[3].as_f64().unwrap() - v).abs() < 1e-12, "{first}");
+        }
+    }
+    // The description of the table (its first copy's) names the same joints.
+    let description = &py["descriptions"]["/dp_0/robot_description"];
+    let described: BTreeSet<String> = description["joints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|j| j[0].as_str().unwrap().to_string())
+        .collect();
+    assert!(described.contains("dp_0/shoulder") && described.contains("dp_0/elbow"));
+}

@@ -125,7 +125,11 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
         None,
     )
     .check(args.allow_huge)?;
-    let threads = crate::commands::simulate::thread_count(args.threads)?;
+    // A batch too small for several partitions steps on one thread: nothing to scale.
+    let threads = partition_count(
+        args.bodies,
+        crate::commands::simulate::thread_count(args.threads)?,
+    );
     let inits = free_body_batch(args.bodies);
     let gravity = Vector3::new(0.0, 0.0, -9.81);
     let settings = Default::default();

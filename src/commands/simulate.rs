@@ -767,6 +767,13 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     )?;
     let wall = started.elapsed().as_secs_f64();
     let s = &out.summary;
+    // What actually stepped: a small batch uses fewer partitions than threads, and a scene with
+    // articulated models steps on one integrator.
+    let threads = if world.mechanisms.is_empty() {
+        crate::sim::partition::partition_count(world.bodies.len(), threads)
+    } else {
+        1
+    };
     println!(
         "simulated {} bodies for {} steps of {} s ({} s) with {} on {threads} thread{} in {wall:.2} s wall time",
         out.bodies,

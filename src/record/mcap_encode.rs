@@ -33,16 +33,6 @@ fn doubles_len(values: &[f64]) -> usize {
     values.iter().filter(|v| **v != 0.0).count() * 9
 }
 
-/// `double` fields with tags 1, 2, ... (wire type 1), the zeros left out.
-fn put_doubles(buf: &mut Vec<u8>, values: &[f64]) {
-    for (i, v) in values.iter().enumerate() {
-        if *v != 0.0 {
-            buf.push((((i + 1) as u8) << 3) | 1);
-            buf.extend_from_slice(&v.to_le_bytes());
-        }
-    }
-}
-
 /// A length-delimited field `tag` holding `len` bytes that `write` then appends.
 fn put_message(buf: &mut Vec<u8>, tag: u8, len: usize, write: impl FnOnce(&mut Vec<u8>)) {
     buf.push((tag << 3) | 2);
@@ -72,8 +62,142 @@ fn put_time(buf: &mut Vec<u8>, a: u64, b: u64) {
     }
 }
 
+/// Bytes of an encoded id field copied as one fixed-size block (the rest is slack).
+const ID_BLOCK: usize = 48;
+
+/// String fields of a message's repeated entries, encoded once per recording instead of once
+/// per entry and step: the `parent_frame_id` and `child_frame_id` fields (tags 2 and 3) of each
+/// transform of a `/tf` message ([`Self::frame_ids`]), or the `name` field (tag 1) of each body
+/// of a `/bodies` message ([`Self::names`]). Fields that fit [`ID_BLOCK`] bytes are kept padded
+/// to it and copied as one fixed-size block (a variable-length copy per string per entry cost
+/// more than the rest of the encoding at 10 000 bodies); longer ones as they are.
+#[derive(Debug, Clone)]
+pub struct EncodedFields {
+    short: Vec<([u8; ID_BLOCK], u8)>,
+    /// `(index, bytes)` of the fields longer than [`ID_BLOCK`], by index; their `short` entry
+    /// is unused.
+    long: Vec<(usize, Vec<u8>)>,
+}
+
+impl EncodedFields {
+    fn from_fields(count: usize, mut encode: impl FnMut(usize, &mut Vec<u8>)) -> Self {
+        let mut short = Vec::with_capacity(count);
+        let mut long = Vec::new();
+        let mut field = Vec::new();
+        for i in 0..count {
+            field.clear();
+            encode(i, &mut field);
+            let mut block = [0u8; ID_BLOCK];
+            if field.len() <= ID_BLOCK {
+                block[..field.len()].copy_from_slice(&field);
+            } else {
+                long.push((i, field.clone()));
+            }
+            short.push((block, field.len().min(ID_BLOCK) as u8));
+        }
+        Self { short, long }
+    }
+
+    /// The id fields of transforms from `parent` to each of `child_ids`, in order.
+    pub fn frame_ids(parent: &str, child_ids: &[String]) -> Self {
+        Self::from_fields(child_ids.len(), |i, field| {
+            for (tag, s) in [(2, parent), (3, child_ids[i].as_str())] {
+                put_string(field, tag, s);
+            }
+        })
+    }
+
+    /// The name fields of bodies named `names`, in order.
+    pub fn names(names: &[String]) -> Self {
+        Self::from_fields(names.len(), |i, field| put_string(field, 1, &names[i]))
+    }
+
+    pub fn len(&self) -> usize {
+        self.short.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.short.is_empty()
+    }
+
+    /// Encoded length of field `i`; `long_at` walks [`Self::long`] in index order.
+    fn field_len(&self, i: usize, long_at: &mut usize) -> usize {
+        match self.long.get(*long_at) {
+            Some((j, bytes)) if *j == i => {
+                *long_at += 1;
+                bytes.len()
+            }
+            _ => self.short[i].1 as usize,
+        }
+    }
+
+    /// Writes field `i` at `c`; `long_at` as in [`Self::field_len`].
+    fn write(&self, i: usize, long_at: &mut usize, c: &mut Cursor<'_>) {
+        match self.long.get(*long_at) {
+            Some((j, bytes)) if *j == i => {
+                c.bytes(bytes);
+                *long_at += 1;
+            }
+            _ => {
+                let (block, len) = &self.short[i];
+                c.block(block, *len as usize);
+            }
+        }
+    }
+}
+
+/// A string field `tag` (left out when empty, the proto3 rule).
+fn put_string(buf: &mut Vec<u8>, tag: u8, s: &str) {
+    if !s.is_empty() {
+        put_message(buf, tag, s.len(), |buf| buf.extend_from_slice(s.as_bytes()));
+    }
+}
+
+/// A write position in a buffer sized beforehand with at least [`ID_BLOCK`] bytes of slack
+/// past the last byte written, so every copy has a fixed length.
+struct Cursor<'a> {
+    out: &'a mut [u8],
+    at: usize,
+}
+
+impl Cursor<'_> {
+    fn byte(&mut self, b: u8) {
+        self.out[self.at] = b;
+        self.at += 1;
+    }
+
+    fn varint(&mut self, mut v: u64) {
+        while v >= 0x80 {
+            self.byte((v as u8) | 0x80);
+            v >>= 7;
+        }
+        self.byte(v as u8);
+    }
+
+    fn doubles(&mut self, values: &[f64]) {
+        for (i, v) in values.iter().enumerate() {
+            if *v != 0.0 {
+                self.out[self.at] = (((i + 1) as u8) << 3) | 1;
+                self.out[self.at + 1..self.at + 9].copy_from_slice(&v.to_le_bytes());
+                self.at += 9;
+            }
+        }
+    }
+
+    fn block(&mut self, block: &[u8; ID_BLOCK], len: usize) {
+        self.out[self.at..self.at + ID_BLOCK].copy_from_slice(block);
+        self.at += len;
+    }
+
+    fn bytes(&mut self, bytes: &[u8]) {
+        self.out[self.at..self.at + bytes.len()].copy_from_slice(bytes);
+        self.at += bytes.len();
+    }
+}
+
 /// Appends `foxglove.FrameTransforms { transforms }` to `buf`: one `FrameTransform` per pose,
-/// stamped `time_ns`, parent `parent`, child `child_ids[i]`.
+/// stamped `time_ns`, parent `parent`, child `child_ids[i]` ([`frame_transforms_with`] with the
+/// id fields encoded on the spot).
 pub fn frame_transforms(
     buf: &mut Vec<u8>,
     time_ns: u64,
@@ -81,39 +205,82 @@ pub fn frame_transforms(
     poses: &[Isometry3<f64>],
     child_ids: &[String],
 ) {
-    let (sec, nsec) = (time_ns / 1_000_000_000, time_ns % 1_000_000_000);
-    let stamp = time_len(sec, nsec);
-    for (pose, child) in poses.iter().zip(child_ids) {
-        let t = pose.translation.vector;
-        let q = pose.rotation.quaternion().coords;
-        let t = [t.x, t.y, t.z];
-        let q = [q.x, q.y, q.z, q.w];
-        let string_len = |s: &str| {
-            if s.is_empty() {
-                0
-            } else {
-                message_field_len(s.len())
-            }
-        };
-        let len = message_field_len(stamp)
-            + string_len(parent)
-            + string_len(child)
-            + message_field_len(doubles_len(&t))
-            + message_field_len(doubles_len(&q));
-        put_message(buf, 1, len, |buf| {
-            put_message(buf, 1, stamp, |buf| put_time(buf, sec, nsec));
-            for (tag, s) in [(2, parent), (3, child.as_str())] {
-                if !s.is_empty() {
-                    put_message(buf, tag, s.len(), |buf| buf.extend_from_slice(s.as_bytes()));
-                }
-            }
-            put_message(buf, 4, doubles_len(&t), |buf| put_doubles(buf, &t));
-            put_message(buf, 5, doubles_len(&q), |buf| put_doubles(buf, &q));
-        });
-    }
+    frame_transforms_with(
+        buf,
+        time_ns,
+        &EncodedFields::frame_ids(parent, child_ids),
+        poses,
+    );
 }
 
-/// Appends `tumble.BodyStates` to `buf` (see [`super::mcap::proto::BodyStates`]).
+/// Appends `foxglove.FrameTransforms { transforms }` to `buf`: one `FrameTransform` per pose,
+/// stamped `time_ns`, its frame ids from `ids` (one pair per pose, in order). The message's
+/// length is computed first and `buf` sized once; the poses are then written with fixed-size
+/// copies ([`EncodedFields`]).
+pub fn frame_transforms_with(
+    buf: &mut Vec<u8>,
+    time_ns: u64,
+    ids: &EncodedFields,
+    poses: &[Isometry3<f64>],
+) {
+    assert_eq!(ids.len(), poses.len(), "one id pair per pose");
+    let (sec, nsec) = (time_ns / 1_000_000_000, time_ns % 1_000_000_000);
+    let stamp = time_len(sec, nsec);
+    let parts = |pose: &Isometry3<f64>| {
+        let t = pose.translation.vector;
+        let q = pose.rotation.quaternion().coords;
+        ([t.x, t.y, t.z], [q.x, q.y, q.z, q.w])
+    };
+    let inner_len = |i: usize, pose: &Isometry3<f64>, long_at: &mut usize| {
+        let (t, q) = parts(pose);
+        message_field_len(stamp)
+            + ids.field_len(i, long_at)
+            + message_field_len(doubles_len(&t))
+            + message_field_len(doubles_len(&q))
+    };
+    let mut long_at = 0;
+    let total: usize = poses
+        .iter()
+        .enumerate()
+        .map(|(i, pose)| message_field_len(inner_len(i, pose, &mut long_at)))
+        .sum();
+    let start = buf.len();
+    buf.resize(start + total + ID_BLOCK, 0);
+    let mut c = Cursor {
+        out: &mut buf[start..],
+        at: 0,
+    };
+    let mut long_at = 0;
+    for (i, pose) in poses.iter().enumerate() {
+        let (t, q) = parts(pose);
+        let before = long_at;
+        c.byte((1 << 3) | 2);
+        c.varint(inner_len(i, pose, &mut long_at) as u64);
+        long_at = before;
+        c.byte((1 << 3) | 2);
+        c.varint(stamp as u64);
+        if sec != 0 {
+            c.byte(0x08);
+            c.varint(sec);
+        }
+        if nsec != 0 {
+            c.byte(0x10);
+            c.varint(nsec);
+        }
+        ids.write(i, &mut long_at, &mut c);
+        c.byte((4 << 3) | 2);
+        c.varint(doubles_len(&t) as u64);
+        c.doubles(&t);
+        c.byte((5 << 3) | 2);
+        c.varint(doubles_len(&q) as u64);
+        c.doubles(&q);
+    }
+    debug_assert_eq!(c.at, total);
+    buf.truncate(start + total);
+}
+
+/// Appends `tumble.BodyStates` to `buf` (see [`super::mcap::proto::BodyStates`])
+/// ([`body_states_with`] with the name fields encoded on the spot).
 pub fn body_states(
     buf: &mut Vec<u8>,
     time_ns: u64,
@@ -122,6 +289,28 @@ pub fn body_states(
     names: &[String],
     total_energy: f64,
 ) {
+    body_states_with(
+        buf,
+        time_ns,
+        step,
+        states,
+        &EncodedFields::names(names),
+        total_energy,
+    );
+}
+
+/// Appends `tumble.BodyStates` to `buf`, the bodies' name fields from `names` (one per
+/// state, in order): length first, `buf` sized once, fixed-size copies (as
+/// [`frame_transforms_with`]).
+pub fn body_states_with(
+    buf: &mut Vec<u8>,
+    time_ns: u64,
+    step: u64,
+    states: &[BodyState],
+    names: &EncodedFields,
+    total_energy: f64,
+) {
+    assert_eq!(names.len(), states.len(), "one name per body");
     let (sec, nsec) = (time_ns / 1_000_000_000, time_ns % 1_000_000_000);
     let stamp = time_len(sec, nsec);
     put_message(buf, 1, stamp, |buf| put_time(buf, sec, nsec));
@@ -129,38 +318,55 @@ pub fn body_states(
         buf.push(0x10);
         put_varint(buf, step);
     }
-    for (b, name) in states.iter().zip(names) {
+    let parts = |b: &BodyState| {
         let vectors = [b.linvel_world, b.angvel_world, b.angmom_world].map(|v| [v.x, v.y, v.z]);
-        let energies = [b.kinetic_energy, b.potential_energy];
-        let name_len = if name.is_empty() {
-            0
-        } else {
-            message_field_len(name.len())
-        };
-        let len = name_len
+        (vectors, [b.kinetic_energy, b.potential_energy])
+    };
+    let inner_len = |i: usize, b: &BodyState, long_at: &mut usize| {
+        let (vectors, energies) = parts(b);
+        names.field_len(i, long_at)
             + vectors
                 .iter()
                 .map(|v| message_field_len(doubles_len(v)))
                 .sum::<usize>()
-            + doubles_len(&energies);
-        put_message(buf, 3, len, |buf| {
-            if !name.is_empty() {
-                put_message(buf, 1, name.len(), |buf| {
-                    buf.extend_from_slice(name.as_bytes())
-                });
+            + doubles_len(&energies)
+    };
+    let mut long_at = 0;
+    let total: usize = states
+        .iter()
+        .enumerate()
+        .map(|(i, b)| message_field_len(inner_len(i, b, &mut long_at)))
+        .sum();
+    let start = buf.len();
+    buf.resize(start + total + ID_BLOCK, 0);
+    let mut c = Cursor {
+        out: &mut buf[start..],
+        at: 0,
+    };
+    let mut long_at = 0;
+    for (i, b) in states.iter().enumerate() {
+        let (vectors, energies) = parts(b);
+        let before = long_at;
+        c.byte((3 << 3) | 2);
+        c.varint(inner_len(i, b, &mut long_at) as u64);
+        long_at = before;
+        names.write(i, &mut long_at, &mut c);
+        for (tag, v) in (2u8..).zip(&vectors) {
+            c.byte((tag << 3) | 2);
+            c.varint(doubles_len(v) as u64);
+            c.doubles(v);
+        }
+        // kinetic_energy = 5, potential_energy = 6 (wire type 1).
+        for (tag, v) in [(5u8, energies[0]), (6, energies[1])] {
+            if v != 0.0 {
+                c.byte((tag << 3) | 1);
+                c.out[c.at..c.at + 8].copy_from_slice(&v.to_le_bytes());
+                c.at += 8;
             }
-            for (tag, v) in (2..).zip(&vectors) {
-                put_message(buf, tag, doubles_len(v), |buf| put_doubles(buf, v));
-            }
-            // kinetic_energy = 5, potential_energy = 6 (wire type 1).
-            for (tag, v) in [(5u8, energies[0]), (6, energies[1])] {
-                if v != 0.0 {
-                    buf.push((tag << 3) | 1);
-                    buf.extend_from_slice(&v.to_le_bytes());
-                }
-            }
-        });
+        }
     }
+    debug_assert_eq!(c.at, total);
+    buf.truncate(start + total);
     if total_energy != 0.0 {
         buf.push((4 << 3) | 1);
         buf.extend_from_slice(&total_energy.to_le_bytes());
@@ -210,11 +416,17 @@ mod tests {
     #[test]
     fn frame_transforms_match_prost() {
         let poses = poses();
-        let ids: Vec<String> = (0..poses.len())
+        let mut ids: Vec<String> = (0..poses.len())
             .map(|i| format!("box_{i:04}/box"))
             .collect();
+        // With the parent field "world" (7 bytes): 41 bytes of child field fill the block.
+        ids[1] = "y".repeat(ID_BLOCK - 7 - 2);
+        ids[6] = "y".repeat(ID_BLOCK - 7 - 1);
         let mut ids_with_empty = ids.clone();
         ids_with_empty[2].clear();
+        // Longer than a fixed block, and one exactly filling it with the parent field.
+        ids_with_empty[4] = "a_very_long_model_name_0123456789/a_very_long_link_name".into();
+        ids_with_empty[5] = "x".repeat(ID_BLOCK - 2);
         for time_ns in [0u64, 7, 1_000_000_000, 12_345_678_901] {
             for (parent, ids) in [("world", &ids), ("", &ids_with_empty)] {
                 let (sec, nsec) = (time_ns / 1_000_000_000, time_ns % 1_000_000_000);
@@ -268,6 +480,9 @@ mod tests {
             .collect();
         let mut names: Vec<String> = (0..states.len()).map(|i| format!("b{i}")).collect();
         names[3].clear();
+        // Longer than a fixed block, and exactly filling one (tag and length: 2 bytes).
+        names[5] = "n".repeat(3 * ID_BLOCK);
+        names[6] = "m".repeat(ID_BLOCK - 2);
         let vec3 = |v: &nalgebra::Vector3<f64>| proto::Vector3 {
             x: v.x,
             y: v.y,

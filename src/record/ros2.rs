@@ -20,12 +20,14 @@
 //! [`super::RecordingLayout::topic_groups`] the `/tf` and `/bodies` topics are repeated per
 //! group under its prefix, as in the `.mcap`.
 //!
-//! Joint states (for articulated models, once [`super::Frame`] carries joint coordinates) go on
-//! `/joint_states` as `sensor_msgs/msg/JointState` ([`super::ros2_msgs::joint_state`], QoS as
-//! `/bodies`): one message per recorded step and model group, `name` = the joint names prefixed
-//! as the frame ids are (`name/joint`), `position` in rad or m, `velocity` in rad/s or m/s,
-//! `effort` empty. The channel is added in [`Ros2Sink::create`] next to `/bodies` and written in
-//! [`Sink::write`] like it.
+//! Joint states of articulated models (`bodies = "articulated"`) go on `/joint_states` as
+//! `sensor_msgs/msg/JointState` ([`super::ros2_msgs::joint_state`], QoS as `/bodies`): one
+//! message per recorded step and topic group that holds joints, `name` = the joint names
+//! prefixed as the frame ids are (`name/joint`, as the rewritten `/robot_description` names
+//! them), `position` in rad or m, `velocity` in rad/s or m/s, `effort` empty. Only the joints
+//! the scene keeps moving are listed (fixed and locked joints are merged into bodies; mimic
+//! joints follow their leader, as `robot_state_publisher` computes them). A file without
+//! articulated models has no `/joint_states` channel.
 //!
 //! Times: `log_time` = `publish_time` = the header stamps = simulation time from 0 (1970-01-01),
 //! so replay with `ros2 bag play --clock` and run RViz2 with `use_sim_time:=true`. The metadata
@@ -48,6 +50,8 @@ pub const EXTENSION: &str = "ros2.mcap";
 pub const TF_TOPIC: &str = "/tf";
 /// Topic of the per-body velocities, energies and momenta.
 pub const BODIES_TOPIC: &str = "/bodies";
+/// Topic of the articulated models' joint positions and velocities.
+pub const JOINT_STATES_TOPIC: &str = "/joint_states";
 /// Topic of a scene's single model description (per-model topics end with it).
 pub const ROBOT_DESCRIPTION_TOPIC: &str = "/robot_description";
 /// Parent frame of every transform.
@@ -116,6 +120,8 @@ pub fn description_topics(layout: &RecordingLayout) -> Vec<String> {
 struct ChannelGroup {
     tf_channel: u16,
     bodies_channel: u16,
+    /// `/joint_states`, when the group holds joints.
+    joints_channel: Option<u16>,
     group: TopicGroup,
 }
 
@@ -128,6 +134,10 @@ pub struct Ros2Sink {
     sequence: u32,
     frame_ids: Vec<String>,
     body_names: Vec<String>,
+    joint_names: Vec<String>,
+    /// Reused per message: the group's joint positions and velocities.
+    positions: Vec<f64>,
+    velocities: Vec<f64>,
     buf: Vec<u8>,
 }
 
@@ -182,6 +192,15 @@ impl Ros2Sink {
             ros2_msgs::BODY_STATES,
             ros2_msgs::body_states_schema(),
         )?;
+        let joints_schema = if layout.joints.is_empty() {
+            None
+        } else {
+            Some(schema(
+                &mut writer,
+                ros2_msgs::JOINT_STATE,
+                ros2_msgs::joint_state_schema(),
+            )?)
+        };
         let qos = |durability, depth| {
             BTreeMap::from([(
                 "offered_qos_profiles".to_string(),
@@ -202,9 +221,19 @@ impl Ros2Sink {
                 "cdr",
                 &qos(Durability::Volatile, STATES_DEPTH),
             )?;
+            let joints_channel = match joints_schema {
+                Some(schema) if !group.joints.is_empty() => Some(writer.add_channel(
+                    schema,
+                    &format!("{}{JOINT_STATES_TOPIC}", group.prefix),
+                    "cdr",
+                    &qos(Durability::Volatile, STATES_DEPTH),
+                )?),
+                _ => None,
+            };
             groups.push(ChannelGroup {
                 tf_channel,
                 bodies_channel,
+                joints_channel,
                 group,
             });
         }
@@ -236,6 +265,9 @@ impl Ros2Sink {
             sequence: 0,
             frame_ids: layout.frames.iter().map(|f| f.frame_id.clone()).collect(),
             body_names: layout.bodies.iter().map(|b| b.name.clone()).collect(),
+            joint_names: layout.joints.iter().map(|j| j.name.clone()).collect(),
+            positions: Vec::new(),
+            velocities: Vec::new(),
             buf,
         })
     }
@@ -275,6 +307,29 @@ impl Sink for Ros2Sink {
                 &frame.bodies[bodies],
             )?;
             self.write_message(bodies_channel, time_ns)?;
+            if let Some(channel) = self.groups[g].joints_channel {
+                let joints = self.groups[g].group.joints.clone();
+                let states = frame.joints.get(joints.clone()).ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "frame has {} joint states, the layout {}",
+                        frame.joints.len(),
+                        self.joint_names.len()
+                    )
+                })?;
+                self.positions.clear();
+                self.positions.extend(states.iter().map(|j| j.position));
+                self.velocities.clear();
+                self.velocities.extend(states.iter().map(|j| j.velocity));
+                ros2_msgs::joint_state(
+                    &mut self.buf,
+                    stamp,
+                    &self.joint_names[joints],
+                    &self.positions,
+                    &self.velocities,
+                    &[],
+                )?;
+                self.write_message(channel, time_ns)?;
+            }
         }
         self.sequence = self.sequence.wrapping_add(1);
         Ok(())

@@ -23,6 +23,7 @@ DECODED = {"frames": {child_frame_id: [[log_time, stamp_ns, tx, ty, tz, qx, qy, 
            "bodies": {name: [[log_time, stamp_ns, step, ke, pe, Lx, Ly, Lz, wx, wy, wz, vx, vy, vz]]},
            "total_energy": [[log_time, total_energy]],
            "descriptions": {topic: [[log_time, urdf text]]},
+           "joints": {name: [[log_time, stamp_ns, position, velocity, len(effort), frame_id]]},
            "counts": {topic: n}}
 """
 import json
@@ -43,7 +44,7 @@ def stamp_ns(t):
 
 def new_decoded():
     return {"frames": {}, "tf_parents": [], "bodies": {}, "total_energy": [],
-            "descriptions": {}, "counts": {}}
+            "descriptions": {}, "counts": {}, "joints": {}}
 
 
 def add(out, topic, log_time, msg):
@@ -62,6 +63,14 @@ def add(out, topic, log_time, msg):
             out["bodies"].setdefault(b.name, []).append(
                 [log_time, stamp_ns(msg.timestamp), msg.step, b.kinetic_energy,
                  b.potential_energy, L.x, L.y, L.z, w.x, w.y, w.z, v.x, v.y, v.z])
+    elif topic.endswith("/joint_states"):
+        if len(msg.position) != len(msg.name) or len(msg.velocity) != len(msg.name):
+            raise SystemExit(f"{topic}: {len(msg.name)} names, {len(msg.position)} positions, "
+                             f"{len(msg.velocity)} velocities")
+        for name, p, v in zip(msg.name, msg.position, msg.velocity):
+            out["joints"].setdefault(name, []).append(
+                [log_time, stamp_ns(msg.header.stamp), p, v, len(msg.effort),
+                 msg.header.frame_id])
     elif topic.endswith("/robot_description"):
         out["descriptions"].setdefault(topic, []).append([log_time, msg.data])
 

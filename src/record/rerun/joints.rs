@@ -61,6 +61,9 @@ const MECHANISM_SERIES: [(&str, &[&str]); 5] = [
 
 /// Buffered columns and entities of the articulated series.
 pub(super) struct JointPlots {
+    /// The joints' recorded names: their series' names, so a plot of several joints tells
+    /// them apart in the legend.
+    names: Vec<String>,
     positions: Vec<EntityPath>,
     velocities: Vec<EntityPath>,
     /// Per model, per [`MECHANISM_SERIES`] entry: the entity.
@@ -87,6 +90,7 @@ impl JointPlots {
             }
         }
         Self {
+            names: layout.joints.iter().map(|j| j.name.clone()).collect(),
             positions: layout
                 .joints
                 .iter()
@@ -127,15 +131,13 @@ impl JointPlots {
     /// The static series names.
     pub(super) fn static_chunks(&self) -> Result<Vec<Chunk>> {
         let mut chunks = Vec::new();
-        for (p, v) in self.positions.iter().zip(&self.velocities) {
-            chunks.push(static_chunk(
-                p.clone(),
-                &[&rerun::SeriesLines::new().with_names(["position"])],
-            )?);
-            chunks.push(static_chunk(
-                v.clone(),
-                &[&rerun::SeriesLines::new().with_names(["velocity"])],
-            )?);
+        for ((p, v), name) in self.positions.iter().zip(&self.velocities).zip(&self.names) {
+            for entity in [p, v] {
+                chunks.push(static_chunk(
+                    entity.clone(),
+                    &[&rerun::SeriesLines::new().with_names([name.as_str()])],
+                )?);
+            }
         }
         for entities in &self.models {
             for (entity, (_, names)) in entities.iter().zip(MECHANISM_SERIES) {
