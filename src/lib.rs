@@ -13,6 +13,7 @@ pub mod input;
 pub mod interrupt;
 pub mod model;
 pub mod placement;
+pub mod plot;
 pub mod record;
 pub mod replay;
 pub mod run;

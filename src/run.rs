@@ -328,8 +328,28 @@ pub fn run_threaded(
         // A mechanism's bodies are coupled by its joint rows: one integrator steps them all.
         return run_articulated(world, &mut *make(), settings, sinks);
     }
-    let n = crate::sim::partition::partition_count(world.bodies.len(), threads);
-    let mut integrators: Vec<Box<dyn Integrator>> = (0..n).map(|_| make()).collect();
+    run_threaded_ranges(world, &|_| make(), threads, settings, sinks)
+}
+
+/// [`run_threaded`] with integrators made for the bodies they step: `make(range)` builds the
+/// integrator of the partition holding bodies `range` of the batch (per-body substep factors,
+/// [`crate::sim::accuracy`]). Articulated scenes run on one integrator for every body.
+pub fn run_threaded_ranges(
+    world: &World,
+    make: &dyn Fn(std::ops::Range<usize>) -> Box<dyn Integrator>,
+    threads: usize,
+    settings: &RunSettings,
+    sinks: &mut [Box<dyn Sink>],
+) -> anyhow::Result<RunSummary> {
+    let len = world.bodies.len();
+    if !world.mechanisms.is_empty() {
+        return run_articulated(world, &mut *make(0..len), settings, sinks);
+    }
+    let n = crate::sim::partition::partition_count(len, threads);
+    let chunk = crate::sim::partition::chunk_size(len, n);
+    let mut integrators: Vec<Box<dyn Integrator>> = (0..n)
+        .map(|k| make((k * chunk).min(len)..((k + 1) * chunk).min(len)))
+        .collect();
     let borrowed: Vec<&mut dyn Integrator> = integrators
         .iter_mut()
         .map(|b| &mut **b as &mut dyn Integrator)

@@ -14,6 +14,7 @@
 //! substep = true                # split a body's step when Newton fails    (default true)
 //! max_substeps = 1024           # largest split factor, a power of two     (default 1024)
 //! divergence_energy_ratio = 100 # stop when a body's rotational energy exceeds this × its initial (default 100)
+//! accuracy = 1e-6               # rad of orientation error over the run, per body: substeps chosen per body (default: off; docs/accuracy.md)
 //!
 //! [[model]]                     # one or more
 //! urdf = "box.urdf"             # relative to the scene file
@@ -91,6 +92,10 @@ pub struct SimSettings {
     pub substep: bool,
     pub max_substeps: u32,
     pub divergence_energy_ratio: f64,
+    /// `simulate --accuracy`: the largest orientation error (rad) over the run allowed for any
+    /// free body; each body gets the substeps that meet it ([`crate::sim::accuracy`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accuracy: Option<f64>,
 }
 
 impl Default for SimSettings {
@@ -109,6 +114,7 @@ impl Default for SimSettings {
             substep: v.substep,
             max_substeps: v.max_substeps,
             divergence_energy_ratio: crate::sim::guard::DEFAULT_DIVERGENCE_ENERGY_RATIO,
+            accuracy: None,
         }
     }
 }
@@ -332,6 +338,8 @@ pub struct SimOverrides {
     pub substep: Option<bool>,
     pub max_substeps: Option<u32>,
     pub divergence_energy_ratio: Option<f64>,
+    /// `--accuracy TOL`.
+    pub accuracy: Option<f64>,
     /// `--inertia`, `--density`, `--geometry`: override the `[mass]` table.
     pub mass: MassSettings,
 }
@@ -410,6 +418,9 @@ impl Scene {
         if let Some(v) = o.divergence_energy_ratio {
             s.divergence_energy_ratio = v;
         }
+        if let Some(v) = o.accuracy {
+            s.accuracy = Some(v);
+        }
         self.mass = self.mass.refined(&o.mass);
         self.validate()
     }
@@ -455,6 +466,13 @@ impl Scene {
             bail!(
                 "{file}: sim.divergence_energy_ratio must be a finite number > 1 (got {})",
                 s.divergence_energy_ratio
+            );
+        }
+        if let Some(tol) = s.accuracy
+            && !(tol.is_finite() && (1e-12..=1.0).contains(&tol))
+        {
+            bail!(
+                "{file}: sim.accuracy must be a tolerance in radians between 1e-12 and 1 (got {tol})"
             );
         }
         finite3(&format!("{file}: sim.gravity"), &s.gravity)?;

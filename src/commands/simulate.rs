@@ -110,6 +110,15 @@ pub struct SimulateArgs {
     /// MCAP chunk compression: zstd (default, smallest), lz4 (faster, larger) or none.
     #[arg(long, default_value = "zstd", value_parser = ChunkCompression::parse)]
     pub mcap_compression: ChunkCompression,
+    /// Orientation error (rad) allowed over the run for every free body (overrides
+    /// sim.accuracy): each body takes the substeps of dt its error model needs (the recording
+    /// keeps dt); the summary prints the factors and an a posteriori check (docs/accuracy.md).
+    #[arg(long, value_name = "TOL")]
+    pub accuracy: Option<f64>,
+    /// Test-only: scales the error model's predictions (a scale below 1 makes it too
+    /// optimistic, so the a posteriori check must warn).
+    #[arg(long, hide = true, default_value_t = 1.0)]
+    pub accuracy_model_scale: f64,
     /// Threads stepping the bodies (default: all cores). The files do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
@@ -177,13 +186,15 @@ pub fn thread_count(requested: Option<usize>) -> anyhow::Result<usize> {
 }
 
 /// How [`simulate_world`] runs and what it writes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SimulateOptions {
     pub rerun: RerunOptions,
     pub formats: Formats,
     /// Stepping threads (>= 1; the files do not depend on it).
     pub threads: usize,
     pub mcap_compression: ChunkCompression,
+    /// The error model of `--accuracy` (scale 1 as validated).
+    pub accuracy_model: crate::sim::accuracy::ErrorModel,
 }
 
 fn parse_jacobian(s: &str) -> Result<Jacobian, String> {
@@ -272,6 +283,7 @@ pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
         substep: args.no_substep.then_some(false),
         max_substeps: args.max_substeps,
         divergence_energy_ratio: args.divergence_energy_ratio,
+        accuracy: args.accuracy,
         mass: args.mass.settings(),
     })?;
     Ok(scene)
@@ -290,6 +302,76 @@ pub struct Outputs {
     pub written: Vec<PathBuf>,
     pub summary: RunSummary,
     pub bodies: usize,
+    /// `--accuracy`: the plan and its a posteriori check.
+    pub accuracy: Option<AccuracyReport>,
+}
+
+/// What `--accuracy` chose and what the a posteriori check estimated.
+#[derive(Debug, Clone)]
+pub struct AccuracyReport {
+    pub plan: crate::sim::accuracy::Plan,
+    pub checked: Vec<crate::sim::accuracy::Checked>,
+}
+
+impl AccuracyReport {
+    /// The largest a posteriori estimate, rad.
+    pub fn estimated_max(&self) -> f64 {
+        self.checked
+            .iter()
+            .map(|c| c.estimated_rad)
+            .fold(0.0, f64::max)
+    }
+}
+
+/// Runs `f` on a pool of `threads` threads.
+fn in_pool<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    match rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build()
+    {
+        Ok(pool) => pool.install(f),
+        Err(_) => f(),
+    }
+}
+
+/// The per-body substep factors of `--accuracy TOL` (clear errors for what it does not cover).
+fn accuracy_plan(
+    scene: &Scene,
+    world: &World,
+    tol: f64,
+    model: &crate::sim::accuracy::ErrorModel,
+    threads: usize,
+) -> anyhow::Result<crate::sim::accuracy::Plan> {
+    let file = scene.source.display();
+    let kind = scene.integrator();
+    if !world.mechanisms.is_empty() {
+        anyhow::bail!(
+            "{file}: --accuracy (sim.accuracy) is not supported for articulated models yet \
+             ({} articulated model{} in the scene); choose dt by hand (tumble trade, docs/accuracy.md)",
+            world.mechanisms.len(),
+            if world.mechanisms.len() == 1 { "" } else { "s" }
+        );
+    }
+    if !crate::sim::accuracy::model::supports(kind) {
+        anyhow::bail!(
+            "{file}: --accuracy (sim.accuracy) supports the integrators variational, variational4 \
+             and variational6 (got {}; docs/accuracy.md)",
+            kind.name()
+        );
+    }
+    let variational = scene.variational_settings();
+    let duration = scene.steps() as f64 * scene.sim.dt;
+    Ok(in_pool(threads, || {
+        crate::sim::accuracy::Plan::new(
+            kind,
+            &variational,
+            model,
+            &world.bodies,
+            scene.sim.dt,
+            duration,
+            tol,
+        )
+    }))
 }
 
 /// Runs `scene` and writes `<stem>.mcap` and `<stem>.rrd` (on one thread).
@@ -303,6 +385,7 @@ pub fn simulate(
         formats: Formats::default(),
         threads: 1,
         mcap_compression: ChunkCompression::Zstd,
+        accuracy_model: Default::default(),
     };
     simulate_world(scene, &scene.build()?, stem, &options)
 }
@@ -373,6 +456,18 @@ pub fn simulate_world(
         scene.sim.dt,
         &scene.variational_settings(),
     )?;
+    // `--accuracy`: refused before any file exists when it cannot apply; the plan (each body's
+    // pilot) is computed on the stepping threads.
+    let plan = match scene.sim.accuracy {
+        Some(tol) => Some(accuracy_plan(
+            scene,
+            world,
+            tol,
+            &options.accuracy_model,
+            options.threads,
+        )?),
+        None => None,
+    };
     if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create the output folder {}", dir.display()))?;
@@ -445,7 +540,15 @@ pub fn simulate_world(
         stop_on_interrupt: true,
         ..scene.run_settings()
     };
-    let result = if world.mechanisms.is_empty() {
+    let result = if let Some(plan) = &plan {
+        crate::run::run_threaded_ranges(
+            world,
+            &|range| plan.integrator(&variational, range),
+            options.threads,
+            &settings,
+            &mut sinks,
+        )
+    } else if world.mechanisms.is_empty() {
         crate::run::run_threaded(
             world,
             &|| kind.build(dt, &variational),
@@ -459,6 +562,19 @@ pub fn simulate_world(
         crate::run::run(world, integrator.as_mut(), &settings, &mut sinks)
     };
     let summary = crate::record::finish_all(sinks, result, &outputs)?;
+    let accuracy = plan.map(|plan| {
+        let sample = plan.check_sample();
+        let checked = in_pool(options.threads, || {
+            crate::sim::accuracy::plan::check(
+                &plan,
+                &variational,
+                &world.bodies,
+                &sample,
+                summary.steps,
+            )
+        });
+        AccuracyReport { plan, checked }
+    });
     if let Some(signal) = summary.interrupted {
         return Err(crate::interrupt::Interrupted {
             signal,
@@ -496,7 +612,96 @@ pub fn simulate_world(
         written: written.clone(),
         summary,
         bodies: world.bodies.len(),
+        accuracy,
     })
+}
+
+/// `STEM.accuracy.json`: `--accuracy`'s per-body factors, predictions and checks.
+pub const ACCURACY_EXTENSION: &str = "accuracy.json";
+
+/// Prints `--accuracy`'s summary (factors as a histogram, predicted and checked errors, a
+/// warning when the check exceeds the tolerance) and writes the per-body JSON.
+fn print_accuracy(report: &AccuracyReport, world: &World, json_path: &Path) -> anyhow::Result<()> {
+    let plan = &report.plan;
+    let n = plan.factors.len().max(1) as f64;
+    println!(
+        "accuracy {:e} rad: substep factors chosen per body from the error model (docs/accuracy.md); \
+         {} substeps per step for {} bodies ({:.2} per body); predicted error max {:.2e} rad",
+        plan.tol_rad,
+        plan.cost(),
+        plan.factors.len(),
+        plan.cost() as f64 / n,
+        plan.predicted_max()
+    );
+    let bins: Vec<String> = plan
+        .histogram()
+        .iter()
+        .map(|&(lo, hi, c)| {
+            if lo == hi {
+                format!("k={lo}: {c}")
+            } else {
+                format!("k={lo}-{hi}: {c}")
+            }
+        })
+        .collect();
+    println!("  bodies per substep factor: {}", bins.join(", "));
+    let est = report.estimated_max();
+    println!(
+        "  a posteriori check (Richardson, k vs 2k) on {} bod{}: achieved error max {:.2e} rad",
+        report.checked.len(),
+        if report.checked.len() == 1 {
+            "y"
+        } else {
+            "ies"
+        },
+        est
+    );
+    if est > plan.tol_rad {
+        let worst = report
+            .checked
+            .iter()
+            .max_by(|a, b| a.estimated_rad.total_cmp(&b.estimated_rad))
+            .map(|c| c.body)
+            .unwrap_or(0);
+        eprintln!(
+            "warning: the a posteriori check estimates {est:.2e} rad for body {:?} (index {worst}, k = {}), \
+             above --accuracy {:e}: the error model underestimated it; rerun with a smaller dt or tolerance",
+            world.layout.bodies[worst].name, plan.factors[worst].k, plan.tol_rad
+        );
+    }
+    let checked: std::collections::HashMap<usize, f64> = report
+        .checked
+        .iter()
+        .map(|c| (c.body, c.estimated_rad))
+        .collect();
+    let bodies: Vec<serde_json::Value> = plan
+        .factors
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            serde_json::json!({
+                "body": world.layout.bodies[i].name,
+                "index": i,
+                "substeps": f.k,
+                "spin_rate_max": plan.calibrations[i].spin_rate_max,
+                "predicted_error_rad": f.predicted_rad,
+                "checked_error_rad": checked.get(&i),
+            })
+        })
+        .collect();
+    let json = serde_json::json!({
+        "tolerance_rad": plan.tol_rad,
+        "integrator": plan.kind.name(),
+        "dt": plan.dt_secs,
+        "duration": plan.duration_secs,
+        "substeps_per_step": plan.cost(),
+        "predicted_error_max_rad": plan.predicted_max(),
+        "checked_error_max_rad": est,
+        "bodies": bodies,
+    });
+    crate::fsutil::write_atomic(json_path, serde_json::to_string_pretty(&json)?.as_bytes())?;
+    println!("  per body: {}", json_path.display());
+    Ok(())
 }
 
 /// `stem` with `.ext` appended (a stem may itself contain dots).
@@ -519,6 +724,10 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     };
     for path in output_paths(&stem, &formats) {
         check_not_overwriting(&path, args.force)?;
+    }
+    let accuracy_json = with_extension(&stem, ACCURACY_EXTENSION);
+    if scene.sim.accuracy.is_some() {
+        check_not_overwriting(&accuracy_json, args.force)?;
     }
     let threads = thread_count(args.threads)?;
     let world = scene.build()?;
@@ -551,6 +760,9 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             formats,
             threads,
             mcap_compression: args.mcap_compression,
+            accuracy_model: crate::sim::accuracy::ErrorModel {
+                scale: args.accuracy_model_scale,
+            },
         },
     )?;
     let wall = started.elapsed().as_secs_f64();
@@ -597,6 +809,9 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
              (substepping is off); reduce dt, raise the cap, or leave sim.substep on",
             s.stats.newton_failures
         );
+    }
+    if let Some(report) = &out.accuracy {
+        print_accuracy(report, &world, &accuracy_json)?;
     }
     if let Some(peak) = peak_memory_bytes() {
         println!("peak memory (VmHWM) {}", human_bytes(peak as f64));

@@ -1,5 +1,6 @@
 //! How bodies move: the batch of free rigid bodies and the integrators that step it.
 
+pub mod accuracy;
 pub mod bodies;
 pub mod guard;
 pub mod integrators;

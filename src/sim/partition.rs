@@ -29,6 +29,12 @@ pub fn partition_count(bodies: usize, threads: usize) -> usize {
         .max(1)
 }
 
+/// Bodies per partition when `bodies` bodies are split into `partitions` (the last may have
+/// fewer): partition `k` holds `[k·c, (k+1)·c)`.
+pub fn chunk_size(bodies: usize, partitions: usize) -> usize {
+    bodies.div_ceil(partitions.max(1)).max(1)
+}
+
 /// One partition.
 pub struct Part<'a> {
     /// Global index of its first body.
@@ -110,8 +116,7 @@ impl<'a> Partitions<'a> {
         divergence_energy_ratio: f64,
         stop_on_newton_failure: Option<u32>,
     ) -> anyhow::Result<Self> {
-        let n = integrators.len().max(1);
-        let chunk = inits.len().div_ceil(n).max(1);
+        let chunk = chunk_size(inits.len(), integrators.len());
         let parts: Vec<Part<'a>> = integrators
             .into_iter()
             .enumerate()

@@ -8,9 +8,9 @@
 //! [`crate::trade::plot`] (`$TUMBLE_FONT` or the usual system locations).
 
 use super::{Grid, Row, Status, derived_limit};
+use crate::plot::{FONT, atomically, draw_err, ensure_font};
 use crate::sim::IntegratorKind;
 use crate::sim::limits::ENERGY_ERROR_BOUND;
-use crate::trade::plot::{FONT, atomically, draw_err, ensure_font};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};

@@ -1,65 +1,18 @@
 //! Work-precision and energy-error plots (PNG and SVG, drawn with `plotters`).
 //!
-//! Text needs a TrueType font, read at run time: `$TUMBLE_FONT` if set, else the first of the
-//! usual system locations (DejaVu Sans, Liberation Sans, Arial, Helvetica). Errors of exactly 0
-//! cannot sit on a log axis: they are drawn at [`FLOOR`] and the caption says so.
+//! Fonts and atomic writes are [`crate::plot`]'s. Errors of exactly 0 cannot sit on a log axis:
+//! they are drawn at [`FLOOR`] and the caption says so.
 
 use super::{EnergySeries, TradeRow};
-use anyhow::{Context, anyhow};
+pub(crate) use crate::plot::{FONT, atomically, draw_err, ensure_font};
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::path::Path;
 
 /// Smallest value drawn on a log axis; exact zeros are drawn here.
 pub const FLOOR: f64 = 1e-17;
 
 const SIZE: (u32, u32) = (1400, 620);
-/// The family name the font is registered under (shared with [`crate::stability::plot`]).
-pub(crate) const FONT: &str = "sans-serif";
-
-const FONT_CANDIDATES: &[&str] = &[
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/TTF/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu-sans-fonts/DejaVuSans.ttf",
-    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
-    "/usr/share/fonts/liberation-sans/LiberationSans-Regular.ttf",
-    "/System/Library/Fonts/Supplemental/Arial.ttf",
-    "/Library/Fonts/Arial.ttf",
-    "C:\\Windows\\Fonts\\arial.ttf",
-];
-
-/// Registers the font once; an error says where fonts were looked for.
-pub(crate) fn ensure_font() -> anyhow::Result<()> {
-    static FONT_RESULT: OnceLock<Result<(), String>> = OnceLock::new();
-    FONT_RESULT
-        .get_or_init(|| {
-            let env = std::env::var_os("TUMBLE_FONT").map(PathBuf::from);
-            let candidates: Vec<PathBuf> = env
-                .into_iter()
-                .chain(FONT_CANDIDATES.iter().map(PathBuf::from))
-                .collect();
-            for path in &candidates {
-                if let Ok(bytes) = std::fs::read(path) {
-                    let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-                    if plotters::style::register_font(FONT, FontStyle::Normal, bytes).is_ok() {
-                        return Ok(());
-                    }
-                }
-            }
-            Err(format!(
-                "no TrueType font found for the plots (looked at {}); set TUMBLE_FONT to a .ttf file",
-                candidates
-                    .iter()
-                    .map(|p| p.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ))
-        })
-        .clone()
-        .map_err(|e| anyhow!(e))
-}
 
 fn colour(i: usize) -> RGBColor {
     const COLOURS: [RGBColor; 8] = [
@@ -109,12 +62,6 @@ fn integrators(rows: &[TradeRow]) -> Vec<String> {
         }
     }
     names
-}
-
-pub(crate) fn draw_err<E: std::error::Error + Send + Sync + 'static>(
-    e: DrawingAreaErrorKind<E>,
-) -> anyhow::Error {
-    anyhow!("drawing failed: {e}")
 }
 
 /// One log-log panel: `error(row)` against cost, one line per integrator (points in dt order).
@@ -267,27 +214,6 @@ where
         .map_err(draw_err)?;
     root.present().map_err(draw_err)?;
     Ok(())
-}
-
-/// Draws into `<path>.part` with `draw`, then renames onto `path`.
-pub(crate) fn atomically(
-    path: &Path,
-    draw: impl FnOnce(&Path) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
-    let part = crate::fsutil::part_path(path);
-    // Keep the real extension last so the backend picks the right encoder.
-    let tmp = part.with_extension(format!(
-        "part.{}",
-        path.extension().and_then(|e| e.to_str()).unwrap_or("png")
-    ));
-    let result = draw(&tmp).and_then(|()| {
-        std::fs::rename(&tmp, path)
-            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
-    });
-    if result.is_err() {
-        std::fs::remove_file(&tmp).ok();
-    }
-    result
 }
 
 /// `work_precision.png` and `.svg`: error against cost, log-log, one line per integrator.

@@ -136,6 +136,12 @@ impl Asymmetric {
         4.0 * complete_k(self.m) / self.lambda
     }
 
+    /// The body axis (0, 1 or 2) whose `Ω` component never vanishes (`dn`): the axis the
+    /// angular momentum circles in the body frame (role 3 of the formulas).
+    pub fn circled_axis(&self) -> usize {
+        self.axes[2]
+    }
+
     /// Whether the motion circles the largest-moment axis (`L^2 > 2 E J_mid`).
     pub fn about_major_axis(&self) -> bool {
         self.moments[self.axes[2]] > self.moments[self.axes[0]]

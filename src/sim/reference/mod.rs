@@ -6,14 +6,19 @@
 //!   elliptic functions, [`elliptic`]).
 //! - [`high_accuracy()`]: orientation and momentum of any free body by a fine integration, with a
 //!   Richardson estimate of its own error.
+//! - [`TorqueFree`]: orientation of any torque-free body (the two closed forms above, plus one
+//!   quadrature for the precession angle of the asymmetric body).
 //! - [`parabola`]: the centre of mass in uniform gravity.
 
 pub mod asymmetric;
 pub mod elliptic;
 pub mod high_accuracy;
+pub mod quadrature;
+pub mod torque_free;
 
 pub use asymmetric::Asymmetric;
 pub use high_accuracy::{HighAccuracy, high_accuracy};
+pub use torque_free::TorqueFree;
 
 use nalgebra::{UnitQuaternion, Vector3};
 
