@@ -43,6 +43,11 @@ pub struct TradeArgs {
     /// Replace the output files if they exist (without it, an existing output is an error).
     #[arg(long)]
     pub force: bool,
+    /// Also print the cheapest measured integrator and step size whose orientation error stays
+    /// within TOL rad (and position error within TOL x the smallest body's size) over the
+    /// error horizon, and each integrator's cheapest (docs/accuracy.md).
+    #[arg(long, value_name = "TOL")]
+    pub accuracy: Option<f64>,
     /// Refuse the URDF oddities urdfdom loads instead of loading them with a warning; sets
     /// strict = true on every [[model]] (docs/urdf.md).
     #[arg(long)]
@@ -132,6 +137,11 @@ pub const OUTPUT_FILES: [&str; 8] = [
 
 pub fn run(args: &TradeArgs) -> anyhow::Result<()> {
     let (scene, settings) = settings_from_args(args)?;
+    if let Some(tol) = args.accuracy
+        && !(tol.is_finite() && tol > 0.0)
+    {
+        bail!("--accuracy must be a positive number of radians (got {tol})");
+    }
     for name in OUTPUT_FILES {
         crate::fsutil::check_not_overwriting(&args.out.join(name), args.force)?;
     }
@@ -164,6 +174,20 @@ pub fn run(args: &TradeArgs) -> anyhow::Result<()> {
         println!(
             "position reference: the same runs; its own error ~ {:.1e} m (pos_err below that is not resolved)",
             report.reference.own_error_m
+        );
+    }
+    if let Some(tol) = args.accuracy {
+        let world = scene.build()?;
+        // The smallest body's size: the longest axis of its equivalent inertia ellipsoid.
+        let size_m = world
+            .layout
+            .bodies
+            .iter()
+            .map(|b| 2.0 * b.inertia_ellipsoid_radii().max())
+            .fold(f64::INFINITY, f64::min);
+        print!(
+            "{}",
+            trade::choose::report(&report.rows, &trade::choose::Tolerance::new(tol, size_m))
         );
     }
     let out = &args.out;

@@ -20,6 +20,7 @@
 //! measured error below it is flagged rather than trusted.
 
 pub mod articulated;
+pub mod choose;
 pub mod measure;
 pub mod output;
 pub mod plot;
