@@ -195,6 +195,39 @@ impl Cursor<'_> {
     }
 }
 
+/// Appends `count` repeated message fields `tag` to `buf`: entry `i` of `inner_len(i, long_at)`
+/// bytes, written by `write(i, long_at, cursor)` (both walk the long fields of an
+/// [`EncodedFields`] with `long_at`). The total length is computed first and `buf` sized once,
+/// with [`ID_BLOCK`] bytes of slack for the fixed-size copies, then cut to size.
+fn put_entries(
+    buf: &mut Vec<u8>,
+    tag: u8,
+    count: usize,
+    inner_len: impl Fn(usize, &mut usize) -> usize,
+    mut write: impl FnMut(usize, &mut usize, &mut Cursor<'_>),
+) {
+    let mut long_at = 0;
+    let total: usize = (0..count)
+        .map(|i| message_field_len(inner_len(i, &mut long_at)))
+        .sum();
+    let start = buf.len();
+    buf.resize(start + total + ID_BLOCK, 0);
+    let mut c = Cursor {
+        out: &mut buf[start..],
+        at: 0,
+    };
+    let mut long_at = 0;
+    for i in 0..count {
+        let before = long_at;
+        c.byte((tag << 3) | 2);
+        c.varint(inner_len(i, &mut long_at) as u64);
+        long_at = before;
+        write(i, &mut long_at, &mut c);
+    }
+    debug_assert_eq!(c.at, total);
+    buf.truncate(start + total);
+}
+
 /// Appends `foxglove.FrameTransforms { transforms }` to `buf`: one `FrameTransform` per pose,
 /// stamped `time_ns`, parent `parent`, child `child_ids[i]` ([`frame_transforms_with`] with the
 /// id fields encoded on the spot).
@@ -231,32 +264,15 @@ pub fn frame_transforms_with(
         let q = pose.rotation.quaternion().coords;
         ([t.x, t.y, t.z], [q.x, q.y, q.z, q.w])
     };
-    let inner_len = |i: usize, pose: &Isometry3<f64>, long_at: &mut usize| {
-        let (t, q) = parts(pose);
+    let inner_len = |i: usize, long_at: &mut usize| {
+        let (t, q) = parts(&poses[i]);
         message_field_len(stamp)
             + ids.field_len(i, long_at)
             + message_field_len(doubles_len(&t))
             + message_field_len(doubles_len(&q))
     };
-    let mut long_at = 0;
-    let total: usize = poses
-        .iter()
-        .enumerate()
-        .map(|(i, pose)| message_field_len(inner_len(i, pose, &mut long_at)))
-        .sum();
-    let start = buf.len();
-    buf.resize(start + total + ID_BLOCK, 0);
-    let mut c = Cursor {
-        out: &mut buf[start..],
-        at: 0,
-    };
-    let mut long_at = 0;
-    for (i, pose) in poses.iter().enumerate() {
-        let (t, q) = parts(pose);
-        let before = long_at;
-        c.byte((1 << 3) | 2);
-        c.varint(inner_len(i, pose, &mut long_at) as u64);
-        long_at = before;
+    put_entries(buf, 1, poses.len(), inner_len, |i, long_at, c| {
+        let (t, q) = parts(&poses[i]);
         c.byte((1 << 3) | 2);
         c.varint(stamp as u64);
         if sec != 0 {
@@ -267,16 +283,14 @@ pub fn frame_transforms_with(
             c.byte(0x10);
             c.varint(nsec);
         }
-        ids.write(i, &mut long_at, &mut c);
+        ids.write(i, long_at, c);
         c.byte((4 << 3) | 2);
         c.varint(doubles_len(&t) as u64);
         c.doubles(&t);
         c.byte((5 << 3) | 2);
         c.varint(doubles_len(&q) as u64);
         c.doubles(&q);
-    }
-    debug_assert_eq!(c.at, total);
-    buf.truncate(start + total);
+    });
 }
 
 /// Appends `tumble.BodyStates` to `buf` (see [`super::mcap::proto::BodyStates`])
@@ -322,8 +336,8 @@ pub fn body_states_with(
         let vectors = [b.linvel_world, b.angvel_world, b.angmom_world].map(|v| [v.x, v.y, v.z]);
         (vectors, [b.kinetic_energy, b.potential_energy])
     };
-    let inner_len = |i: usize, b: &BodyState, long_at: &mut usize| {
-        let (vectors, energies) = parts(b);
+    let inner_len = |i: usize, long_at: &mut usize| {
+        let (vectors, energies) = parts(&states[i]);
         names.field_len(i, long_at)
             + vectors
                 .iter()
@@ -331,26 +345,9 @@ pub fn body_states_with(
                 .sum::<usize>()
             + doubles_len(&energies)
     };
-    let mut long_at = 0;
-    let total: usize = states
-        .iter()
-        .enumerate()
-        .map(|(i, b)| message_field_len(inner_len(i, b, &mut long_at)))
-        .sum();
-    let start = buf.len();
-    buf.resize(start + total + ID_BLOCK, 0);
-    let mut c = Cursor {
-        out: &mut buf[start..],
-        at: 0,
-    };
-    let mut long_at = 0;
-    for (i, b) in states.iter().enumerate() {
-        let (vectors, energies) = parts(b);
-        let before = long_at;
-        c.byte((3 << 3) | 2);
-        c.varint(inner_len(i, b, &mut long_at) as u64);
-        long_at = before;
-        names.write(i, &mut long_at, &mut c);
+    put_entries(buf, 3, states.len(), inner_len, |i, long_at, c| {
+        let (vectors, energies) = parts(&states[i]);
+        names.write(i, long_at, c);
         for (tag, v) in (2u8..).zip(&vectors) {
             c.byte((tag << 3) | 2);
             c.varint(doubles_len(v) as u64);
@@ -364,9 +361,7 @@ pub fn body_states_with(
                 c.at += 8;
             }
         }
-    }
-    debug_assert_eq!(c.at, total);
-    buf.truncate(start + total);
+    });
     if total_energy != 0.0 {
         buf.push((4 << 3) | 1);
         buf.extend_from_slice(&total_energy.to_le_bytes());
