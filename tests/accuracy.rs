@@ -332,7 +332,7 @@ fn simulate_accuracy_end_to_end() {
     let stem = |n: &str| dir.path().join(n).display().to_string();
     let mut mcaps = Vec::new();
     for threads in ["1", "2"] {
-        let out = tumble(&[
+        let mut args = vec![
             "simulate",
             "models/accuracy_mixed.toml",
             "--accuracy",
@@ -341,9 +341,14 @@ fn simulate_accuracy_end_to_end() {
             "mcap",
             "--threads",
             threads,
-            "--out",
-            &stem(threads),
-        ]);
+        ];
+        // --verbose (one line per body) on one of the two runs: the files must not change.
+        if threads == "2" {
+            args.push("--verbose");
+        }
+        let out_stem = stem(threads);
+        args.extend(["--out", &out_stem]);
+        let out = tumble(&args);
         let stdout = String::from_utf8_lossy(&out.stdout);
         assert!(
             out.status.success(),
@@ -364,6 +369,21 @@ fn simulate_accuracy_end_to_end() {
         assert_eq!(b[999]["body"], "handle/t_handle");
         assert!(b[999]["substeps"].as_u64().unwrap() > 8);
         assert!(json["checked_error_max_rad"].as_f64().unwrap() <= 1e-3);
+        // Verbose: a line per body, its factor as in the JSON.
+        let lines: Vec<&str> = stdout
+            .lines()
+            .filter(|l| l.starts_with("  body "))
+            .collect();
+        if threads == "2" {
+            assert_eq!(lines.len(), 1000);
+            let handle = format!(
+                "  body handle/t_handle (index 999): k = {},",
+                b[999]["substeps"].as_u64().unwrap()
+            );
+            assert!(lines[999].starts_with(&handle), "{}", lines[999]);
+        } else {
+            assert!(lines.is_empty());
+        }
         mcaps.push(std::fs::read(format!("{}.mcap", stem(threads))).unwrap());
     }
     assert!(

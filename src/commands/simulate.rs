@@ -115,6 +115,10 @@ pub struct SimulateArgs {
     /// keeps dt); the summary prints the factors and an a posteriori check (docs/accuracy.md).
     #[arg(long, value_name = "TOL")]
     pub accuracy: Option<f64>,
+    /// With --accuracy: also print one line per body (its substep factor, predicted and checked
+    /// error), as in STEM.accuracy.json.
+    #[arg(long, short)]
+    pub verbose: bool,
     /// Test-only: scales the error model's predictions (a scale below 1 makes it too
     /// optimistic, so the a posteriori check must warn).
     #[arg(long, hide = true, default_value_t = 1.0)]
@@ -621,7 +625,12 @@ pub const ACCURACY_EXTENSION: &str = "accuracy.json";
 
 /// Prints `--accuracy`'s summary (factors as a histogram, predicted and checked errors, a
 /// warning when the check exceeds the tolerance) and writes the per-body JSON.
-fn print_accuracy(report: &AccuracyReport, world: &World, json_path: &Path) -> anyhow::Result<()> {
+fn print_accuracy(
+    report: &AccuracyReport,
+    world: &World,
+    json_path: &Path,
+    verbose: bool,
+) -> anyhow::Result<()> {
     let plan = &report.plan;
     let n = plan.factors.len().max(1) as f64;
     println!(
@@ -674,6 +683,17 @@ fn print_accuracy(report: &AccuracyReport, world: &World, json_path: &Path) -> a
         .iter()
         .map(|c| (c.body, c.estimated_rad))
         .collect();
+    if verbose {
+        for (i, f) in plan.factors.iter().enumerate() {
+            let checked = checked
+                .get(&i)
+                .map_or_else(|| "-".to_string(), |e| format!("{e:.2e} rad"));
+            println!(
+                "  body {} (index {i}): k = {}, predicted {:.2e} rad, checked {checked}",
+                world.layout.bodies[i].name, f.k, f.predicted_rad
+            );
+        }
+    }
     let bodies: Vec<serde_json::Value> = plan
         .factors
         .iter()
@@ -811,7 +831,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(report) = &out.accuracy {
-        print_accuracy(report, &world, &accuracy_json)?;
+        print_accuracy(report, &world, &accuracy_json, args.verbose)?;
     }
     if let Some(peak) = peak_memory_bytes() {
         println!("peak memory (VmHWM) {}", human_bytes(peak as f64));
