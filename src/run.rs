@@ -2,7 +2,7 @@
 
 use crate::record::{BodyState, Frame, JointState, MechanismState, Sink};
 use crate::scene::World;
-use crate::sim::guard::{Divergence, Guard};
+use crate::sim::guard::Divergence;
 use crate::sim::mechanism::Mechanism;
 use crate::sim::mechanism::project::Reporter;
 use crate::sim::partition::Partitions;
@@ -73,6 +73,9 @@ pub struct FrameBuilder {
     attachments: Vec<crate::scene::Attachment>,
     interior: Vec<crate::scene::InteriorFrame>,
     mechanisms: Vec<(Arc<Mechanism>, Reporter)>,
+    /// Per mechanism, once a partitioned batch was seen: its partition and itself re-based to
+    /// it ([`crate::sim::partition::rebase`]).
+    located: Vec<(usize, Mechanism)>,
     /// Per mechanism: its bodies and joints in the layout.
     mechanism_ranges: Vec<(std::ops::Range<usize>, std::ops::Range<usize>)>,
     joint_names: Vec<String>,
@@ -114,6 +117,7 @@ impl FrameBuilder {
             attachments: world.attachments.clone(),
             interior: world.interior_frames.clone(),
             mechanisms,
+            located: Vec::new(),
             mechanism_ranges,
             joint_names: world.layout.joints.iter().map(|j| j.name.clone()).collect(),
             warned_range: vec![false; world.layout.joints.len()],
@@ -145,56 +149,13 @@ impl FrameBuilder {
             .extend((0..bodies.len()).map(|i| body_state(bodies, i, gravity)));
         let time_ns = time_ns(step, dt_secs);
         let time_secs = time_ns as f64 / 1e9;
-        for (k, (model, reporter)) in self.mechanisms.iter_mut().enumerate() {
-            let report = reporter.report(model, bodies, gravity, time_secs);
-            for (i, gi) in model.bodies().enumerate() {
-                let q = bodies.world_from_body[gi];
-                let m = report.angmom_body[i];
-                let omega = m.component_mul(&bodies.inv_inertia_body[gi]);
-                let v = report.linvel_world[i];
-                let mass = bodies.mass[gi];
-                self.states[gi] = BodyState {
-                    linvel_world: v,
-                    angvel_world: q * omega,
-                    angmom_world: q * m,
-                    kinetic_energy: 0.5 * mass * v.norm_squared() + 0.5 * m.dot(&omega),
-                    potential_energy: bodies.potential_energy(gi, gravity),
-                };
-            }
-            let joints = self.mechanism_ranges[k].1.clone();
-            for (c, j) in joints.enumerate() {
-                self.joints[j] = JointState {
-                    position: report.position[c],
-                    velocity: report.velocity[c],
-                };
-                if let Some([lo, hi]) = model.coordinates[c].limits {
-                    let p = report.position[c];
-                    if !self.warned_range[j] && !(lo..=hi).contains(&p) {
-                        self.warned_range[j] = true;
-                        eprintln!(
-                            "warning: joint {:?} left its URDF range [{lo}, {hi}] at t = {time_secs} s \
-                             (position {p:.6}); joint limits are not modelled (docs/mechanisms.md)",
-                            self.joint_names[j]
-                        );
-                    }
-                }
-            }
-            let t = &report.totals;
-            self.totals[k] = MechanismState {
-                linear_momentum: t.linear_momentum,
-                angular_momentum: t.angular_momentum,
-                com: t.com,
-                kinetic_energy: t.kinetic_energy,
-                potential_energy: t.potential_energy,
-                residual_m: t.residual_m,
-                residual_rad: t.residual_rad,
-            };
+        for k in 0..self.mechanisms.len() {
+            let (model, reporter) = &mut self.mechanisms[k];
+            reporter.report(model, bodies, gravity, time_secs);
+            let model = Arc::clone(model);
+            self.write_mechanism(k, &model, bodies, 0, gravity, time_secs);
         }
-        for f in &self.interior {
-            let report = &self.mechanisms[f.mechanism].1.report;
-            self.poses[f.frame] =
-                report.interior_world_from_link[f.interior] * f.interior_from_link;
-        }
+        self.place_interior_frames();
         Frame {
             step,
             time_ns,
@@ -205,22 +166,84 @@ impl FrameBuilder {
         }
     }
 
+    /// Copies mechanism `k`'s last report into the frame buffers: its bodies' projected states
+    /// (`model` is the mechanism as `bodies` index it, `offset` the batch index of `bodies`'
+    /// first body), joints and totals; warns once per joint found outside its URDF range.
+    fn write_mechanism(
+        &mut self,
+        k: usize,
+        model: &Mechanism,
+        bodies: &Bodies,
+        offset: usize,
+        gravity: &Vector3<f64>,
+        time_secs: f64,
+    ) {
+        let report = &self.mechanisms[k].1.report;
+        for (i, gi) in model.bodies().enumerate() {
+            let q = bodies.world_from_body[gi];
+            let m = report.angmom_body[i];
+            let omega = m.component_mul(&bodies.inv_inertia_body[gi]);
+            let v = report.linvel_world[i];
+            let mass = bodies.mass[gi];
+            self.states[offset + gi] = BodyState {
+                linvel_world: v,
+                angvel_world: q * omega,
+                angmom_world: q * m,
+                kinetic_energy: 0.5 * mass * v.norm_squared() + 0.5 * m.dot(&omega),
+                potential_energy: bodies.potential_energy(gi, gravity),
+            };
+        }
+        let joints = self.mechanism_ranges[k].1.clone();
+        for (c, j) in joints.enumerate() {
+            self.joints[j] = JointState {
+                position: report.position[c],
+                velocity: report.velocity[c],
+            };
+            if let Some([lo, hi]) = model.coordinates[c].limits {
+                let p = report.position[c];
+                if !self.warned_range[j] && !(lo..=hi).contains(&p) {
+                    self.warned_range[j] = true;
+                    eprintln!(
+                        "warning: joint {:?} left its URDF range [{lo}, {hi}] at t = {time_secs} s \
+                         (position {p:.6}); joint limits are not modelled (docs/mechanisms.md)",
+                        self.joint_names[j]
+                    );
+                }
+            }
+        }
+        let t = &report.totals;
+        self.totals[k] = MechanismState {
+            linear_momentum: t.linear_momentum,
+            angular_momentum: t.angular_momentum,
+            com: t.com,
+            kinetic_energy: t.kinetic_energy,
+            potential_energy: t.potential_energy,
+            residual_m: t.residual_m,
+            residual_rad: t.residual_rad,
+        };
+    }
+
+    /// Places the compound joints' massless links from the last reports.
+    fn place_interior_frames(&mut self) {
+        for f in &self.interior {
+            let report = &self.mechanisms[f.mechanism].1.report;
+            self.poses[f.frame] =
+                report.interior_world_from_link[f.interior] * f.interior_from_link;
+        }
+    }
+
     /// [`Self::frame`] from a partitioned batch, built on its threads (same values).
     pub fn frame_of_parts(
         &mut self,
-        parts: &Partitions<'_>,
+        batch: &Partitions<'_>,
         gravity: &Vector3<f64>,
         step: u64,
         dt_secs: f64,
     ) -> Frame<'_> {
-        debug_assert!(
-            self.mechanisms.is_empty(),
-            "articulated scenes run unpartitioned (run::run)"
-        );
         let identity = Isometry3::identity();
         self.poses.resize(self.attachments.len(), identity);
         self.states.resize(
-            parts.len(),
+            batch.len(),
             BodyState {
                 linvel_world: Vector3::zeros(),
                 angvel_world: Vector3::zeros(),
@@ -230,7 +253,7 @@ impl FrameBuilder {
             },
         );
         let (attachments, poses, states) = (&self.attachments, &mut self.poses, &mut self.states);
-        let view = parts.view();
+        let view = batch.view();
         let parts = &view;
         view.install(|| {
             poses
@@ -238,7 +261,11 @@ impl FrameBuilder {
                 .zip(attachments.par_chunks(FRAME_TASK_ITEMS))
                 .for_each(|(poses, attachments)| {
                     for (pose, a) in poses.iter_mut().zip(attachments) {
-                        *pose = parts.world_from_body(a.body) * a.body_from_link;
+                        *pose = if a.body == crate::scene::Attachment::WORLD {
+                            a.body_from_link
+                        } else {
+                            parts.world_from_body(a.body) * a.body_from_link
+                        };
                     }
                 });
             states
@@ -251,9 +278,44 @@ impl FrameBuilder {
                     }
                 });
         });
+        let time_ns = time_ns(step, dt_secs);
+        if !self.mechanisms.is_empty() {
+            let time_secs = time_ns as f64 / 1e9;
+            if self.located.len() != self.mechanisms.len() {
+                self.located = self
+                    .mechanisms
+                    .iter()
+                    .map(|(m, _)| {
+                        let k = batch.part_of(m.first_body);
+                        let start = batch.parts[k].first;
+                        let range = start..start + batch.parts[k].bodies.len();
+                        let local = crate::sim::partition::rebase(std::slice::from_ref(m), &range);
+                        (k, Mechanism::clone(&local[0]))
+                    })
+                    .collect();
+            }
+            // The reports (projections, coordinates) on the pool, one task per mechanism; then
+            // copied into the frame in order (warnings in joint order).
+            let located = &self.located;
+            view.install(|| {
+                self.mechanisms
+                    .par_iter_mut()
+                    .zip(located.par_iter())
+                    .for_each(|((_, reporter), (k, local))| {
+                        reporter.report(local, view.part(*k), gravity, time_secs);
+                    });
+            });
+            for m in 0..self.mechanisms.len() {
+                let (k, local) = &self.located[m];
+                let (k, local) = (*k, local.clone());
+                let part = &batch.parts[k];
+                self.write_mechanism(m, &local, &part.bodies, part.first, gravity, time_secs);
+            }
+            self.place_interior_frames();
+        }
         Frame {
             step,
-            time_ns: time_ns(step, dt_secs),
+            time_ns,
             world_from_link: &self.poses,
             bodies: &self.states,
             joints: &self.joints,
@@ -302,21 +364,68 @@ pub const MAX_WINDOW_STEPS: u64 = 100;
 /// the run with [`crate::record::finish_all`]. After every step the [`Guard`] checks each body;
 /// a non-finite or diverging body ends the run early with [`RunSummary::stopped`] set (an `Ok`:
 /// what was recorded is good and is to be finished), so no bad state reaches a sink.
+/// `integrator` steps the whole batch, mechanisms included ([`World::integrator`]).
 pub fn run(
     world: &World,
     integrator: &mut dyn Integrator,
     settings: &RunSettings,
     sinks: &mut [Box<dyn Sink>],
 ) -> anyhow::Result<RunSummary> {
-    if !world.mechanisms.is_empty() {
-        return run_articulated(world, integrator, settings, sinks);
-    }
-    run_partitions(world, vec![integrator], settings, sinks)
+    let whole = 0..world.bodies.len();
+    run_partitions(
+        world,
+        vec![whole],
+        vec![integrator],
+        vec![world.mechanisms.clone()],
+        settings,
+        sinks,
+    )
 }
 
-/// [`run`] on `threads` threads: the batch split into partitions ([`crate::sim::partition`]),
-/// each stepped by an integrator from `make`. The recordings are the same bytes for every
-/// thread count.
+/// One partition of a threaded run, as its integrator is made for it.
+#[derive(Debug, Clone)]
+pub struct PartSpec<'a> {
+    /// Its bodies in the batch.
+    pub range: std::ops::Range<usize>,
+    /// Its mechanisms, re-based to the partition ([`crate::sim::partition::rebase`]).
+    pub mechanisms: &'a [Arc<Mechanism>],
+}
+
+/// [`run`] on `threads` threads: the batch cut into partitions between mechanisms
+/// ([`crate::sim::partition::ranges`]), each stepped by the integrator `make` builds for it.
+/// The recordings are the same bytes for every thread count.
+pub fn run_parts(
+    world: &World,
+    make: &dyn Fn(&PartSpec<'_>) -> anyhow::Result<Box<dyn Integrator>>,
+    threads: usize,
+    settings: &RunSettings,
+    sinks: &mut [Box<dyn Sink>],
+) -> anyhow::Result<RunSummary> {
+    let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
+    let ranges =
+        crate::sim::partition::ranges(world.bodies.len(), threads, &mechanism_ranges);
+    let mechanisms: Vec<Vec<Arc<Mechanism>>> = ranges
+        .iter()
+        .map(|r| crate::sim::partition::rebase(&world.mechanisms, r))
+        .collect();
+    let mut integrators = ranges
+        .iter()
+        .zip(&mechanisms)
+        .map(|(range, mechanisms)| {
+            make(&PartSpec {
+                range: range.clone(),
+                mechanisms,
+            })
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let borrowed: Vec<&mut dyn Integrator> = integrators
+        .iter_mut()
+        .map(|b| &mut **b as &mut dyn Integrator)
+        .collect();
+    run_partitions(world, ranges, borrowed, mechanisms, settings, sinks)
+}
+
+/// [`run_parts`] of a scene without mechanisms, every partition's integrator from `make`.
 pub fn run_threaded(
     world: &World,
     make: &dyn Fn() -> Box<dyn Integrator>,
@@ -324,16 +433,13 @@ pub fn run_threaded(
     settings: &RunSettings,
     sinks: &mut [Box<dyn Sink>],
 ) -> anyhow::Result<RunSummary> {
-    if !world.mechanisms.is_empty() {
-        // A mechanism's bodies are coupled by its joint rows: one integrator steps them all.
-        return run_articulated(world, &mut *make(), settings, sinks);
-    }
     run_threaded_ranges(world, &|_| make(), threads, settings, sinks)
 }
 
 /// [`run_threaded`] with integrators made for the bodies they step: `make(range)` builds the
 /// integrator of the partition holding bodies `range` of the batch (per-body substep factors,
-/// [`crate::sim::accuracy`]). Articulated scenes run on one integrator for every body.
+/// [`crate::sim::accuracy`]). For scenes without mechanisms (an error otherwise: use
+/// [`run_parts`]).
 pub fn run_threaded_ranges(
     world: &World,
     make: &dyn Fn(std::ops::Range<usize>) -> Box<dyn Integrator>,
@@ -341,37 +447,42 @@ pub fn run_threaded_ranges(
     settings: &RunSettings,
     sinks: &mut [Box<dyn Sink>],
 ) -> anyhow::Result<RunSummary> {
-    let len = world.bodies.len();
-    if !world.mechanisms.is_empty() {
-        return run_articulated(world, &mut *make(0..len), settings, sinks);
-    }
-    let n = crate::sim::partition::partition_count(len, threads);
-    let chunk = crate::sim::partition::chunk_size(len, n);
-    let mut integrators: Vec<Box<dyn Integrator>> = (0..n)
-        .map(|k| make((k * chunk).min(len)..((k + 1) * chunk).min(len)))
-        .collect();
-    let borrowed: Vec<&mut dyn Integrator> = integrators
-        .iter_mut()
-        .map(|b| &mut **b as &mut dyn Integrator)
-        .collect();
-    run_partitions(world, borrowed, settings, sinks)
+    anyhow::ensure!(
+        world.mechanisms.is_empty(),
+        "a scene with articulated models runs with run_parts (its integrators step mechanisms)"
+    );
+    run_parts(
+        world,
+        &|part| Ok(make(part.range.clone())),
+        threads,
+        settings,
+        sinks,
+    )
 }
 
 fn run_partitions(
     world: &World,
+    ranges: Vec<std::ops::Range<usize>>,
     integrators: Vec<&mut dyn Integrator>,
+    mechanisms: Vec<Vec<Arc<Mechanism>>>,
     settings: &RunSettings,
     sinks: &mut [Box<dyn Sink>],
 ) -> anyhow::Result<RunSummary> {
-    let mut parts = Partitions::new(
+    let g = settings.gravity;
+    let mut parts = Partitions::with_ranges(
         &world.bodies,
+        &ranges,
         integrators,
+        &mechanisms,
+        &g,
         settings.divergence_energy_ratio,
         settings.stop_on_newton_failure,
     )?;
     let dt = parts.dt();
-    let g = settings.gravity;
-    let angmom0: Vec<Vector3<f64>> = (0..parts.len())
+    // With articulated models the summary's energy and momenta are the reported ones
+    // (projected momenta; a mechanism's total angular momentum), read from the recorded frames.
+    let articulated = !world.mechanisms.is_empty();
+    let mut angmom0: Vec<Vector3<f64>> = (0..parts.len())
         .map(|i| {
             let (bodies, j) = parts.body(i);
             bodies.angmom_world(j)
@@ -384,17 +495,24 @@ fn run_partitions(
     let mut frames = FrameBuilder::new(world);
     let log_every = settings.log_every.max(1);
 
-    let mut record =
-        |parts: &Partitions<'_>, step: u64, summary: &mut RunSummary| -> anyhow::Result<()> {
-            let frame = frames.frame_of_parts(parts, &g, step, dt);
-            for sink in sinks.iter_mut() {
-                sink.write(&frame)?;
-            }
-            summary.frames_recorded += 1;
-            summary.last_recorded_step = step;
-            Ok(())
-        };
-    record(&parts, 0, &mut summary)?;
+    let mut record = |frames: &mut FrameBuilder,
+                  parts: &Partitions<'_>,
+                  step: u64,
+                  summary: &mut RunSummary|
+     -> anyhow::Result<()> {
+        let frame = frames.frame_of_parts(parts, &g, step, dt);
+        for sink in sinks.iter_mut() {
+            sink.write(&frame)?;
+        }
+        summary.frames_recorded += 1;
+        summary.last_recorded_step = step;
+        Ok(())
+    };
+    record(&mut frames, &parts, 0, &mut summary)?;
+    if articulated {
+        summary.energy_initial = frames.total_energy();
+        frames.conserved_angmom(&mut angmom0);
+    }
     summary.steps = settings.steps;
     let mut step = 0;
     while step < settings.steps {
@@ -410,7 +528,7 @@ fn run_partitions(
         step = end;
         let stop = settings.stop_on_interrupt && crate::interrupt::requested();
         if step % log_every == 0 || step == settings.steps || stop {
-            record(&parts, step, &mut summary)?;
+            record(&mut frames, &parts, step, &mut summary)?;
         }
         if stop {
             summary.interrupted = Some(crate::interrupt::signal());
@@ -418,13 +536,25 @@ fn run_partitions(
             break;
         }
     }
-    summary.energy_final = parts.sum(|b, j| b.energy(j, &g));
-    summary.angmom_rel_change_max = (0..parts.len())
-        .map(|i| {
-            let l0 = angmom0[i];
-            let (bodies, j) = parts.body(i);
-            (bodies.angmom_world(j) - l0).norm() / l0.norm().max(f64::MIN_POSITIVE)
-        })
+    let angmom1: Vec<Vector3<f64>> = if articulated {
+        // The last step is always recorded: the frame builder holds the final state.
+        summary.energy_final = frames.total_energy();
+        let mut l = Vec::new();
+        frames.conserved_angmom(&mut l);
+        l
+    } else {
+        summary.energy_final = parts.sum(|b, j| b.energy(j, &g));
+        (0..parts.len())
+            .map(|i| {
+                let (bodies, j) = parts.body(i);
+                bodies.angmom_world(j)
+            })
+            .collect()
+    };
+    summary.angmom_rel_change_max = angmom0
+        .iter()
+        .zip(&angmom1)
+        .map(|(l0, l1)| (l1 - l0).norm() / l0.norm().max(f64::MIN_POSITIVE))
         .fold(0.0, f64::max);
     Ok(summary)
 }
@@ -467,94 +597,3 @@ impl std::fmt::Display for Diverged {
 }
 
 impl std::error::Error for Diverged {}
-
-fn total_energy(bodies: &Bodies, gravity: &Vector3<f64>) -> f64 {
-    (0..bodies.len()).map(|i| bodies.energy(i, gravity)).sum()
-}
-
-/// [`run`] of a scene with articulated models: one integrator steps the whole batch (a
-/// mechanism's bodies are coupled by its joint rows), the guard watches the mechanisms too, and
-/// the summary's energy and momenta are the reported ones.
-fn run_articulated(
-    world: &World,
-    integrator: &mut dyn Integrator,
-    settings: &RunSettings,
-    sinks: &mut [Box<dyn Sink>],
-) -> anyhow::Result<RunSummary> {
-    let mut bodies = Bodies::new(&world.bodies);
-    integrator.init(&bodies);
-    let dt = integrator.dt();
-    let g = settings.gravity;
-    // With articulated models the summary's energy and momenta are the reported ones (projected
-    // momenta; a mechanism's total angular momentum), read from the recorded frames.
-    let articulated = !world.mechanisms.is_empty();
-    let mut angmom0: Vec<Vector3<f64>> =
-        (0..bodies.len()).map(|i| bodies.angmom_world(i)).collect();
-    let mut summary = RunSummary {
-        energy_initial: total_energy(&bodies, &g),
-        ..Default::default()
-    };
-    let mut guard = Guard::new(
-        &bodies,
-        settings.divergence_energy_ratio,
-        settings.stop_on_newton_failure,
-    );
-    guard.watch_mechanisms(&world.mechanisms, &bodies, &g);
-    let mut frames = FrameBuilder::new(world);
-    let log_every = settings.log_every.max(1);
-
-    let record = |frames: &mut FrameBuilder,
-                  sinks: &mut [Box<dyn Sink>],
-                  bodies: &Bodies,
-                  step: u64,
-                  summary: &mut RunSummary|
-     -> anyhow::Result<()> {
-        let frame = frames.frame(bodies, &g, step, dt);
-        for sink in sinks.iter_mut() {
-            sink.write(&frame)?;
-        }
-        summary.frames_recorded += 1;
-        summary.last_recorded_step = step;
-        Ok(())
-    };
-    record(&mut frames, sinks, &bodies, 0, &mut summary)?;
-    if articulated {
-        summary.energy_initial = frames.total_energy();
-        frames.conserved_angmom(&mut angmom0);
-    }
-    summary.steps = settings.steps;
-    for step in 1..=settings.steps {
-        let stats = integrator.step(&mut bodies, &g);
-        summary.stats = summary.stats.merge(stats);
-        if let Some(stop) = guard.check(&bodies, &stats, step) {
-            summary.stopped = Some(stop);
-            summary.steps = step - 1;
-            return Ok(summary);
-        }
-        let stop = settings.stop_on_interrupt && crate::interrupt::requested();
-        if step % log_every == 0 || step == settings.steps || stop {
-            record(&mut frames, sinks, &bodies, step, &mut summary)?;
-        }
-        if stop {
-            summary.interrupted = Some(crate::interrupt::signal());
-            summary.steps = step;
-            break;
-        }
-    }
-    let angmom1: Vec<Vector3<f64>> = if articulated {
-        // The last step is always recorded: the frame builder holds the final state.
-        summary.energy_final = frames.total_energy();
-        let mut l = Vec::new();
-        frames.conserved_angmom(&mut l);
-        l
-    } else {
-        summary.energy_final = total_energy(&bodies, &g);
-        (0..bodies.len()).map(|i| bodies.angmom_world(i)).collect()
-    };
-    summary.angmom_rel_change_max = angmom0
-        .iter()
-        .zip(&angmom1)
-        .map(|(l0, l1)| (l1 - l0).norm() / l0.norm().max(f64::MIN_POSITIVE))
-        .fold(0.0, f64::max);
-    Ok(summary)
-}

@@ -937,15 +937,27 @@ impl World {
         dt_secs: f64,
         settings: &VariationalSettings,
     ) -> anyhow::Result<Box<dyn crate::sim::Integrator>> {
-        if self.mechanisms.is_empty() {
+        Self::integrator_of(kind, dt_secs, settings, &self.mechanisms, self.bodies.len())
+    }
+
+    /// [`Self::integrator`] for a batch of `body_count` bodies holding `mechanisms` (a
+    /// partition of the world, its mechanisms re-based to it: [`crate::sim::partition`]).
+    pub fn integrator_of(
+        kind: IntegratorKind,
+        dt_secs: f64,
+        settings: &VariationalSettings,
+        mechanisms: &[Arc<Mechanism>],
+        body_count: usize,
+    ) -> anyhow::Result<Box<dyn crate::sim::Integrator>> {
+        if mechanisms.is_empty() {
             return Ok(kind.build(dt_secs, settings));
         }
         Ok(Box::new(Articulated::new(
             kind,
             dt_secs,
             settings,
-            &self.mechanisms,
-            self.bodies.len(),
+            mechanisms,
+            body_count,
         )?))
     }
 }

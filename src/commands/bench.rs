@@ -240,6 +240,68 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
             ns / bodies as f64
         )
     })?;
+    // On several threads: the batch cut between mechanisms as `simulate --threads` cuts it.
+    let threads = crate::commands::simulate::thread_count(args.threads)?;
+    let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
+    let ranges = crate::sim::partition::ranges(bodies, threads, &mechanism_ranges);
+    let ns = if ranges.len() > 1 {
+        let parts = ranges.len();
+        println!(
+            "{} x {} steps, {parts} threads ({parts} partitions, cut between mechanisms)",
+            args.repeats, args.steps
+        );
+        let mechanisms: Vec<_> = ranges
+            .iter()
+            .map(|r| crate::sim::partition::rebase(&world.mechanisms, r))
+            .collect();
+        let mut samples = Vec::with_capacity(args.repeats);
+        for r in 0..args.repeats {
+            let mut integrators = ranges
+                .iter()
+                .zip(&mechanisms)
+                .map(|(range, m)| {
+                    crate::scene::World::integrator_of(kind, dt, &settings, m, range.len())
+                })
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            let borrowed: Vec<&mut dyn Integrator> = integrators
+                .iter_mut()
+                .map(|b| &mut **b as &mut dyn Integrator)
+                .collect();
+            let mut batch = Partitions::with_ranges(
+                &world.bodies,
+                &ranges,
+                borrowed,
+                &mechanisms,
+                &gravity,
+                f64::MAX,
+                None,
+            )?;
+            let started = Instant::now();
+            let mut failures = 0u64;
+            let mut step = 0;
+            while step < args.steps {
+                let end = (step + WINDOW_STEPS).min(args.steps);
+                failures += u64::from(batch.advance(step, end, &gravity).stats.newton_failures);
+                step = end;
+            }
+            let many = started.elapsed().as_secs_f64() * 1e9 / args.steps as f64;
+            std::hint::black_box(&batch.parts);
+            println!(
+                "run {}: {many:.1} ns per step, {:.2} ns per body-step ({failures} non-converged solves)",
+                r + 1,
+                many / bodies as f64
+            );
+            samples.push(many);
+        }
+        let many = median(&mut samples);
+        println!(
+            "ns_per_step 1 thread={ns:.1} {parts} threads={many:.1}; scaling 1 -> {parts} threads: {:.2}x",
+            ns / many
+        );
+        many
+    } else {
+        ns
+    };
     println!("ns_per_step={ns:.1}");
     println!("ns_per_body_step={:.2}", ns / bodies as f64);
     Ok(())

@@ -455,7 +455,7 @@ pub fn simulate_world(
     options: &SimulateOptions,
 ) -> anyhow::Result<Outputs> {
     // Before any file exists: an integrator the world cannot use is refused with nothing written.
-    let mut integrator = world.integrator(
+    world.integrator(
         scene.integrator(),
         scene.sim.dt,
         &scene.variational_settings(),
@@ -552,18 +552,18 @@ pub fn simulate_world(
             &settings,
             &mut sinks,
         )
-    } else if world.mechanisms.is_empty() {
-        crate::run::run_threaded(
+    } else {
+        // A mechanism's bodies are coupled by its joint rows: the batch is cut between
+        // mechanisms, each partition's integrator steps its own (docs/mechanisms.md).
+        crate::run::run_parts(
             world,
-            &|| kind.build(dt, &variational),
+            &|part| {
+                World::integrator_of(kind, dt, &variational, part.mechanisms, part.range.len())
+            },
             options.threads,
             &settings,
             &mut sinks,
         )
-    } else {
-        // A mechanism's bodies are coupled by its joint rows: one integrator steps the scene
-        // (docs/mechanisms.md).
-        crate::run::run(world, integrator.as_mut(), &settings, &mut sinks)
     };
     let summary = crate::record::finish_all(sinks, result, &outputs)?;
     let accuracy = plan.map(|plan| {
@@ -787,13 +787,11 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     )?;
     let wall = started.elapsed().as_secs_f64();
     let s = &out.summary;
-    // What actually stepped: a small batch uses fewer partitions than threads, and a scene with
-    // articulated models steps on one integrator.
-    let threads = if world.mechanisms.is_empty() {
-        crate::sim::partition::partition_count(world.bodies.len(), threads)
-    } else {
-        1
-    };
+    // What actually stepped: a small batch uses fewer partitions than threads (and a scene
+    // with mechanisms is cut only between them).
+    let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
+    let threads =
+        crate::sim::partition::ranges(world.bodies.len(), threads, &mechanism_ranges).len();
     println!(
         "simulated {} bodies for {} steps of {} s ({} s) with {} on {threads} thread{} in {wall:.2} s wall time",
         out.bodies,
