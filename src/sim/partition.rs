@@ -395,6 +395,90 @@ mod tests {
         assert_eq!(partition_count(0, 4), 1);
     }
 
+    /// Without mechanisms the ranges are the uniform `k·c` cuts; with them no cut falls inside a
+    /// mechanism, the ranges cover the batch in order, and the costs are balanced to within one
+    /// mechanism's cost.
+    #[test]
+    fn ranges_cut_between_mechanisms_and_balance_the_cost() {
+        assert_eq!(ranges(1000, 2, &[]), vec![0..500, 500..1000]);
+        assert_eq!(ranges(1003, 3, &[]), vec![0..335, 335..670, 670..1003]);
+        assert_eq!(ranges(100, 4, &[]), vec![0..100]);
+        assert_eq!(ranges(0, 4, &[]), vec![0..0]);
+        // 40 double pendulums, 200 free bodies, 20 three-link chains.
+        let mut mechanisms: Vec<Range<usize>> = (0..40).map(|k| 2 * k..2 * k + 2).collect();
+        mechanisms.extend((0..20).map(|k| 280 + 3 * k..283 + 3 * k));
+        let cost = |r: &Range<usize>| -> usize {
+            r.clone()
+                .map(|i| {
+                    if mechanisms.iter().any(|m| m.contains(&i)) {
+                        MECHANISM_BODY_COST
+                    } else {
+                        1
+                    }
+                })
+                .sum()
+        };
+        for threads in 1..=5 {
+            let r = ranges(340, threads, &mechanisms);
+            assert_eq!(r.len(), threads, "{threads}: {r:?}");
+            assert_eq!(r[0].start, 0);
+            assert_eq!(r.last().unwrap().end, 340);
+            for w in r.windows(2) {
+                assert_eq!(w[0].end, w[1].start);
+            }
+            for cut in r.iter().map(|r| r.start) {
+                assert!(
+                    !mechanisms.iter().any(|m| m.start < cut && cut < m.end),
+                    "{threads}: cut {cut} inside a mechanism"
+                );
+            }
+            let total = cost(&(0..340));
+            for part in &r {
+                let c = cost(part) as f64;
+                let ideal = total as f64 / threads as f64;
+                // Off by less than one three-link chain's cost (90) plus a body: the cut
+                // moves to the end of the mechanism it falls in. Measured 0 to 70 here.
+                assert!(
+                    (c - ideal).abs() <= 3.0 * MECHANISM_BODY_COST as f64 + 1.0,
+                    "{threads}: {part:?} costs {c}, ideal {ideal}"
+                );
+            }
+        }
+        // One mechanism bigger than a share: it stays whole, the rest after it.
+        assert_eq!(ranges(600, 2, &[0..500]), vec![0..500, 500..600]);
+        assert_eq!(ranges(600, 2, &[100..600]), vec![0..600]);
+    }
+
+    /// Re-based mechanisms count their bodies from the partition's start and share the model.
+    #[test]
+    fn rebase_keeps_the_mechanisms_of_a_range() {
+        use crate::sim::mechanism::{Base, BodyPose, MechanismModel};
+        let model = Arc::new(MechanismModel {
+            body_count: 2,
+            joints: Vec::new(),
+            coordinates: Vec::new(),
+            mimics: Vec::new(),
+            base: Base::Floating,
+            length_scale: 1.0,
+        });
+        let at = |first_body: usize| {
+            Arc::new(Mechanism {
+                name: format!("m{first_body}"),
+                first_body,
+                world_pose: BodyPose::identity(),
+                shared: Arc::clone(&model),
+            })
+        };
+        let all = vec![at(0), at(2), at(7), at(9)];
+        let local = rebase(&all, &(2..9));
+        assert_eq!(local.len(), 2);
+        assert_eq!((local[0].name.as_str(), local[0].first_body), ("m2", 0));
+        assert_eq!((local[1].name.as_str(), local[1].first_body), ("m7", 5));
+        assert!(Arc::ptr_eq(&local[1].shared, &model));
+        assert!(rebase(&all, &(4..7)).is_empty());
+        assert_eq!(rebase(&all, &(9..11))[0].first_body, 0);
+    }
+
     /// Every integrator: 3 partitions step the same bits as one batch (free bodies, per-body
     /// steps), including a remainder partition that is not a multiple of the 4-body lanes.
     #[test]
