@@ -276,3 +276,68 @@ fn bench_prints_the_median_last() {
     let out = tumble(&["bench", "--integrator", "nope"], dir.path());
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// `bench --threads 2` on a batch big enough for two partitions: the runs alternate between 1
+/// and 2 threads; the scaling line is the ratio of the medians, the best-run line the ratio of
+/// the fastest runs, and the last line the 2-thread median, all from the printed runs.
+#[test]
+fn bench_threads_alternates_runs_and_reports_both_scalings() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tumble(
+        &[
+            "bench",
+            "--bodies",
+            "600",
+            "--steps",
+            "20",
+            "--repeats",
+            "3",
+            "--threads",
+            "2",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let value = |l: &str, key: &str| -> f64 {
+        let rest = &l[l.find(key).unwrap_or_else(|| panic!("{key} in {l}")) + key.len()..];
+        rest.split(|c: char| c == ' ' || c == ';' || c == 'x')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let runs: Vec<(bool, f64)> = stdout
+        .lines()
+        .filter(|l| l.starts_with("run "))
+        .map(|l| (l.contains("(2 threads)"), value(l, "): ")))
+        .collect();
+    assert_eq!(
+        runs.iter().map(|r| r.0).collect::<Vec<_>>(),
+        [false, true, false, true, false, true]
+    );
+    let of = |two: bool| -> Vec<f64> {
+        let mut v: Vec<f64> = runs.iter().filter(|r| r.0 == two).map(|r| r.1).collect();
+        v.sort_by(f64::total_cmp);
+        v
+    };
+    let (one, many) = (of(false), of(true));
+    let line = |prefix: &str| stdout.lines().find(|l| l.starts_with(prefix)).unwrap();
+    let scaling = line("ns_per_body_step 1 thread=");
+    // Printed to 2 decimals: the values read back agree to 0.006.
+    assert!((value(scaling, "1 thread=") - one[1]).abs() < 0.006, "{scaling}");
+    assert!((value(scaling, "2 threads=") - many[1]).abs() < 0.006, "{scaling}");
+    let ratio = value(scaling, "threads: ");
+    // The ratio is of unrounded values: each printed one is off by ≤ 0.005 ns on ≥ 5 ns, so
+    // the recomputed ratio is off by ≤ 2e-3 relative, plus the ratio's own rounding.
+    assert!((ratio - one[1] / many[1]).abs() < 0.006 + 2e-3 * ratio, "{scaling}");
+    let best = line("best runs:");
+    assert!((value(best, "1 thread=") - one[0]).abs() < 0.006, "{best}");
+    assert!((value(best, "2 threads=") - many[0]).abs() < 0.006, "{best}");
+    let last = stdout.lines().last().unwrap();
+    assert!((value(last, "ns_per_body_step=") - many[1]).abs() < 0.006, "{last}");
+}

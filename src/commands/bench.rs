@@ -133,7 +133,6 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
     let inits = free_body_batch(args.bodies);
     let gravity = Vector3::new(0.0, 0.0, -9.81);
     let settings = Default::default();
-    let mut medians = Vec::new();
     let counts: Vec<usize> = if threads > 1 {
         vec![1, threads]
     } else {
@@ -151,8 +150,13 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
             if t == 1 { "" } else { "s" },
             if parts == 1 { "" } else { "s" },
         );
-        let mut samples = Vec::with_capacity(args.repeats);
-        for r in 0..args.repeats {
+    }
+    // The thread counts take turns, run after run, so that a slow spell of the (shared) machine
+    // falls on both alike.
+    let mut samples = vec![Vec::with_capacity(args.repeats); counts.len()];
+    for r in 0..args.repeats {
+        for (c, &t) in counts.iter().enumerate() {
+            let parts = partition_count(args.bodies, t);
             let mut integrators: Vec<Box<dyn crate::sim::Integrator>> =
                 (0..parts).map(|_| kind.build(dt, &settings)).collect();
             let borrowed: Vec<&mut dyn crate::sim::Integrator> = integrators
@@ -172,14 +176,23 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
                 started.elapsed().as_secs_f64() * 1e9 / (args.steps as f64 * args.bodies as f64);
             std::hint::black_box(&batch.parts);
             println!(
-                "run {}: {ns:.2} ns per body-step ({failures} non-converged solves)",
-                r + 1
+                "run {} ({t} thread{}): {ns:.2} ns per body-step ({failures} non-converged solves)",
+                r + 1,
+                if t == 1 { "" } else { "s" },
             );
-            samples.push(ns);
+            samples[c].push(ns);
         }
-        medians.push(median(&mut samples));
     }
-    if let [one, many] = medians[..] {
+    let best: Vec<f64> = samples
+        .iter()
+        .map(|s| s.iter().copied().fold(f64::INFINITY, f64::min))
+        .collect();
+    let medians: Vec<f64> = samples.iter_mut().map(|s| median(s)).collect();
+    if let ([one, many], [best_one, best_many]) = (&medians[..], &best[..]) {
+        println!(
+            "best runs: 1 thread={best_one:.2} {threads} threads={best_many:.2}; best-run scaling {:.2}x",
+            best_one / best_many
+        );
         println!(
             "ns_per_body_step 1 thread={one:.2} {threads} threads={many:.2}; scaling 1 -> {threads} threads: {:.2}x",
             one / many
