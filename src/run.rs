@@ -402,8 +402,7 @@ pub fn run_parts(
     sinks: &mut [Box<dyn Sink>],
 ) -> anyhow::Result<RunSummary> {
     let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
-    let ranges =
-        crate::sim::partition::ranges(world.bodies.len(), threads, &mechanism_ranges);
+    let ranges = crate::sim::partition::ranges(world.bodies.len(), threads, &mechanism_ranges);
     let mechanisms: Vec<Vec<Arc<Mechanism>>> = ranges
         .iter()
         .map(|r| crate::sim::partition::rebase(&world.mechanisms, r))
@@ -496,9 +495,9 @@ fn run_partitions(
     let log_every = settings.log_every.max(1);
 
     let mut record = |frames: &mut FrameBuilder,
-                  parts: &Partitions<'_>,
-                  step: u64,
-                  summary: &mut RunSummary|
+                      parts: &Partitions<'_>,
+                      step: u64,
+                      summary: &mut RunSummary|
      -> anyhow::Result<()> {
         let frame = frames.frame_of_parts(parts, &g, step, dt);
         for sink in sinks.iter_mut() {

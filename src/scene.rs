@@ -953,11 +953,7 @@ impl World {
             return Ok(kind.build(dt_secs, settings));
         }
         Ok(Box::new(Articulated::new(
-            kind,
-            dt_secs,
-            settings,
-            mechanisms,
-            body_count,
+            kind, dt_secs, settings, mechanisms, body_count,
         )?))
     }
 }

@@ -252,3 +252,28 @@ fn inspect_json_of_the_arm() {
     let total = json["total_mass"].as_f64().unwrap();
     assert!((total - 4.8).abs() < 1e-12, "total_mass {total}");
 }
+
+/// A scene that starts with no energy (bodies at rest, no gravity) reports the energy change as
+/// an absolute figure, not a relative one divided by zero (it printed "relative change
+/// 3.52e294").
+#[test]
+fn a_scene_at_rest_reports_an_absolute_energy_change() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(common::root().join("models/box.urdf"), d.join("box.urdf")).unwrap();
+    std::fs::write(
+        d.join("rest.toml"),
+        "[sim]\nduration = 0.01\n[[model]]\nurdf = \"box.urdf\"\n",
+    )
+    .unwrap();
+    let out = common::tumble(&["simulate", "rest.toml", "--format", "mcap"], d);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let line = stdout.lines().find(|l| l.starts_with("energy ")).unwrap();
+    assert!(line.contains("(absolute change "), "{line}");
+    assert!(!line.contains("relative change 3"), "{line}");
+}

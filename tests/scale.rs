@@ -348,3 +348,83 @@ fn format_writes_exactly_what_it_names() {
         text(&bad.stderr)
     );
 }
+
+/// `--mcap-compression`: the default `auto` writes LZ4 chunks from 1000 bodies up and zstd
+/// below; `zstd`, `lz4` and `none` are what they say. The Python `mcap` reader decodes every
+/// variant to the same messages (same count, same digest over topic, time and data).
+#[test]
+fn mcap_compression_auto_picks_lz4_for_big_scenes_and_every_choice_reads_the_same() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    big_scene(d, 700); // 700 boxes + 300 handles = 1000 bodies: the threshold
+    let runs: [(&str, Option<&str>, &str); 4] = [
+        ("auto", None, "lz4"),
+        ("zstd", Some("zstd"), "zstd"),
+        ("lz4", Some("lz4"), "lz4"),
+        ("none", Some("none"), ""),
+    ];
+    let mut paths = Vec::new();
+    for (stem, choice, _) in &runs {
+        let mut args = vec!["simulate", "big.toml", "--out", stem, "--format", "mcap"];
+        if let Some(c) = choice {
+            args.extend(["--mcap-compression", c]);
+        }
+        let out = tumble(&args, d);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        paths.push(d.join(format!("{stem}.mcap")));
+    }
+    // One body fewer than the threshold: auto keeps zstd.
+    let small = std::fs::read_to_string(d.join("big.toml"))
+        .unwrap()
+        .replace("copies = 700", "copies = 699");
+    std::fs::write(d.join("small.toml"), small).unwrap();
+    let out = tumble(
+        &[
+            "simulate",
+            "small.toml",
+            "--out",
+            "small",
+            "--format",
+            "mcap",
+        ],
+        d,
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let small_path = d.join("small.mcap");
+    let mut all: Vec<&Path> = paths.iter().map(|p| p.as_path()).collect();
+    all.push(&small_path);
+    let report = common::run_py("mcap_compression.py", &all);
+    let get = |p: &Path| &report[p.to_str().unwrap()];
+    for ((stem, _, expected), path) in runs.iter().zip(&paths) {
+        assert_eq!(
+            get(path)["compressions"],
+            serde_json::json!([expected]),
+            "{stem}"
+        );
+        // 7 recorded steps (0 to 30 every 5) on /tf and /bodies, plus /scene and /inertia.
+        assert_eq!(get(path)["messages"], 16, "{stem}");
+        assert_eq!(get(path)["digest"], get(&paths[0])["digest"], "{stem}");
+    }
+    assert_eq!(
+        get(&small_path)["compressions"],
+        serde_json::json!(["zstd"])
+    );
+    assert!(
+        std::fs::metadata(&paths[1]).unwrap().len() < std::fs::metadata(&paths[2]).unwrap().len(),
+        "zstd smaller than lz4"
+    );
+    let out = tumble(
+        &[
+            "simulate",
+            "big.toml",
+            "--out",
+            "x",
+            "--mcap-compression",
+            "brotli",
+        ],
+        d,
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out.stderr).contains("expected auto, zstd, lz4 or none"));
+    assert!(!d.join("x.mcap").exists());
+}

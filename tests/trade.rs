@@ -329,15 +329,30 @@ fn bench_threads_alternates_runs_and_reports_both_scalings() {
     let line = |prefix: &str| stdout.lines().find(|l| l.starts_with(prefix)).unwrap();
     let scaling = line("ns_per_body_step 1 thread=");
     // Printed to 2 decimals: the values read back agree to 0.006.
-    assert!((value(scaling, "1 thread=") - one[1]).abs() < 0.006, "{scaling}");
-    assert!((value(scaling, "2 threads=") - many[1]).abs() < 0.006, "{scaling}");
+    assert!(
+        (value(scaling, "1 thread=") - one[1]).abs() < 0.006,
+        "{scaling}"
+    );
+    assert!(
+        (value(scaling, "2 threads=") - many[1]).abs() < 0.006,
+        "{scaling}"
+    );
     let ratio = value(scaling, "threads: ");
     // The ratio is of unrounded values: each printed one is off by ≤ 0.005 ns on ≥ 5 ns, so
     // the recomputed ratio is off by ≤ 2e-3 relative, plus the ratio's own rounding.
-    assert!((ratio - one[1] / many[1]).abs() < 0.006 + 2e-3 * ratio, "{scaling}");
+    assert!(
+        (ratio - one[1] / many[1]).abs() < 0.006 + 2e-3 * ratio,
+        "{scaling}"
+    );
     let best = line("best runs:");
     assert!((value(best, "1 thread=") - one[0]).abs() < 0.006, "{best}");
-    assert!((value(best, "2 threads=") - many[0]).abs() < 0.006, "{best}");
+    assert!(
+        (value(best, "2 threads=") - many[0]).abs() < 0.006,
+        "{best}"
+    );
     let last = stdout.lines().last().unwrap();
-    assert!((value(last, "ns_per_body_step=") - many[1]).abs() < 0.006, "{last}");
+    assert!(
+        (value(last, "ns_per_body_step=") - many[1]).abs() < 0.006,
+        "{last}"
+    );
 }

@@ -107,8 +107,9 @@ pub struct SimulateArgs {
     /// ros2 (STEM.ros2.mcap, as --ros2).
     #[arg(long, default_value = "mcap,rrd", value_parser = Formats::parse)]
     pub format: Formats,
-    /// MCAP chunk compression: zstd (default, smallest), lz4 (faster, larger) or none.
-    #[arg(long, default_value = "zstd", value_parser = ChunkCompression::parse)]
+    /// MCAP chunk compression: auto (default: lz4 from 1000 bodies up, else zstd), zstd
+    /// (smallest), lz4 (faster, a few per cent larger) or none.
+    #[arg(long, default_value = "auto", value_parser = ChunkCompression::parse)]
     pub mcap_compression: ChunkCompression,
     /// Orientation error (rad) allowed over the run for every free body (overrides
     /// sim.accuracy): each body takes the substeps of dt its error model needs (the recording
@@ -505,7 +506,7 @@ pub fn simulate_world(
             &world.layout,
             &McapOptions {
                 ellipsoids: options.rerun.ellipsoids,
-                compression: options.mcap_compression,
+                compression: options.mcap_compression.resolve(world.bodies.len()),
             },
         )
         .map(|sink| {
@@ -557,9 +558,7 @@ pub fn simulate_world(
         // mechanisms, each partition's integrator steps its own (docs/mechanisms.md).
         crate::run::run_parts(
             world,
-            &|part| {
-                World::integrator_of(kind, dt, &variational, part.mechanisms, part.range.len())
-            },
+            &|part| World::integrator_of(kind, dt, &variational, part.mechanisms, part.range.len()),
             options.threads,
             &settings,
             &mut sinks,
@@ -801,10 +800,20 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         scene.sim.integrator,
         if threads == 1 { "" } else { "s" }
     );
-    let rel_energy =
-        (s.energy_final - s.energy_initial) / s.energy_initial.abs().max(f64::MIN_POSITIVE);
+    // A scene at rest without gravity starts with no energy: its change is only absolute.
+    let energy_change = if s.energy_initial == 0.0 {
+        format!(
+            "absolute change {:.2e} J",
+            s.energy_final - s.energy_initial
+        )
+    } else {
+        format!(
+            "relative change {:.2e}",
+            (s.energy_final - s.energy_initial) / s.energy_initial.abs()
+        )
+    };
     println!(
-        "energy {:.9e} J -> {:.9e} J (relative change {rel_energy:.2e}); angular momentum relative change max {:.2e}",
+        "energy {:.9e} J -> {:.9e} J ({energy_change}); angular momentum relative change max {:.2e}",
         s.energy_initial, s.energy_final, s.angmom_rel_change_max
     );
     println!(
