@@ -35,7 +35,7 @@ for n in "${sizes[@]}"; do
   "$T" simulate "$out/swarm_$n.toml" --duration 0 --out "$out/s0" --force --threads 1 >/dev/null
   startup=$(awk -v a="$start0" -v b="$(date +%s.%N)" 'BEGIN {printf "%.3f", b - a}')
   bare=$("$T" bench --bodies "$n" --steps $((10000000 / n)) --repeats 3 --threads 1 | tail -1 | cut -d= -f2)
-  scaling=$("$T" bench --bodies "$n" --steps $((10000000 / n)) --repeats 3 --threads 2 | sed -nE 's/.*scaling 1 -> 2 threads: ([0-9.]+)x/\1/p')
+  scaling=$("$T" bench --bodies "$n" --steps $((10000000 / n)) --repeats 7 --threads 2 | sed -nE 's/.*scaling 1 -> 2 threads: ([0-9.]+)x/\1/p')
   e2e=()
   for threads in 1 2; do
     t0=$(date +%s.%N)

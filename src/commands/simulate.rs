@@ -485,13 +485,15 @@ pub fn simulate_world(
         .then(|| with_extension(stem, crate::record::ros2::EXTENSION));
     let written = output_paths(stem, &formats);
     let outputs: Vec<&Path> = written.iter().map(PathBuf::as_path).collect();
-    // Each file is encoded on its own thread, beside the stepping (`record::pipelined`).
+    // Each file is encoded on its own thread, beside the stepping; the threads share one copy
+    // of each frame (`record::pipelined`).
     let mut sinks: Vec<Box<dyn Sink>> = Vec::new();
+    let share = crate::record::pipelined::FrameShare::default();
     let add = |sinks: &mut Vec<Box<dyn Sink>>,
                sink: anyhow::Result<Box<dyn Sink + Send>>,
                name: &str|
      -> anyhow::Result<()> {
-        let pipelined = sink.and_then(|sink| Pipelined::new(sink, name));
+        let pipelined = sink.and_then(|sink| Pipelined::shared(sink, name, &share));
         match pipelined {
             Ok(sink) => {
                 sinks.push(Box::new(sink));

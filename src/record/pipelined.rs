@@ -3,23 +3,77 @@
 //! [`Pipelined::new`] moves a sink to a thread of its own; [`Sink::write`] copies the frame into
 //! an owned buffer and hands it over through a bounded channel of [`QUEUE_FRAMES`] frames, so the
 //! stepping goes on while the sink encodes and compresses, and a sink slower than the stepping
-//! holds the stepping back instead of queueing frames without bound (memory stays at most
-//! `QUEUE_FRAMES + 2` frames per sink). The sink sees the same frames in the same order as it
-//! would on the stepping thread, so its bytes are the same. An error of the sink is reported by
-//! the next `write` (or by `finish` / `complete`), after which the sink is gone; dropping an
-//! unfinished `Pipelined` drops the sink on its thread (removing its `.part` file) and joins it.
+//! holds the stepping back instead of queueing frames without bound. The sinks of one run share
+//! their copies ([`FrameShare`], [`Pipelined::shared`]): a frame is copied once, whatever the
+//! number of files, into a buffer every sink thread reads (an [`Arc`]) and that is reused once
+//! all of them are done with it, so at most `QUEUE_FRAMES + 2` frames are alive for all the
+//! sinks together. The sink sees the same frames in the same order as it would on the stepping
+//! thread, so its bytes are the same. An error of the sink is reported by the next `write` (or
+//! by `finish` / `complete`), after which the sink is gone; dropping an unfinished `Pipelined`
+//! drops the sink on its thread (removing its `.part` file) and joins it.
 
 use super::{BodyState, Frame, JointState, MechanismState, Sink};
 use anyhow::{Context, anyhow};
 use nalgebra::Isometry3;
+use std::cell::RefCell;
 use std::path::PathBuf;
-use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::rc::Rc;
+use std::sync::Arc;
+use std::sync::mpsc::{SyncSender, sync_channel};
 use std::thread::JoinHandle;
 
-/// Frames queued per sink.
-pub const QUEUE_FRAMES: usize = 4;
+/// Frames queued per sink (two: the sink threads run at a steady pace, a deeper queue only
+/// holds more memory, 160 bytes per body and frame).
+pub const QUEUE_FRAMES: usize = 2;
+
+/// The frame copies the pipelined sinks of one run share (used on the stepping thread only).
+#[derive(Default, Clone)]
+pub struct FrameShare(Rc<RefCell<ShareState>>);
+
+#[derive(Default)]
+struct ShareState {
+    /// The last frame copied: its step and where its poses were, and the copy.
+    last: Option<(u64, usize, Arc<OwnedFrame>)>,
+    /// Every buffer made, reused once no sink thread holds it.
+    buffers: Vec<Arc<OwnedFrame>>,
+}
+
+impl FrameShare {
+    /// The shared copy of `frame`: the one made for the previous sink when it is the same frame,
+    /// else a copy into a free buffer (or a new one).
+    fn copy(&self, frame: &Frame<'_>) -> Arc<OwnedFrame> {
+        let mut state = self.0.borrow_mut();
+        let key = (frame.step, frame.world_from_link.as_ptr() as usize);
+        if let Some((step, at, owned)) = &state.last
+            && (*step, *at) == key
+        {
+            return Arc::clone(owned);
+        }
+        state.last = None;
+        let free = state
+            .buffers
+            .iter_mut()
+            .position(|b| Arc::strong_count(b) == 1);
+        let index = free.unwrap_or_else(|| {
+            state.buffers.push(Arc::new(OwnedFrame::default()));
+            state.buffers.len() - 1
+        });
+        let buffer = &mut state.buffers[index];
+        let owned = Arc::get_mut(buffer).expect("a free buffer is held by no sink");
+        owned.fill(frame);
+        let shared = Arc::clone(buffer);
+        state.last = Some((key.0, key.1, Arc::clone(&shared)));
+        shared
+    }
+
+    /// Buffers made so far (at most `QUEUE_FRAMES + 2` per run, whatever the sink count).
+    pub fn buffers(&self) -> usize {
+        self.0.borrow().buffers.len()
+    }
+}
 
 /// A frame owned by the channel.
+#[derive(Default)]
 struct OwnedFrame {
     step: u64,
     time_ns: i64,
@@ -29,8 +83,24 @@ struct OwnedFrame {
     mechanisms: Vec<MechanismState>,
 }
 
+impl OwnedFrame {
+    fn fill(&mut self, frame: &Frame<'_>) {
+        self.step = frame.step;
+        self.time_ns = frame.time_ns;
+        self.world_from_link.clear();
+        self.world_from_link
+            .extend_from_slice(frame.world_from_link);
+        self.bodies.clear();
+        self.bodies.extend_from_slice(frame.bodies);
+        self.joints.clear();
+        self.joints.extend_from_slice(frame.joints);
+        self.mechanisms.clear();
+        self.mechanisms.extend_from_slice(frame.mechanisms);
+    }
+}
+
 enum Job {
-    Write(OwnedFrame),
+    Write(Arc<OwnedFrame>),
     /// `true`: complete (leave the `.part`), `false`: finish (rename too).
     End(bool),
 }
@@ -38,18 +108,25 @@ enum Job {
 /// A sink running on its own thread.
 pub struct Pipelined {
     jobs: Option<SyncSender<Job>>,
-    /// Buffers the thread has written, for reuse.
-    spare: Receiver<OwnedFrame>,
+    share: FrameShare,
     thread: Option<JoinHandle<anyhow::Result<()>>>,
     path: Option<PathBuf>,
 }
 
 impl Pipelined {
-    /// Moves `sink` to a new thread named `name`.
+    /// Moves `sink` to a new thread named `name` (its frame copies its own).
     pub fn new(sink: Box<dyn Sink + Send>, name: &str) -> anyhow::Result<Self> {
+        Self::shared(sink, name, &FrameShare::default())
+    }
+
+    /// [`Self::new`], sharing frame copies with the other sinks made with `share`.
+    pub fn shared(
+        sink: Box<dyn Sink + Send>,
+        name: &str,
+        share: &FrameShare,
+    ) -> anyhow::Result<Self> {
         let path = sink.path();
         let (jobs, inbox) = sync_channel::<Job>(QUEUE_FRAMES);
-        let (give_back, spare) = sync_channel::<OwnedFrame>(QUEUE_FRAMES + 2);
         let thread = std::thread::Builder::new()
             .name(name.into())
             .spawn(move || -> anyhow::Result<()> {
@@ -65,7 +142,6 @@ impl Pipelined {
                                 joints: &owned.joints,
                                 mechanisms: &owned.mechanisms,
                             })?;
-                            let _ = give_back.try_send(owned);
                         }
                         Job::End(keep_part) => {
                             return if keep_part {
@@ -82,7 +158,7 @@ impl Pipelined {
             .context("cannot start a recording thread")?;
         Ok(Self {
             jobs: Some(jobs),
-            spare,
+            share: share.clone(),
             thread: Some(thread),
             path,
         })
@@ -117,26 +193,7 @@ impl Pipelined {
 
 impl Sink for Pipelined {
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
-        let mut owned = self.spare.try_recv().unwrap_or(OwnedFrame {
-            step: 0,
-            time_ns: 0,
-            world_from_link: Vec::new(),
-            bodies: Vec::new(),
-            joints: Vec::new(),
-            mechanisms: Vec::new(),
-        });
-        owned.step = frame.step;
-        owned.time_ns = frame.time_ns;
-        owned.world_from_link.clear();
-        owned
-            .world_from_link
-            .extend_from_slice(frame.world_from_link);
-        owned.bodies.clear();
-        owned.bodies.extend_from_slice(frame.bodies);
-        owned.joints.clear();
-        owned.joints.extend_from_slice(frame.joints);
-        owned.mechanisms.clear();
-        owned.mechanisms.extend_from_slice(frame.mechanisms);
+        let owned = self.share.copy(frame);
         let sent = self
             .jobs
             .as_ref()
@@ -247,5 +304,67 @@ mod tests {
             format!("{error:#}").contains("disk full at step 3"),
             "{error:#}"
         );
+    }
+
+    /// Records each frame's step and first pose's x, slowly every 7th frame.
+    struct Poses {
+        seen: Arc<Mutex<Vec<(u64, f64)>>>,
+    }
+
+    impl Sink for Poses {
+        fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
+            if frame.step % 7 == 0 {
+                std::thread::sleep(std::time::Duration::from_millis(2));
+            }
+            let x = frame.world_from_link[0].translation.x;
+            self.seen.lock().unwrap().push((frame.step, x));
+            Ok(())
+        }
+        fn finish(self: Box<Self>) -> anyhow::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// Two sinks sharing their copies: each sees every frame's own values although the caller
+    /// rewrites one buffer between frames (as the frame builder does), and no more than
+    /// `QUEUE_FRAMES + 2` buffers are made for both (one per frame per sink before: 2 x 6).
+    #[test]
+    fn shared_copies_keep_every_frame_and_stay_bounded() {
+        let share = FrameShare::default();
+        let logs: Vec<Arc<Mutex<Vec<(u64, f64)>>>> = (0..2).map(|_| Arc::default()).collect();
+        let mut sinks: Vec<Box<Pipelined>> = logs
+            .iter()
+            .map(|seen| {
+                let sink = Poses { seen: seen.clone() };
+                Box::new(Pipelined::shared(Box::new(sink), "test", &share).unwrap())
+            })
+            .collect();
+        let mut poses = vec![Isometry3::identity(); 3];
+        for step in 0..100u64 {
+            poses[0].translation.x = step as f64 * 0.5;
+            let frame = Frame {
+                step,
+                time_ns: step as i64,
+                world_from_link: &poses,
+                bodies: &[],
+                joints: &[],
+                mechanisms: &[],
+            };
+            for sink in &mut sinks {
+                sink.write(&frame).unwrap();
+            }
+        }
+        assert!(
+            share.buffers() <= QUEUE_FRAMES + 2,
+            "{} buffers",
+            share.buffers()
+        );
+        for sink in sinks {
+            sink.finish().unwrap();
+        }
+        let expected: Vec<(u64, f64)> = (0..100).map(|s| (s, s as f64 * 0.5)).collect();
+        for log in &logs {
+            assert_eq!(*log.lock().unwrap(), expected);
+        }
     }
 }
