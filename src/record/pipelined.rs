@@ -306,14 +306,16 @@ mod tests {
         );
     }
 
+    type Seen = Arc<Mutex<Vec<(u64, f64)>>>;
+
     /// Records each frame's step and first pose's x, slowly every 7th frame.
     struct Poses {
-        seen: Arc<Mutex<Vec<(u64, f64)>>>,
+        seen: Seen,
     }
 
     impl Sink for Poses {
         fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
-            if frame.step % 7 == 0 {
+            if frame.step.is_multiple_of(7) {
                 std::thread::sleep(std::time::Duration::from_millis(2));
             }
             let x = frame.world_from_link[0].translation.x;
@@ -331,7 +333,7 @@ mod tests {
     #[test]
     fn shared_copies_keep_every_frame_and_stay_bounded() {
         let share = FrameShare::default();
-        let logs: Vec<Arc<Mutex<Vec<(u64, f64)>>>> = (0..2).map(|_| Arc::default()).collect();
+        let logs: Vec<Seen> = (0..2).map(|_| Arc::default()).collect();
         let mut sinks: Vec<Box<Pipelined>> = logs
             .iter()
             .map(|seen| {
