@@ -305,11 +305,7 @@ fn bench_threads_alternates_runs_and_reports_both_scalings() {
     let stdout = String::from_utf8(out.stdout).unwrap();
     let value = |l: &str, key: &str| -> f64 {
         let rest = &l[l.find(key).unwrap_or_else(|| panic!("{key} in {l}")) + key.len()..];
-        rest.split([' ', ';', 'x'])
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap()
+        rest.split([' ', ';', 'x']).next().unwrap().parse().unwrap()
     };
     let runs: Vec<(bool, f64)> = stdout
         .lines()
