@@ -6,9 +6,11 @@
 #                    finish both files with one frame each: start-up plus finish)
 #   bare_ns          `tumble bench --bodies N --threads 1`: ns per body-step, no recording
 #   e2e_ns_T1/_T2    (wall(simulate) - startup) / body-steps with both files, 1 and 2 threads
+#                    (median of REPEATS runs each, default 3, the thread counts taking turns)
 #   mcap_B, rrd_B    bytes per recorded pose (file size / (bodies x recorded steps))
 #   peak_MiB         peak resident memory of the 2-thread simulate (VmHWM)
-#   bench_scaling    `tumble bench --threads 2`: 1 -> 2 thread speedup of the bare stepping
+#   bench_scaling    `tumble bench --threads 2 --repeats 7`: 1 -> 2 thread speedup of the bare
+#                    stepping (ratio of the medians; runs alternate between the thread counts)
 # then a control: two 1-thread benches at once against one alone (ratio near 1.0: two free
 # cores; near 2.0: the machine had one, so no thread count can scale there).
 # Usage: bash scripts/bench_scale.sh [SIZES...]   (default 1000 10000 100000; OUT=dir for the files)
@@ -36,12 +38,20 @@ for n in "${sizes[@]}"; do
   startup=$(awk -v a="$start0" -v b="$(date +%s.%N)" 'BEGIN {printf "%.3f", b - a}')
   bare=$("$T" bench --bodies "$n" --steps $((10000000 / n)) --repeats 3 --threads 1 | tail -1 | cut -d= -f2)
   scaling=$("$T" bench --bodies "$n" --steps $((10000000 / n)) --repeats 7 --threads 2 | sed -nE 's/.*scaling 1 -> 2 threads: ([0-9.]+)x/\1/p')
+  # The end-to-end runs: REPEATS (default 3) of each thread count, taking turns; the median.
+  walls1=(); walls2=()
+  for _ in $(seq "${REPEATS:-3}"); do
+    for threads in 1 2; do
+      t0=$(date +%s.%N)
+      "$T" simulate "$out/swarm_$n.toml" --duration "$duration" --out "$out/s$threads" --force --threads "$threads" >"$out/log$threads"
+      wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN {print b - a}')
+      if [ "$threads" = 1 ]; then walls1+=("$wall"); else walls2+=("$wall"); fi
+    done
+  done
+  median() { printf '%s\n' "$@" | sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2}'; }
   e2e=()
-  for threads in 1 2; do
-    t0=$(date +%s.%N)
-    "$T" simulate "$out/swarm_$n.toml" --duration "$duration" --out "$out/s$threads" --force --threads "$threads" >"$out/log$threads"
-    wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN {print b - a}')
-    e2e+=("$(awk -v w="$wall" -v s="$startup" -v n="$n" 'BEGIN {printf "%.1f", (w - s) * 1e9 / 1e7}')")
+  for wall in "$(median "${walls1[@]}")" "$(median "${walls2[@]}")"; do
+    e2e+=("$(awk -v w="$wall" -v s="$startup" 'BEGIN {printf "%.1f", (w - s) * 1e9 / 1e7}')")
   done
   frames=$(awk '/^wrote/ {print $2}' "$out/log2")
   mcap=$(stat -c %s "$out/s2.mcap"); rrd=$(stat -c %s "$out/s2.rrd")

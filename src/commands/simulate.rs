@@ -489,11 +489,16 @@ pub fn simulate_world(
     // of each frame (`record::pipelined`).
     let mut sinks: Vec<Box<dyn Sink>> = Vec::new();
     let share = crate::record::pipelined::FrameShare::default();
+    let queue = crate::record::pipelined::queue_frames(crate::record::pipelined::frame_bytes(
+        world.attachments.len(),
+        world.bodies.len(),
+        world.layout.joints.len(),
+    ));
     let add = |sinks: &mut Vec<Box<dyn Sink>>,
                sink: anyhow::Result<Box<dyn Sink + Send>>,
                name: &str|
      -> anyhow::Result<()> {
-        let pipelined = sink.and_then(|sink| Pipelined::shared(sink, name, &share));
+        let pipelined = sink.and_then(|sink| Pipelined::shared(sink, name, &share, queue));
         match pipelined {
             Ok(sink) => {
                 sinks.push(Box::new(sink));

@@ -6,8 +6,8 @@
 //! holds the stepping back instead of queueing frames without bound. The sinks of one run share
 //! their copies ([`FrameShare`], [`Pipelined::shared`]): a frame is copied once, whatever the
 //! number of files, into a buffer every sink thread reads (an [`Arc`]) and that is reused once
-//! all of them are done with it, so at most `QUEUE_FRAMES + 2` frames are alive for all the
-//! sinks together. The sink sees the same frames in the same order as it would on the stepping
+//! all of them are done with it, so at most `queue + 2` frames are alive for all the sinks
+//! together (the queue holds [`QUEUE_BYTES`] of frames, [`queue_frames`]). The sink sees the same frames in the same order as it would on the stepping
 //! thread, so its bytes are the same. An error of the sink is reported by the next `write` (or
 //! by `finish` / `complete`), after which the sink is gone; dropping an unfinished `Pipelined`
 //! drops the sink on its thread (removing its `.part` file) and joins it.
@@ -22,9 +22,26 @@ use std::sync::Arc;
 use std::sync::mpsc::{SyncSender, sync_channel};
 use std::thread::JoinHandle;
 
-/// Frames queued per sink (two: the sink threads run at a steady pace, a deeper queue only
-/// holds more memory, 160 bytes per body and frame).
+/// Frames queued per sink when nothing else is said ([`Pipelined::new`]).
 pub const QUEUE_FRAMES: usize = 2;
+
+/// What the queue of a sink may hold, bytes of frames ([`queue_frames`]).
+pub const QUEUE_BYTES: usize = 4 << 20;
+
+/// Frames queued per sink for frames of `frame_bytes` bytes: [`QUEUE_BYTES`] of them, at least 2
+/// and at most 64. Small frames come often (1000 bodies: one every 0.4 ms), and a short queue
+/// then makes the stepping wait for a sink thread's wake-up; big ones come seldom (10 000
+/// bodies: 1.44 MB every 4 ms), and a long queue only holds memory.
+pub fn queue_frames(frame_bytes: usize) -> usize {
+    (QUEUE_BYTES / frame_bytes.max(1)).clamp(2, 64)
+}
+
+/// Bytes of a frame of `frames` link frames, `bodies` bodies and `joints` joints.
+pub fn frame_bytes(frames: usize, bodies: usize, joints: usize) -> usize {
+    frames * std::mem::size_of::<Isometry3<f64>>()
+        + bodies * std::mem::size_of::<BodyState>()
+        + joints * std::mem::size_of::<JointState>()
+}
 
 /// The frame copies the pipelined sinks of one run share (used on the stepping thread only).
 #[derive(Default, Clone)]
@@ -66,7 +83,7 @@ impl FrameShare {
         shared
     }
 
-    /// Buffers made so far (at most `QUEUE_FRAMES + 2` per run, whatever the sink count).
+    /// Buffers made so far (at most the queue length + 2 per run, whatever the sink count).
     pub fn buffers(&self) -> usize {
         self.0.borrow().buffers.len()
     }
@@ -114,19 +131,22 @@ pub struct Pipelined {
 }
 
 impl Pipelined {
-    /// Moves `sink` to a new thread named `name` (its frame copies its own).
+    /// Moves `sink` to a new thread named `name` (its frame copies its own, a queue of
+    /// [`QUEUE_FRAMES`]).
     pub fn new(sink: Box<dyn Sink + Send>, name: &str) -> anyhow::Result<Self> {
-        Self::shared(sink, name, &FrameShare::default())
+        Self::shared(sink, name, &FrameShare::default(), QUEUE_FRAMES)
     }
 
-    /// [`Self::new`], sharing frame copies with the other sinks made with `share`.
+    /// [`Self::new`], sharing frame copies with the other sinks made with `share`, queueing up
+    /// to `queue` frames ([`queue_frames`]).
     pub fn shared(
         sink: Box<dyn Sink + Send>,
         name: &str,
         share: &FrameShare,
+        queue: usize,
     ) -> anyhow::Result<Self> {
         let path = sink.path();
-        let (jobs, inbox) = sync_channel::<Job>(QUEUE_FRAMES);
+        let (jobs, inbox) = sync_channel::<Job>(queue.max(1));
         let thread = std::thread::Builder::new()
             .name(name.into())
             .spawn(move || -> anyhow::Result<()> {
@@ -338,7 +358,7 @@ mod tests {
             .iter()
             .map(|seen| {
                 let sink = Poses { seen: seen.clone() };
-                Box::new(Pipelined::shared(Box::new(sink), "test", &share).unwrap())
+                Box::new(Pipelined::shared(Box::new(sink), "test", &share, QUEUE_FRAMES).unwrap())
             })
             .collect();
         let mut poses = vec![Isometry3::identity(); 3];
@@ -368,5 +388,16 @@ mod tests {
         for log in &logs {
             assert_eq!(*log.lock().unwrap(), expected);
         }
+    }
+
+    #[test]
+    fn queues_hold_a_few_megabytes_of_frames() {
+        // A pose is 7 doubles, a body state 11. 10 000 bodies: 1.44 MB frames, the minimum of
+        // 2; 1000 bodies: 29 (4 MiB / 144 kB); tiny frames: 64.
+        assert_eq!(frame_bytes(10_000, 10_000, 0), 10_000 * (56 + 88));
+        assert_eq!(queue_frames(frame_bytes(10_000, 10_000, 0)), 2);
+        assert_eq!(queue_frames(frame_bytes(1000, 1000, 0)), 29);
+        assert_eq!(queue_frames(frame_bytes(1, 1, 0)), 64);
+        assert_eq!(queue_frames(0), 64);
     }
 }
