@@ -55,7 +55,8 @@ fn layout(mesh_dir: &Path) -> RecordingLayout {
                     Some([0.8, 0.1, 0.1, 1.0]),
                 ),
                 visual(Some("ball"), Geometry::Sphere { radius: 0.05 }, None),
-            ],
+            ]
+            .into(),
         },
         FrameLayout {
             frame_id: "arm/link1".into(),
@@ -105,13 +106,14 @@ fn layout(mesh_dir: &Path) -> RecordingLayout {
                     },
                     None,
                 ),
-            ],
+            ]
+            .into(),
         },
         FrameLayout {
             frame_id: "arm/link2".into(),
             model: "arm".into(),
             link: "link2".into(),
-            visuals: vec![],
+            visuals: Vec::new().into(),
         },
     ];
     let bodies = vec![

@@ -412,7 +412,7 @@ fn arm_forward_kinematics_matches_hand_computation() {
     let kinds: Vec<&str> = model
         .links
         .iter()
-        .flat_map(|l| &l.visuals)
+        .flat_map(|l| l.visuals.iter())
         .map(|v| match v.geometry {
             Geometry::Box { .. } => "box",
             Geometry::Cylinder { .. } => "cylinder",

@@ -65,7 +65,8 @@ pub struct Link {
     /// Validation findings (rule broken, in words) about the values in use and the visuals.
     /// Empty when the link is fine. Findings about URDF values a policy replaced move to `notes`.
     pub problems: Vec<String>,
-    pub visuals: Vec<Visual>,
+    /// Shared (an [`std::sync::Arc`]) by every copy of the model placed in a scene.
+    pub visuals: std::sync::Arc<[Visual]>,
     /// The `<collision>` elements (used for mass properties only; tumble has no contacts).
     pub collisions: Vec<Collision>,
     /// The URDF's `<inertial>` as written (`None` when absent), kept whatever the inertia

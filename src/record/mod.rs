@@ -132,8 +132,9 @@ pub struct FrameLayout {
     pub model: String,
     /// The URDF link name (without prefix).
     pub link: String,
-    /// Visual geometry in the link frame.
-    pub visuals: Vec<Visual>,
+    /// Visual geometry in the link frame (shared with the model's link: copies of a model do
+    /// not copy it).
+    pub visuals: std::sync::Arc<[Visual]>,
 }
 
 /// A simulated body (a link with mass, or a whole model locked rigid).

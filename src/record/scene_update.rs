@@ -220,7 +220,7 @@ pub fn geometry_update(
         .filter(|f| !f.visuals.is_empty())
         .map(|f| {
             let mut e = entity(f.frame_id.clone(), &f.frame_id, timestamp);
-            for visual in &f.visuals {
+            for visual in f.visuals.iter() {
                 add_visual(&mut e, visual, &f.frame_id, meshes, warnings);
             }
             e

@@ -448,7 +448,7 @@ fn overlay_layout(
         for name in matched {
             let mut frame_visuals = visuals
                 .get(name.as_str())
-                .map(|f| f.visuals.clone())
+                .map(|f| f.visuals.to_vec())
                 .unwrap_or_default();
             for v in &mut frame_visuals {
                 v.rgba = Some(OVERLAY_RGBA[k]);
@@ -457,7 +457,7 @@ fn overlay_layout(
                 frame_id: format!("{prefix}/{name}"),
                 model: prefix.into(),
                 link: name.clone(),
-                visuals: frame_visuals,
+                visuals: frame_visuals.into(),
             });
         }
     }
