@@ -848,6 +848,12 @@ impl Scene {
             .unwrap_or_else(|| "tumble".into());
         world.layout.metadata = self.metadata();
         world.layout.metadata.extend(urdf_texts);
+        // Grown one copy at a time, the per-frame vectors hold up to twice what they need
+        // (10 000 bodies: 16 384 slots of frames and attachments, about 1 MB spare).
+        world.bodies.shrink_to_fit();
+        world.attachments.shrink_to_fit();
+        world.layout.frames.shrink_to_fit();
+        world.layout.bodies.shrink_to_fit();
         Ok(world)
     }
 }
