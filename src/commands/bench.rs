@@ -114,6 +114,19 @@ fn time_steps(
     Ok(median(&mut samples))
 }
 
+/// Steps `batch` through `steps` steps, the threads meeting every [`WINDOW_STEPS`]; returns the
+/// count of non-converged solves.
+fn advance_timed(batch: &mut Partitions<'_>, steps: u64, gravity: &Vector3<f64>) -> u64 {
+    let mut failures = 0u64;
+    let mut step = 0;
+    while step < steps {
+        let end = (step + WINDOW_STEPS).min(steps);
+        failures += u64::from(batch.advance(step, end, gravity).stats.newton_failures);
+        step = end;
+    }
+    failures
+}
+
 fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
     let name = args.integrator.as_deref().unwrap_or("variational");
     let kind = integrator_kind(name)?;
@@ -165,13 +178,7 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
                 .collect();
             let mut batch = Partitions::new(&inits, borrowed, f64::MAX, None)?;
             let started = Instant::now();
-            let mut failures = 0u64;
-            let mut step = 0;
-            while step < args.steps {
-                let end = (step + WINDOW_STEPS).min(args.steps);
-                failures += u64::from(batch.advance(step, end, &gravity).stats.newton_failures);
-                step = end;
-            }
+            let failures = advance_timed(&mut batch, args.steps, &gravity);
             let ns =
                 started.elapsed().as_secs_f64() * 1e9 / (args.steps as f64 * args.bodies as f64);
             std::hint::black_box(&batch.parts);
@@ -290,13 +297,7 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
                 None,
             )?;
             let started = Instant::now();
-            let mut failures = 0u64;
-            let mut step = 0;
-            while step < args.steps {
-                let end = (step + WINDOW_STEPS).min(args.steps);
-                failures += u64::from(batch.advance(step, end, &gravity).stats.newton_failures);
-                step = end;
-            }
+            let failures = advance_timed(&mut batch, args.steps, &gravity);
             let many = started.elapsed().as_secs_f64() * 1e9 / args.steps as f64;
             std::hint::black_box(&batch.parts);
             println!(

@@ -450,6 +450,58 @@ mod tests {
         assert_eq!(ranges(600, 2, &whole(100..600)), vec![0..600]);
     }
 
+    /// The cut is the first body at which the cost so far reaches the share: a pendulum (2
+    /// bodies, 60) then 598 free bodies, 658 in all, halves at body 271 (60 + 269 = 329).
+    #[test]
+    fn a_cut_falls_on_the_first_body_reaching_the_share() {
+        let pendulum = vec![0..2];
+        assert_eq!(ranges(600, 2, &pendulum), vec![0..271, 271..600]);
+    }
+
+    /// Records the thread each step ran on.
+    struct ThreadLog(std::sync::Arc<std::sync::Mutex<Vec<String>>>);
+
+    impl Integrator for ThreadLog {
+        fn name(&self) -> &'static str {
+            "thread-log"
+        }
+        fn init(&mut self, _bodies: &Bodies) {}
+        fn step(&mut self, _bodies: &mut Bodies, _gravity: &Vector3<f64>) -> StepStats {
+            let name = std::thread::current().name().unwrap_or("").to_owned();
+            self.0.lock().unwrap().push(name);
+            StepStats::default()
+        }
+        fn dt(&self) -> f64 {
+            0.001
+        }
+    }
+
+    /// Several partitions step on the pool's threads; one steps on the caller's thread (no
+    /// pool is made for it).
+    #[test]
+    fn partitions_step_on_the_pool_and_one_on_the_caller() {
+        let inits = free_body_batch(600);
+        let g = Vector3::zeros();
+        for parts in [1, 2] {
+            let log = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+            let mut integrators: Vec<ThreadLog> =
+                (0..parts).map(|_| ThreadLog(log.clone())).collect();
+            let borrowed = integrators
+                .iter_mut()
+                .map(|i| i as &mut dyn Integrator)
+                .collect();
+            let mut batch = Partitions::new(&inits, borrowed, f64::MAX, None).unwrap();
+            batch.advance(0, 3, &g);
+            let names = log.lock().unwrap().clone();
+            assert_eq!(names.len(), 3 * parts);
+            let on_pool = names
+                .iter()
+                .filter(|n| n.starts_with("tumble-step-"))
+                .count();
+            assert_eq!(on_pool, if parts == 1 { 0 } else { 3 * parts }, "{names:?}");
+        }
+    }
+
     /// Re-based mechanisms count their bodies from the partition's start and share the model.
     #[test]
     fn rebase_keeps_the_mechanisms_of_a_range() {
