@@ -454,7 +454,7 @@ mod tests {
     /// bodies, 60) then 598 free bodies, 658 in all, halves at body 271 (60 + 269 = 329).
     #[test]
     fn a_cut_falls_on_the_first_body_reaching_the_share() {
-        let pendulum = vec![0..2];
+        let pendulum: Vec<Range<usize>> = std::iter::once(0..2).collect();
         assert_eq!(ranges(600, 2, &pendulum), vec![0..271, 271..600]);
     }
 
