@@ -305,12 +305,12 @@ impl FrameBuilder {
                         reporter.report(local, view.part(*k), gravity, time_secs);
                     });
             });
-            for m in 0..self.mechanisms.len() {
-                let (k, local) = &self.located[m];
-                let (k, local) = (*k, local.clone());
-                let part = &batch.parts[k];
-                self.write_mechanism(m, &local, &part.bodies, part.first, gravity, time_secs);
+            let located = std::mem::take(&mut self.located);
+            for (m, (k, local)) in located.iter().enumerate() {
+                let part = &batch.parts[*k];
+                self.write_mechanism(m, local, &part.bodies, part.first, gravity, time_secs);
             }
+            self.located = located;
             self.place_interior_frames();
         }
         Frame {

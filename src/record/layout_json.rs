@@ -493,6 +493,7 @@ pub fn from_json(text: &str) -> anyhow::Result<RecordingLayout> {
 mod tests {
     use super::*;
     use crate::model::Geometry;
+    use crate::record::{MechanismLayout, TopicGroup};
     use nalgebra::Translation3;
 
     fn visual(geometry: Geometry, x: f64) -> Visual {
@@ -553,9 +554,24 @@ mod tests {
                 link_from_principal: Isometry3::translation(0.01, 0.0, 0.0),
                 principal_moments: Vector3::new(0.1, 0.2, 0.3),
             }],
+            topic_groups: vec![TopicGroup {
+                prefix: String::new(),
+                frames: 0..3,
+                bodies: 0..1,
+                joints: 0..0,
+                mechanisms: 0..1,
+            }],
+            mechanisms: vec![MechanismLayout {
+                name: "b_0".into(),
+                bodies: 0..1,
+                joints: 0..0,
+                floating: true,
+            }],
             ..Default::default()
         };
         let text = to_json(&layout);
+        // Built in a buffer of the exact size (the counting pass).
+        assert_eq!(text.capacity(), text.len());
         let raw: serde_json::Value = serde_json::from_str(&text).unwrap();
         assert_eq!(raw["version"], 2);
         assert_eq!(raw["visual_sets"].as_array().unwrap().len(), 2);
@@ -571,6 +587,8 @@ mod tests {
         let back = from_json(&text).unwrap();
         assert_eq!(format!("{:?}", back.frames), format!("{:?}", layout.frames));
         assert_eq!(format!("{:?}", back.bodies), format!("{:?}", layout.bodies));
+        assert_eq!(back.topic_groups, layout.topic_groups);
+        assert_eq!(back.mechanisms, layout.mechanisms);
         assert!(Arc::ptr_eq(
             &back.frames[0].visuals,
             &back.frames[2].visuals
@@ -613,5 +631,48 @@ mod tests {
         let text = r#"{"version": 3, "name": "x", "frames": [], "bodies": [], "topic_groups": []}"#;
         let err = format!("{:#}", from_json(text).unwrap_err());
         assert!(err.contains("version 3"), "{err}");
+    }
+
+    /// Ranges of models and topic groups outside the layout (or reversed) are refused, each
+    /// range on its own: one frame, one body, no joint, one model in the layout below.
+    #[test]
+    fn ranges_outside_the_layout_are_refused() {
+        let layout = |mechanism: &str, group: &str| {
+            format!(
+                r#"{{"version": 2, "name": "x", "visual_sets": [[]], "frames": [{{"frame_id":
+                "a/base", "model": "a", "link": "base", "visuals": 0}}], "bodies": [{{"name": "a",
+                "frame": 0, "mass": 1.0, "link_from_principal": {{"translation": [0.0, 0.0, 0.0],
+                "rotation_xyzw": [0.0, 0.0, 0.0, 1.0]}}, "principal_moments": [1.0, 1.0, 1.0]}}],
+                "mechanisms": [{{"name": "a", {mechanism}, "floating": true}}],
+                "topic_groups": [{{"prefix": "", {group}}}]}}"#
+            )
+        };
+        let good_m = r#""bodies": [0, 1], "joints": [0, 0]"#;
+        let good_g =
+            r#""frames": [0, 1], "bodies": [0, 1], "joints": [0, 0], "mechanisms": [0, 1]"#;
+        assert!(from_json(&layout(good_m, good_g)).is_ok());
+        for m in [
+            r#""bodies": [1, 0], "joints": [0, 0]"#,
+            r#""bodies": [0, 2], "joints": [0, 0]"#,
+            r#""bodies": [0, 1], "joints": [0, 1]"#,
+        ] {
+            let err = format!("{:#}", from_json(&layout(m, good_g)).unwrap_err());
+            assert!(
+                err.contains("mechanism \"a\" has ranges outside"),
+                "{m}: {err}"
+            );
+        }
+        for g in [
+            r#""frames": [0, 2], "bodies": [0, 1], "joints": [0, 0], "mechanisms": [0, 1]"#,
+            r#""frames": [0, 1], "bodies": [1, 0], "joints": [0, 0], "mechanisms": [0, 1]"#,
+            r#""frames": [0, 1], "bodies": [0, 1], "joints": [0, 1], "mechanisms": [0, 1]"#,
+            r#""frames": [0, 1], "bodies": [0, 1], "joints": [0, 0], "mechanisms": [0, 2]"#,
+        ] {
+            let err = format!("{:#}", from_json(&layout(good_m, g)).unwrap_err());
+            assert!(
+                err.contains("topic group \"\" has ranges outside"),
+                "{g}: {err}"
+            );
+        }
     }
 }
