@@ -376,6 +376,7 @@ pub fn run(
         world,
         vec![whole],
         vec![integrator],
+        1,
         vec![world.mechanisms.clone()],
         settings,
         sinks,
@@ -421,7 +422,9 @@ pub fn run_parts(
         .iter_mut()
         .map(|b| &mut **b as &mut dyn Integrator)
         .collect();
-    run_partitions(world, ranges, borrowed, mechanisms, settings, sinks)
+    run_partitions(
+        world, ranges, borrowed, threads, mechanisms, settings, sinks,
+    )
 }
 
 /// [`run_parts`] of a scene without mechanisms, every partition's integrator from `make`.
@@ -463,6 +466,7 @@ fn run_partitions(
     world: &World,
     ranges: Vec<std::ops::Range<usize>>,
     integrators: Vec<&mut dyn Integrator>,
+    threads: usize,
     mechanisms: Vec<Vec<Arc<Mechanism>>>,
     settings: &RunSettings,
     sinks: &mut [Box<dyn Sink>],
@@ -472,6 +476,7 @@ fn run_partitions(
         &world.bodies,
         &ranges,
         integrators,
+        threads,
         &mechanisms,
         &g,
         settings.divergence_energy_ratio,

@@ -19,7 +19,7 @@
 //!   (`scripts/bench_mechanism.sh`).
 
 use crate::scene::Scene;
-use crate::sim::partition::{Partitions, partition_count};
+use crate::sim::partition::{Partitions, partition_count, stepping_threads};
 use crate::sim::workload::free_body_batch;
 use crate::sim::{Bodies, Integrator, IntegratorKind};
 use crate::trade::measure::median;
@@ -139,10 +139,8 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
     )
     .check(args.allow_huge)?;
     // A batch too small for several partitions steps on one thread: nothing to scale.
-    let threads = partition_count(
-        args.bodies,
-        crate::commands::simulate::thread_count(args.threads)?,
-    );
+    let asked = crate::commands::simulate::thread_count(args.threads)?;
+    let threads = stepping_threads(partition_count(args.bodies, asked), asked);
     let inits = free_body_batch(args.bodies);
     let gravity = Vector3::new(0.0, 0.0, -9.81);
     let settings = Default::default();
@@ -176,7 +174,7 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
                 .iter_mut()
                 .map(|b| &mut **b as &mut dyn crate::sim::Integrator)
                 .collect();
-            let mut batch = Partitions::new(&inits, borrowed, f64::MAX, None)?;
+            let mut batch = Partitions::new(&inits, borrowed, t, f64::MAX, None)?;
             let started = Instant::now();
             let failures = advance_timed(&mut batch, args.steps, &gravity);
             let ns =
@@ -266,8 +264,9 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
     let ranges = crate::sim::partition::ranges(bodies, threads, &mechanism_ranges);
     let ns = if ranges.len() > 1 {
         let parts = ranges.len();
+        let used = crate::sim::partition::stepping_threads(parts, threads);
         println!(
-            "{} x {} steps, {parts} threads ({parts} partitions, cut between mechanisms)",
+            "{} x {} steps, {used} threads ({parts} partitions, cut between mechanisms)",
             args.repeats, args.steps
         );
         let mechanisms: Vec<_> = ranges
@@ -291,6 +290,7 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
                 &world.bodies,
                 &ranges,
                 borrowed,
+                threads,
                 &mechanisms,
                 &gravity,
                 f64::MAX,
@@ -309,7 +309,7 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
         }
         let many = median(&mut samples);
         println!(
-            "ns_per_step 1 thread={ns:.1} {parts} threads={many:.1}; scaling 1 -> {parts} threads: {:.2}x",
+            "ns_per_step 1 thread={ns:.1} {used} threads={many:.1}; scaling 1 -> {used} threads: {:.2}x",
             ns / many
         );
         many

@@ -796,8 +796,10 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     // What actually stepped: a small batch uses fewer partitions than threads (and a scene
     // with mechanisms is cut only between them).
     let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
-    let threads =
-        crate::sim::partition::ranges(world.bodies.len(), threads, &mechanism_ranges).len();
+    let threads = crate::sim::partition::stepping_threads(
+        crate::sim::partition::ranges(world.bodies.len(), threads, &mechanism_ranges).len(),
+        threads,
+    );
     println!(
         "simulated {} bodies for {} steps of {} s ({} s) with {} on {threads} thread{} in {wall:.2} s wall time",
         out.bodies,

@@ -5,7 +5,9 @@
 //! `batched_lanes_match_one_body_steps_bit_for_bit`), so a body's trajectory is the same bits
 //! however the batch is cut: partition `k` of `n` holds bodies `[k·c, (k+1)·c)`, `c = ⌈N/n⌉`,
 //! with its own integrator instance and [`Guard`], and the partitions are stepped on a rayon
-//! pool, several steps at a time ([`Partitions::advance`]: up to the next recorded step), so
+//! pool of `--threads` threads, up to [`PARTITIONS_PER_THREAD`] partitions per thread taken by
+//! whichever thread is free (work stealing evens out cores running at different speeds),
+//! several steps at a time ([`Partitions::advance`]: up to the next recorded step), so
 //! the threads meet once per recorded frame, not once per step. What the partitions report is
 //! merged as one batch would report it: [`StepStats`] merged over the partitions (counts add,
 //! maxima, the lowest failing body), and the run's [`Divergence`] is the earliest step's lowest
@@ -30,12 +32,30 @@ use std::sync::Arc;
 /// costs a few microseconds per window).
 pub const MIN_BODIES_PER_PARTITION: usize = 256;
 
-/// Number of partitions for `bodies` bodies on `threads` threads.
+/// Partitions per stepping thread. The threads meet at the end of every window, so with one
+/// partition per thread the window lasts as long as the slowest core takes: on the shared
+/// 2-core machine one core often runs at 2/3 of the other's speed for seconds (a 1-thread
+/// `tumble bench` at 10 000 bodies alternates between 31 and 45 ns per body-step), and the
+/// fast core idles. With several partitions per thread, rayon's work stealing hands the
+/// partitions to whichever thread is free, so both cores stay busy until the window's end.
+pub const PARTITIONS_PER_THREAD: usize = 8;
+
+/// Number of partitions for `bodies` bodies on `threads` threads: one on one thread,
+/// else up to [`PARTITIONS_PER_THREAD`] per thread, none smaller than
+/// [`MIN_BODIES_PER_PARTITION`].
 pub fn partition_count(bodies: usize, threads: usize) -> usize {
-    threads
-        .max(1)
+    if threads <= 1 {
+        return 1;
+    }
+    (threads * PARTITIONS_PER_THREAD)
         .min(bodies.div_ceil(MIN_BODIES_PER_PARTITION))
         .max(1)
+}
+
+/// Threads that step `partitions` partitions when `threads` are asked for (no more threads
+/// than partitions).
+pub fn stepping_threads(partitions: usize, threads: usize) -> usize {
+    threads.clamp(1, partitions.max(1))
 }
 
 /// Bodies per partition when `bodies` bodies are split into `partitions` (the last may have
@@ -50,14 +70,22 @@ pub fn chunk_size(bodies: usize, partitions: usize) -> usize {
 pub const MECHANISM_BODY_COST: usize = 30;
 
 /// The partitions of `bodies` bodies on `threads` threads when `mechanisms` (disjoint body
-/// ranges, sorted by start) must each stay whole. Without mechanisms: the uniform cuts at
-/// `k·c` ([`chunk_size`]). With them, the cuts balance the estimated cost (a free body 1, a
-/// mechanism's body [`MECHANISM_BODY_COST`]): cut `k` is the first body where the cost so far
-/// reaches `k/n` of the total, moved to the end of a mechanism it falls inside; empty
-/// partitions are dropped. [`partition_count`] applies to the total cost.
+/// ranges, sorted by start) must each stay whole: [`cut`] into [`partition_count`] partitions
+/// of the total cost (a free body 1, a mechanism's body [`MECHANISM_BODY_COST`]).
 pub fn ranges(bodies: usize, threads: usize, mechanisms: &[Range<usize>]) -> Vec<Range<usize>> {
+    let total =
+        bodies + mechanisms.iter().map(|m| m.len()).sum::<usize>() * (MECHANISM_BODY_COST - 1);
+    cut(bodies, partition_count(total, threads), mechanisms)
+}
+
+/// `bodies` bodies cut into (at most) `n` contiguous ranges, no mechanism cut. Without
+/// mechanisms: the uniform cuts at `k·c` ([`chunk_size`]). With them, the cuts balance the
+/// estimated cost (a free body 1, a mechanism's body [`MECHANISM_BODY_COST`]): cut `k` is the
+/// first body where the cost so far reaches `k/n` of the total, moved to the end of a
+/// mechanism it falls inside; empty ranges are dropped.
+pub fn cut(bodies: usize, n: usize, mechanisms: &[Range<usize>]) -> Vec<Range<usize>> {
+    let n = n.max(1);
     if mechanisms.is_empty() {
-        let n = partition_count(bodies, threads);
         let c = chunk_size(bodies, n);
         return (0..n)
             .map(|k| (k * c).min(bodies)..((k + 1) * c).min(bodies))
@@ -70,7 +98,6 @@ pub fn ranges(bodies: usize, threads: usize, mechanisms: &[Range<usize>]) -> Vec
         cost[m.clone()].fill(MECHANISM_BODY_COST);
     }
     let total: usize = cost.iter().sum();
-    let n = partition_count(total, threads);
     let mut out = Vec::with_capacity(n);
     let (mut start, mut so_far, mut i) = (0, 0, 0);
     for k in 1..=n {
@@ -204,11 +231,12 @@ pub struct Window {
 
 impl<'a> Partitions<'a> {
     /// Splits `inits` into `integrators.len()` uniform partitions (each integrator is
-    /// initialised on its partition) with one guard each; steps them on a pool of that many
-    /// threads when there is more than one. No mechanisms.
+    /// initialised on its partition) with one guard each; steps them on a pool of
+    /// [`stepping_threads`] threads when that is more than one. No mechanisms.
     pub fn new(
         inits: &[BodyInit],
         integrators: Vec<&'a mut dyn Integrator>,
+        threads: usize,
         divergence_energy_ratio: f64,
         stop_on_newton_failure: Option<u32>,
     ) -> anyhow::Result<Self> {
@@ -221,6 +249,7 @@ impl<'a> Partitions<'a> {
             inits,
             &ranges,
             integrators,
+            threads,
             &none,
             &Vector3::zeros(),
             divergence_energy_ratio,
@@ -231,13 +260,15 @@ impl<'a> Partitions<'a> {
     }
 
     /// Partitions `ranges` of `inits` (contiguous, covering the batch in order), stepped by
-    /// `integrators` (one each, initialised here); `mechanisms[k]` are partition `k`'s
+    /// `integrators` (one each, initialised here) on [`stepping_threads`] threads;
+    /// `mechanisms[k]` are partition `k`'s
     /// mechanisms re-based to it ([`rebase`]), which its guard watches ([`Guard::watch_mechanisms`],
     /// under `gravity`).
     pub fn with_ranges(
         inits: &[BodyInit],
         ranges: &[Range<usize>],
         integrators: Vec<&'a mut dyn Integrator>,
+        threads: usize,
         mechanisms: &[Vec<Arc<Mechanism>>],
         gravity: &Vector3<f64>,
         divergence_energy_ratio: f64,
@@ -265,10 +296,11 @@ impl<'a> Partitions<'a> {
                 }
             })
             .collect();
-        let pool = if parts.len() > 1 {
+        let threads = stepping_threads(parts.len(), threads);
+        let pool = if threads > 1 {
             Some(
                 rayon::ThreadPoolBuilder::new()
-                    .num_threads(parts.len())
+                    .num_threads(threads)
                     .thread_name(|i| format!("tumble-step-{i}"))
                     .build()?,
             )
@@ -350,7 +382,13 @@ impl<'a> Partitions<'a> {
             }
         };
         match &self.pool {
-            Some(pool) => pool.install(|| self.parts.par_iter_mut().for_each(step_part)),
+            Some(pool) => pool.install(|| {
+                // One task per partition, so that a free thread can take any of them.
+                self.parts
+                    .par_iter_mut()
+                    .with_max_len(1)
+                    .for_each(step_part)
+            }),
             None => self.parts.iter_mut().for_each(step_part),
         }
         let stop = self
@@ -390,9 +428,18 @@ mod tests {
         assert_eq!(partition_count(10, 8), 1);
         assert_eq!(partition_count(256, 2), 1);
         assert_eq!(partition_count(257, 2), 2);
-        assert_eq!(partition_count(10_000, 2), 2);
+        assert_eq!(partition_count(600, 2), 3);
+        assert_eq!(partition_count(10_000, 2), 2 * PARTITIONS_PER_THREAD);
+        assert_eq!(partition_count(100_000, 3), 3 * PARTITIONS_PER_THREAD);
+        assert_eq!(partition_count(10_000, 1), 1);
         assert_eq!(partition_count(10_000, 0), 1);
         assert_eq!(partition_count(0, 4), 1);
+        // No more threads than partitions, at least one.
+        assert_eq!(stepping_threads(16, 2), 2);
+        assert_eq!(stepping_threads(3, 8), 3);
+        assert_eq!(stepping_threads(1, 2), 1);
+        assert_eq!(stepping_threads(0, 2), 1);
+        assert_eq!(stepping_threads(5, 0), 1);
     }
 
     /// Without mechanisms the ranges are the uniform `k·c` cuts; with them no cut falls inside a
@@ -400,8 +447,13 @@ mod tests {
     /// mechanism's cost.
     #[test]
     fn ranges_cut_between_mechanisms_and_balance_the_cost() {
-        assert_eq!(ranges(1000, 2, &[]), vec![0..500, 500..1000]);
-        assert_eq!(ranges(1003, 3, &[]), vec![0..335, 335..670, 670..1003]);
+        assert_eq!(cut(1000, 2, &[]), vec![0..500, 500..1000]);
+        assert_eq!(cut(1003, 3, &[]), vec![0..335, 335..670, 670..1003]);
+        assert_eq!(
+            ranges(1000, 2, &[]),
+            vec![0..250, 250..500, 500..750, 750..1000]
+        );
+        assert_eq!(ranges(1000, 1, &[]), vec![0..1000]);
         assert_eq!(ranges(100, 4, &[]), vec![0..100]);
         assert_eq!(ranges(0, 4, &[]), vec![0..0]);
         // 40 double pendulums, 200 free bodies, 20 three-link chains.
@@ -419,7 +471,7 @@ mod tests {
                 .sum()
         };
         for threads in 1..=5 {
-            let r = ranges(340, threads, &mechanisms);
+            let r = cut(340, threads, &mechanisms);
             assert_eq!(r.len(), threads, "{threads}: {r:?}");
             assert_eq!(r[0].start, 0);
             assert_eq!(r.last().unwrap().end, 340);
@@ -446,8 +498,12 @@ mod tests {
         }
         // One mechanism bigger than a share: it stays whole, the rest after it.
         let whole = |r: Range<usize>| vec![r];
-        assert_eq!(ranges(600, 2, &whole(0..500)), vec![0..500, 500..600]);
-        assert_eq!(ranges(600, 2, &whole(100..600)), vec![0..600]);
+        assert_eq!(cut(600, 2, &whole(0..500)), vec![0..500, 500..600]);
+        assert_eq!(cut(600, 2, &whole(100..600)), vec![0..600]);
+        // The partition count of a batch with mechanisms follows its total cost: 340 bodies
+        // costing 40·2·30 + 200 + 20·3·30 = 4400, on 2 threads 16 partitions.
+        assert_eq!(ranges(340, 2, &mechanisms).len(), 2 * PARTITIONS_PER_THREAD);
+        assert_eq!(ranges(340, 1, &mechanisms), vec![0..340]);
     }
 
     /// The cut is the first body at which the cost so far reaches the share: a pendulum (2
@@ -455,7 +511,7 @@ mod tests {
     #[test]
     fn a_cut_falls_on_the_first_body_reaching_the_share() {
         let pendulum: Vec<Range<usize>> = std::iter::once(0..2).collect();
-        assert_eq!(ranges(600, 2, &pendulum), vec![0..271, 271..600]);
+        assert_eq!(cut(600, 2, &pendulum), vec![0..271, 271..600]);
     }
 
     /// Records the thread each step ran on.
@@ -490,7 +546,7 @@ mod tests {
                 .iter_mut()
                 .map(|i| i as &mut dyn Integrator)
                 .collect();
-            let mut batch = Partitions::new(&inits, borrowed, f64::MAX, None).unwrap();
+            let mut batch = Partitions::new(&inits, borrowed, parts, f64::MAX, None).unwrap();
             batch.advance(0, 3, &g);
             let names = log.lock().unwrap().clone();
             assert_eq!(names.len(), 3 * parts);
@@ -500,6 +556,51 @@ mod tests {
                 .count();
             assert_eq!(on_pool, if parts == 1 { 0 } else { 3 * parts }, "{names:?}");
         }
+    }
+
+    /// A partition whose step is slow: the other thread steps all the others (work stealing),
+    /// and the pool has as many threads as asked, not one per partition.
+    #[test]
+    fn a_free_thread_takes_the_partitions_a_slow_one_leaves() {
+        struct Slow(
+            std::sync::Arc<std::sync::Mutex<Vec<(usize, String)>>>,
+            usize,
+        );
+        impl Integrator for Slow {
+            fn name(&self) -> &'static str {
+                "slow"
+            }
+            fn init(&mut self, _bodies: &Bodies) {}
+            fn step(&mut self, _bodies: &mut Bodies, _gravity: &Vector3<f64>) -> StepStats {
+                if self.1 == 0 {
+                    std::thread::sleep(std::time::Duration::from_millis(200));
+                }
+                let name = std::thread::current().name().unwrap_or("").to_owned();
+                self.0.lock().unwrap().push((self.1, name));
+                StepStats::default()
+            }
+            fn dt(&self) -> f64 {
+                0.001
+            }
+        }
+        let inits = free_body_batch(2048);
+        let log = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let mut integrators: Vec<Slow> = (0..8).map(|k| Slow(log.clone(), k)).collect();
+        let borrowed = integrators
+            .iter_mut()
+            .map(|i| i as &mut dyn Integrator)
+            .collect();
+        let mut batch = Partitions::new(&inits, borrowed, 2, f64::MAX, None).unwrap();
+        assert_eq!(batch.parts.len(), 8);
+        batch.advance(0, 1, &Vector3::zeros());
+        let log = log.lock().unwrap().clone();
+        assert_eq!(log.len(), 8);
+        let slow = &log.iter().find(|(k, _)| *k == 0).unwrap().1;
+        let threads: std::collections::BTreeSet<&String> = log.iter().map(|(_, n)| n).collect();
+        assert_eq!(threads.len(), 2, "{log:?}");
+        assert!(threads.iter().all(|n| n.starts_with("tumble-step-")));
+        // The slow thread stepped partition 0 alone; the other seven went to the free one.
+        assert_eq!(log.iter().filter(|(_, n)| n == slow).count(), 1, "{log:?}");
     }
 
     /// Re-based mechanisms count their bodies from the partition's start and share the model.
@@ -541,7 +642,8 @@ mod tests {
         for &kind in IntegratorKind::ALL {
             let settings = Default::default();
             let mut one = kind.build(0.002, &settings);
-            let mut whole = Partitions::new(&inits, vec![one.as_mut()], 100.0, Some(1024)).unwrap();
+            let mut whole =
+                Partitions::new(&inits, vec![one.as_mut()], 1, 100.0, Some(1024)).unwrap();
             let mut three: Vec<_> = (0..3).map(|_| kind.build(0.002, &settings)).collect();
             let mut split = Partitions::new(
                 &inits,
@@ -549,6 +651,7 @@ mod tests {
                     .iter_mut()
                     .map(|b| &mut **b as &mut dyn Integrator)
                     .collect(),
+                2,
                 100.0,
                 Some(1024),
             )

@@ -52,7 +52,7 @@ pub fn steps_in(secs: f64, dt: f64) -> u64 {
     (secs / dt).round() as u64
 }
 
-/// Seconds to step `init` `steps` steps split into `parts` partitions on as many threads
+/// Seconds to step `init` `steps` steps split into `parts` partitions on `threads` threads
 /// ([`crate::sim::partition`]; the threads meet every 10 steps, a 100 Hz recording at 1 ms).
 fn timed_partitions(
     init: &[BodyInit],
@@ -62,6 +62,7 @@ fn timed_partitions(
     gravity: &Vector3<f64>,
     steps: u64,
     parts: usize,
+    threads: usize,
 ) -> f64 {
     let mut integrators: Vec<Box<dyn crate::sim::Integrator>> =
         (0..parts).map(|_| kind.build(dt, variational)).collect();
@@ -69,7 +70,8 @@ fn timed_partitions(
         .iter_mut()
         .map(|b| &mut **b as &mut dyn crate::sim::Integrator)
         .collect();
-    let Ok(mut batch) = crate::sim::partition::Partitions::new(init, borrowed, f64::MAX, None)
+    let Ok(mut batch) =
+        crate::sim::partition::Partitions::new(init, borrowed, threads, f64::MAX, None)
     else {
         return f64::NAN;
     };
@@ -151,7 +153,16 @@ pub fn measure(
     let parts = crate::sim::partition::partition_count(init.len(), settings.threads);
     let ns_per_body_step = timed_median(settings.repeats, steps, init.len(), &mut || {
         if parts > 1 {
-            timed_partitions(init, kind, dt, variational, gravity, steps, parts)
+            timed_partitions(
+                init,
+                kind,
+                dt,
+                variational,
+                gravity,
+                steps,
+                parts,
+                settings.threads,
+            )
         } else {
             let mut bodies = start.clone();
             let mut integrator = kind.build(dt, variational);
