@@ -4,13 +4,14 @@
 # 100 Hz, each run 1e7 body-steps (10 s, 1 s, 0.1 s). Prints per size:
 #   startup_s        wall time of `simulate --duration 0` (load and check URDFs, build, open and
 #                    finish both files with one frame each: start-up plus finish)
-#   bare_ns          `tumble bench --bodies N --threads 1`: ns per body-step, no recording
+#   bare_ns          `tumble bench --scene swarm_N.toml --threads 1`: ns per body-step of the
+#                    same batch, no recording
 #   e2e_ns_T1/_T2    (wall(simulate) - startup) / body-steps with both files, 1 and 2 threads
 #                    (median of REPEATS runs each, default 3, the thread counts taking turns)
 #   mcap_B, rrd_B    bytes per recorded pose (file size / (bodies x recorded steps))
 #   peak_MiB         peak resident memory of the 2-thread simulate (VmHWM)
-#   bench_scaling    `tumble bench --threads 2 --repeats 7`: 1 -> 2 thread speedup of the bare
-#                    stepping (ratio of the medians; runs alternate between the thread counts)
+#   bench_scaling    `tumble bench --scene swarm_N.toml --threads 2 --repeats 7`: 1 -> 2 thread
+#                    speedup of the bare stepping of the same batch (ratio of the medians)
 # then a control: two 1-thread benches at once against one alone (ratio near 1.0: two free
 # cores; near 2.0: the machine had one, so no thread count can scale there).
 # Usage: bash scripts/bench_scale.sh [SIZES...]   (default 1000 10000 100000; OUT=dir for the files)
@@ -36,8 +37,9 @@ for n in "${sizes[@]}"; do
   start0=$(date +%s.%N)
   "$T" simulate "$out/swarm_$n.toml" --duration 0 --out "$out/s0" --force --threads 1 >/dev/null
   startup=$(awk -v a="$start0" -v b="$(date +%s.%N)" 'BEGIN {printf "%.3f", b - a}')
-  bare=$("$T" bench --bodies "$n" --steps $((10000000 / n)) --repeats 3 --threads 1 | tail -1 | cut -d= -f2)
-  scaling=$("$T" bench --bodies "$n" --steps $((10000000 / n)) --repeats 7 --threads 2 | sed -nE 's/.*scaling 1 -> 2 threads: ([0-9.]+)x/\1/p')
+  # The bare step of the same batch (the swarm itself, not bench's synthetic one).
+  bare=$("$T" bench --scene "$out/swarm_$n.toml" --steps $((10000000 / n)) --repeats 3 --threads 1 | tail -1 | cut -d= -f2)
+  scaling=$("$T" bench --scene "$out/swarm_$n.toml" --steps $((10000000 / n)) --repeats 7 --threads 2 | sed -nE 's/.*scaling 1 -> 2 threads: ([0-9.]+)x/\1/p')
   # The end-to-end runs: REPEATS (default 3) of each thread count, taking turns; the median.
   walls1=(); walls2=()
   for _ in $(seq "${REPEATS:-3}"); do
