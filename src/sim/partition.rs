@@ -504,6 +504,9 @@ mod tests {
         // costing 40·2·30 + 200 + 20·3·30 = 4400, on 2 threads 16 partitions.
         assert_eq!(ranges(340, 2, &mechanisms).len(), 2 * PARTITIONS_PER_THREAD);
         assert_eq!(ranges(340, 1, &mechanisms), vec![0..340]);
+        // 17 pendulums alone cost 34·30 = 1020: 4 partitions of at least 256 (not 5).
+        let pendulums: Vec<Range<usize>> = (0..17).map(|k| 2 * k..2 * k + 2).collect();
+        assert_eq!(ranges(34, 8, &pendulums).len(), 4);
     }
 
     /// The cut is the first body at which the cost so far reaches the share: a pendulum (2
