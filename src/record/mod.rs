@@ -18,6 +18,7 @@ pub mod ros2;
 pub mod ros2_msgs;
 pub mod rrd_footer;
 pub mod scene_update;
+pub mod writeback;
 
 use crate::model::Visual;
 use nalgebra::{Isometry3, Vector3};
@@ -260,6 +261,12 @@ pub fn finish_all<T>(
             return Err(e);
         }
     };
+    // Every sink with a file starts completing at once (on its own thread when pipelined:
+    // the summaries, flushes and syncs of the files overlap), then each is waited for.
+    let mut sinks = sinks;
+    for sink in sinks.iter_mut().filter(|s| s.path().is_some()) {
+        sink.start_complete();
+    }
     let mut completed = Vec::new();
     for sink in sinks {
         let outcome = match sink.path() {
@@ -300,6 +307,10 @@ pub trait Sink {
     fn complete(self: Box<Self>) -> anyhow::Result<()> {
         self.finish()
     }
+    /// Starts [`Sink::complete`] without waiting for it, so that several sinks complete at the
+    /// same time ([`finish_all`]); the caller then calls `complete`, which waits. Sinks that
+    /// complete on the caller's thread do nothing here (the default).
+    fn start_complete(&mut self) {}
 }
 
 #[cfg(test)]

@@ -125,6 +125,8 @@ enum Job {
 /// A sink running on its own thread.
 pub struct Pipelined {
     jobs: Option<SyncSender<Job>>,
+    /// `Some(keep_part)` once the end was sent ([`Sink::start_complete`]).
+    ended: Option<bool>,
     share: FrameShare,
     thread: Option<JoinHandle<anyhow::Result<()>>>,
     path: Option<PathBuf>,
@@ -178,6 +180,7 @@ impl Pipelined {
             .context("cannot start a recording thread")?;
         Ok(Self {
             jobs: Some(jobs),
+            ended: None,
             share: share.clone(),
             thread: Some(thread),
             path,
@@ -195,11 +198,19 @@ impl Pipelined {
         }
     }
 
-    fn end(mut self, keep_part: bool) -> anyhow::Result<()> {
-        let sent = self
-            .jobs
+    /// Sends the end (once); whether the thread took it.
+    fn send_end(&mut self, keep_part: bool) -> bool {
+        if let Some(sent_keep) = self.ended {
+            return sent_keep == keep_part;
+        }
+        self.ended = Some(keep_part);
+        self.jobs
             .as_ref()
-            .is_some_and(|jobs| jobs.send(Job::End(keep_part)).is_ok());
+            .is_some_and(|jobs| jobs.send(Job::End(keep_part)).is_ok())
+    }
+
+    fn end(mut self, keep_part: bool) -> anyhow::Result<()> {
+        let sent = self.send_end(keep_part);
         let result = self.join();
         if sent {
             result
@@ -238,6 +249,10 @@ impl Sink for Pipelined {
 
     fn complete(self: Box<Self>) -> anyhow::Result<()> {
         self.end(true)
+    }
+
+    fn start_complete(&mut self) {
+        self.send_end(true);
     }
 }
 

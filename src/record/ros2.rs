@@ -127,7 +127,7 @@ struct ChannelGroup {
 
 /// Writes a ROS 2 MCAP file; see the module documentation for its layout.
 pub struct Ros2Sink {
-    writer: mcap::Writer<BufWriter<File>>,
+    writer: super::mcap::McapFileWriter,
     path: PathBuf,
     part: PathBuf,
     groups: Vec<ChannelGroup>,
@@ -167,7 +167,7 @@ impl Ros2Sink {
             .profile("ros2")
             .library(format!("tumble {}", crate::VERSION))
             .chunk_size(Some(super::mcap::CHUNK_BYTES))
-            .create(BufWriter::new(file))
+            .create(BufWriter::new(super::writeback::WritebackFile::new(file)))
             .with_context(|| format!("cannot write {}", part.display()))?;
         // First, before any schema or channel (see the module documentation).
         let mut metadata = layout.metadata.clone();

@@ -10,6 +10,7 @@
 //! SHA-256, so the hash is unchanged), and writes the footer again with fresh length, offsets
 //! and checksum. Same inputs, same bytes.
 
+use super::writeback::WritebackFile;
 use anyhow::{Context, Result, anyhow};
 use re_protos::external::prost::Message as _;
 use rerun::external::arrow::datatypes::Schema as ArrowSchema;
@@ -23,7 +24,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The encoder's writer; see the module doc.
 pub struct FooterWriter {
-    inner: BufWriter<File>,
+    inner: BufWriter<WritebackFile>,
     /// Bytes written to `inner` so far.
     written: u64,
     /// Set by [`FooterHold::hold`].
@@ -47,7 +48,7 @@ impl FooterWriter {
     pub fn new(file: File) -> (Self, FooterHold) {
         let hold = Arc::new(AtomicBool::new(false));
         let writer = Self {
-            inner: BufWriter::new(file),
+            inner: BufWriter::new(WritebackFile::new(file)),
             written: 0,
             hold: hold.clone(),
             held: Vec::new(),
@@ -64,6 +65,7 @@ impl FooterWriter {
         self.inner.flush()?;
         self.inner
             .into_inner()
+            .map(WritebackFile::into_inner)
             .map_err(|e| anyhow!("cannot flush the .rrd file: {}", e.error()))
     }
 }
