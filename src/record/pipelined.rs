@@ -300,6 +300,75 @@ mod tests {
         }
     }
 
+    /// Completes only once the other sink of the pair is completing too (or fails after 20 s).
+    struct Rendezvous {
+        path: PathBuf,
+        started: std::sync::mpsc::Sender<()>,
+        other_started: std::sync::mpsc::Receiver<()>,
+    }
+
+    impl Sink for Rendezvous {
+        fn write(&mut self, _frame: &Frame<'_>) -> anyhow::Result<()> {
+            Ok(())
+        }
+        fn finish(self: Box<Self>) -> anyhow::Result<()> {
+            anyhow::bail!("finish is not expected")
+        }
+        fn path(&self) -> Option<PathBuf> {
+            Some(self.path.clone())
+        }
+        fn complete(self: Box<Self>) -> anyhow::Result<()> {
+            self.started.send(()).ok();
+            self.other_started
+                .recv_timeout(std::time::Duration::from_secs(20))
+                .map_err(|_| {
+                    anyhow!(
+                        "{}: the other sink never started completing",
+                        self.path.display()
+                    )
+                })
+        }
+    }
+
+    fn rendezvous(
+        path: &std::path::Path,
+        started: std::sync::mpsc::Sender<()>,
+        other_started: std::sync::mpsc::Receiver<()>,
+        share: &FrameShare,
+    ) -> Box<dyn Sink> {
+        let sink = Rendezvous {
+            path: path.to_path_buf(),
+            started,
+            other_started,
+        };
+        Box::new(Pipelined::shared(Box::new(sink), "rendezvous", share, 2).unwrap())
+    }
+
+    /// `finish_all` starts every pipelined sink's completion before waiting for any: two sinks
+    /// that each complete only while the other completes too both succeed (one after the
+    /// other, the first would wait for the second forever: the 20 s timeout fails it;
+    /// checked by disabling `start_complete`).
+    #[test]
+    fn the_sinks_of_a_run_complete_at_the_same_time() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a_started, a_seen) = std::sync::mpsc::channel();
+        let (b_started, b_seen) = std::sync::mpsc::channel();
+        let (a, b) = (dir.path().join("a.x"), dir.path().join("b.x"));
+        for path in [&a, &b] {
+            std::fs::write(crate::fsutil::part_path(path), b"done").unwrap();
+        }
+        let share = FrameShare::default();
+        let sinks = vec![
+            rendezvous(&a, a_started, b_seen, &share),
+            rendezvous(&b, b_started, a_seen, &share),
+        ];
+        crate::record::finish_all(sinks, Ok(()), &[a.as_path(), b.as_path()]).unwrap();
+        assert!(
+            a.exists() && b.exists(),
+            "both files renamed onto their names"
+        );
+    }
+
     #[test]
     fn frames_arrive_in_order_and_finish_runs_on_the_thread() {
         let steps = Arc::new(Mutex::new(Vec::new()));
