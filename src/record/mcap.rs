@@ -251,6 +251,14 @@ pub fn body_states_files() -> [prost_types::FileDescriptorProto; 2] {
     [timestamp_file, tumble_file]
 }
 
+/// Which geometry message a `SceneUpdate` channel carries.
+enum SceneKind {
+    /// `/scene`: the visuals of the group's link frames.
+    Geometry,
+    /// `/inertia`: the equivalent inertia ellipsoids of the group's bodies.
+    Inertia,
+}
+
 /// The channels of one topic group.
 struct ChannelGroup {
     tf_channel: u16,
@@ -349,8 +357,6 @@ pub struct McapSink {
     joint_names: Vec<String>,
     mechanism_names: Vec<String>,
     buf: Vec<u8>,
-    /// The `/scene` and `/inertia` messages of each group (encoded), written with the first frame.
-    scene_updates: Vec<(u16, Vec<u8>)>,
     warnings: Vec<String>,
 }
 
@@ -455,26 +461,12 @@ impl McapSink {
             let scene_topic = format!("{}{SCENE_TOPIC}", group.prefix);
             let scene_channel =
                 writer.add_channel(scene_schema_id, &scene_topic, "protobuf", &no_metadata)?;
-            // Encoded a slice of frames at a time: a `SceneUpdate`'s entities are a repeated
-            // field, so the concatenated encodings are the encoding of the whole message, and
-            // the entities (hundreds of bytes each as structs) never all exist at once.
-            let mut update = Vec::new();
-            for frames in layout.frames[group.frames.clone()].chunks(SCENE_SLICE) {
-                Message::encode(
-                    &geometry_update(frames, t0, &mut meshes, &mut warnings),
-                    &mut update,
-                )?;
-            }
-            scene_updates.push((scene_channel, update));
+            scene_updates.push((scene_channel, SceneKind::Geometry, group.clone()));
             if options.ellipsoids {
                 let topic = format!("{}{INERTIA_TOPIC}", group.prefix);
                 let channel =
                     writer.add_channel(scene_schema_id, &topic, "protobuf", &no_metadata)?;
-                let mut update = Vec::new();
-                for bodies in layout.bodies[group.bodies.clone()].chunks(SCENE_SLICE) {
-                    Message::encode(&inertia_update(&layout.frames, bodies, t0), &mut update)?;
-                }
-                scene_updates.push((channel, update));
+                scene_updates.push((channel, SceneKind::Inertia, group.clone()));
             }
             let (mut joints_channel, mut mechanisms_channel) = (None, None);
             if let Some((joints_schema, mechanisms_schema)) = articulated {
@@ -517,6 +509,38 @@ impl McapSink {
                 group,
             });
         }
+        // The geometry, once, stamped t = 0 like its entities (the first recorded step is
+        // step 0), each message written as soon as it is encoded and then dropped: at 100 000
+        // bodies `/scene` and `/inertia` are about 20 MB each, and held until the first frame
+        // they were a fifth of the run's peak memory. Encoded a slice of frames at a time: a
+        // `SceneUpdate`'s entities are a repeated field, so the concatenated encodings are the
+        // encoding of the whole message, and the entities (hundreds of bytes each as structs)
+        // never all exist at once.
+        for (channel, kind, group) in scene_updates {
+            let mut update = Vec::new();
+            match kind {
+                SceneKind::Geometry => {
+                    for frames in layout.frames[group.frames.clone()].chunks(SCENE_SLICE) {
+                        Message::encode(
+                            &geometry_update(frames, t0, &mut meshes, &mut warnings),
+                            &mut update,
+                        )?;
+                    }
+                }
+                SceneKind::Inertia => {
+                    for bodies in layout.bodies[group.bodies.clone()].chunks(SCENE_SLICE) {
+                        Message::encode(&inertia_update(&layout.frames, bodies, t0), &mut update)?;
+                    }
+                }
+            }
+            let header = mcap::records::MessageHeader {
+                channel_id: channel,
+                sequence: 0,
+                log_time: 0,
+                publish_time: 0,
+            };
+            writer.write_to_known_channel(&header, &update)?;
+        }
         Ok(Self {
             writer,
             path: path.to_path_buf(),
@@ -526,7 +550,6 @@ impl McapSink {
             joint_names: layout.joints.iter().map(|j| j.name.clone()).collect(),
             mechanism_names: layout.mechanisms.iter().map(|m| m.name.clone()).collect(),
             buf: Vec::new(),
-            scene_updates,
             warnings,
         })
     }
@@ -551,11 +574,6 @@ impl McapSink {
 impl Sink for McapSink {
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
         let time_ns = u64::try_from(frame.time_ns).context("negative simulation time")?;
-        // The geometry, once, at the first recorded step (stamped t = 0 like its entities).
-        for (channel, update) in std::mem::take(&mut self.scene_updates) {
-            self.buf = update;
-            self.write_message(channel, time_ns)?;
-        }
         for g in 0..self.groups.len() {
             let (tf_channel, bodies_channel) =
                 (self.groups[g].tf_channel, self.groups[g].bodies_channel);

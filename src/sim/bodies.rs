@@ -39,8 +39,19 @@ pub struct Bodies {
 }
 
 impl Bodies {
+    /// The batch of `inits`, every array allocated to its exact size (growing by pushes would
+    /// leave up to half of each array unused: 30 % more memory at 100 000 bodies).
     pub fn new(inits: &[BodyInit]) -> Self {
-        let mut bodies = Self::default();
+        let n = inits.len();
+        let mut bodies = Self {
+            mass: Vec::with_capacity(n),
+            inertia_body: Vec::with_capacity(n),
+            inv_inertia_body: Vec::with_capacity(n),
+            world_from_body: Vec::with_capacity(n),
+            angmom_body: Vec::with_capacity(n),
+            com_world: Vec::with_capacity(n),
+            linvel_world: Vec::with_capacity(n),
+        };
         for init in inits {
             bodies.push(init);
         }
