@@ -1015,21 +1015,12 @@ impl RerunSink {
         if let Some(batched) = &self.batched {
             for (b, batch) in batched.list.iter().enumerate() {
                 let per_row = batch.frames.len();
-                let mut poses = rerun::InstancePoses3D::update_fields()
-                    .with_translations(batched.translations[b].iter().copied())
-                    .with_quaternions(
-                        batched.quaternions[b]
-                            .iter()
-                            .map(|q| rerun::Quaternion::from_xyzw(*q)),
-                    );
-                if let Some(scale) = batch.scale {
-                    poses = poses.with_scales(std::iter::repeat_n(scale, n * per_row));
-                }
                 rec.send_columns(
                     batch.entity.clone(),
                     times(),
-                    poses.columns(std::iter::repeat_n(per_row, n))?,
+                    super::rerun_batched::pose_columns(batched, b, n)?,
                 )?;
+                debug_assert_eq!(batched.translations[b].len(), n * per_row);
             }
         }
         for (i, track) in self.frames.iter().enumerate() {

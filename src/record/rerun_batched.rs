@@ -247,9 +247,128 @@ impl Batches {
     }
 }
 
+/// The `InstancePoses3D` columns of batch `b`'s buffered `rows` rows (translations,
+/// quaternions, and the mesh scale when there is one), `batch.frames.len()` instances per row.
+///
+/// The component arrays are built straight from the buffered f32 values: a
+/// `FixedSizeList<Float32>` of 3 (translations, scales) or 4 (quaternions) per instance, the
+/// data types of `Translation3D`, `RotationQuat` and `Scale3D` (`Vec3D`, `Quaternion`: checked
+/// against rerun's own in the tests). Rerun's generic serialisation of the same values (an
+/// iterator over every float of every instance) was a third of the Rerun thread's time at 10 000
+/// bodies; the values and the columns are the same.
+pub fn pose_columns(
+    batches: &Batches,
+    b: usize,
+    rows: usize,
+) -> anyhow::Result<Vec<rerun::SerializedComponentColumn>> {
+    let batch = &batches.list[b];
+    let per_row = batch.frames.len();
+    let lengths = || std::iter::repeat_n(per_row, rows);
+    let translations = batches.translations[b].as_flattened();
+    let quaternions = batches.quaternions[b].as_flattened();
+    let mut columns = vec![
+        f32_lists(
+            translations,
+            3,
+            rerun::InstancePoses3D::descriptor_translations(),
+        )
+        .partitioned(lengths())?,
+        f32_lists(
+            quaternions,
+            4,
+            rerun::InstancePoses3D::descriptor_quaternions(),
+        )
+        .partitioned(lengths())?,
+    ];
+    if let Some(scale) = batch.scale {
+        let scales: Vec<f32> = std::iter::repeat_n(scale, rows * per_row)
+            .flatten()
+            .collect();
+        columns.push(
+            f32_lists(&scales, 3, rerun::InstancePoses3D::descriptor_scales())
+                .partitioned(lengths())?,
+        );
+    }
+    Ok(columns)
+}
+
+/// `values` as a component batch of fixed-size lists of `size` f32 (non-null items named
+/// `item`, the layout of Rerun's `Vec3D` and `Quaternion` data types).
+fn f32_lists(
+    values: &[f32],
+    size: i32,
+    descriptor: rerun::ComponentDescriptor,
+) -> rerun::SerializedComponentBatch {
+    use rerun::external::arrow::array::{FixedSizeListArray, Float32Array};
+    use rerun::external::arrow::datatypes::{DataType, Field};
+    use std::sync::Arc;
+    let item = Arc::new(Field::new("item", DataType::Float32, false));
+    let array = FixedSizeListArray::new(
+        item,
+        size,
+        Arc::new(Float32Array::from(values.to_vec())),
+        None,
+    );
+    rerun::SerializedComponentBatch::new(Arc::new(array), descriptor)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The columns built from the f32 values are those Rerun's own serialisation makes of the
+    /// same poses (data types, descriptors, row partition, values), with and without a scale.
+    #[test]
+    fn pose_columns_are_rerun_s_own() {
+        use rerun::external::arrow::array::Array;
+        let translations = vec![
+            [1.0, 2.0, 3.0],
+            [4.0, 5.0, -6.5],
+            [7.0, 8.0, 9.0],
+            [0.0, -0.0, 1e-30],
+        ];
+        let quaternions = vec![
+            [0.0, 0.0, 0.0, 1.0],
+            [0.5, 0.5, 0.5, 0.5],
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0, 0.6, 0.0, 0.8],
+        ];
+        for scale in [None, Some([2.0f32, 3.0, 4.0])] {
+            let batches = Batches {
+                list: vec![Batch {
+                    entity: entity(&["a", "b"]),
+                    first_frame: 0,
+                    content: Content::Visual { index: 0 },
+                    frames: vec![0, 1],
+                    offset: None,
+                    scale,
+                }],
+                translations: vec![translations.clone()],
+                quaternions: vec![quaternions.clone()],
+                rows_per_send: 2,
+            };
+            let ours = pose_columns(&batches, 0, 2).unwrap();
+            let mut poses = rerun::InstancePoses3D::update_fields()
+                .with_translations(translations.iter().copied())
+                .with_quaternions(quaternions.iter().map(|q| rerun::Quaternion::from_xyzw(*q)));
+            if let Some(scale) = scale {
+                poses = poses.with_scales(std::iter::repeat_n(scale, 4));
+            }
+            let theirs: Vec<_> = poses.columns(std::iter::repeat_n(2, 2)).unwrap().collect();
+            assert_eq!(ours.len(), theirs.len());
+            for (a, b) in ours.iter().zip(&theirs) {
+                assert_eq!(a.descriptor, b.descriptor);
+                assert_eq!(a.list_array.data_type(), b.list_array.data_type());
+                assert_eq!(a.list_array.offsets(), b.list_array.offsets());
+                assert_eq!(
+                    a.list_array.to_data(),
+                    b.list_array.to_data(),
+                    "{:?}",
+                    a.descriptor
+                );
+            }
+        }
+    }
 
     #[test]
     fn copy_indices_are_removed_from_group_names() {
