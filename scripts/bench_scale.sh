@@ -7,7 +7,11 @@
 #   bare_ns          `tumble bench --scene swarm_N.toml --threads 1`: ns per body-step of the
 #                    same batch, no recording
 #   e2e_ns_T1/_T2    (wall(simulate) - startup) / body-steps with both files, 1 and 2 threads
-#                    (median of REPEATS runs each, default 3, the thread counts taking turns)
+#                    (median of REPEATS runs each, default 5, the thread counts taking turns)
+#   ratio_T1         median over the REPEATS rounds of e2e_T1 / bare, each round's bare timed
+#                    right before its end-to-end runs (`bench --scene --threads 1`, one run of
+#                    the same steps): the shared machine's speed moves by a third within
+#                    minutes, and a ratio of two figures taken minutes apart moves with it
 #   mcap_B, rrd_B    bytes per recorded pose (file size / (bodies x recorded steps))
 #   peak_MiB         peak resident memory of the 2-thread simulate (VmHWM)
 #   bench_scaling    `tumble bench --scene swarm_N.toml --threads 2 --repeats 7`: 1 -> 2 thread
@@ -27,7 +31,7 @@ cleanup() { [ -n "${OUT:-}" ] || rm -rf "$out"; }
 trap cleanup EXIT
 cp models/box.urdf models/t_handle.urdf models/disc.urdf "$out/"
 secs() { awk '/ s wall time/ {for (i = 1; i <= NF; i++) if ($i == "wall") print $(i - 2)}'; }
-printf '%-8s %10s %8s %10s %10s %8s %8s %9s %8s\n' bodies startup_s bare_ns e2e_ns_T1 e2e_ns_T2 mcap_B rrd_B peak_MiB scaling
+printf '%-8s %10s %8s %10s %10s %9s %8s %8s %9s %8s\n' bodies startup_s bare_ns e2e_ns_T1 e2e_ns_T2 ratio_T1 mcap_B rrd_B peak_MiB scaling
 for n in "${sizes[@]}"; do
   boxes=$((n * 4 / 10)); handles=$((n * 3 / 10)); discs=$((n - boxes - handles))
   duration=$(awk -v n="$n" 'BEGIN {print 1e4 / n}')   # 1e7 body-steps at dt = 1 ms
@@ -41,8 +45,9 @@ for n in "${sizes[@]}"; do
   bare=$("$T" bench --scene "$out/swarm_$n.toml" --steps $((10000000 / n)) --repeats 3 --threads 1 | tail -1 | cut -d= -f2)
   scaling=$("$T" bench --scene "$out/swarm_$n.toml" --steps $((10000000 / n)) --repeats 7 --threads 2 | sed -nE 's/.*scaling 1 -> 2 threads: ([0-9.]+)x/\1/p')
   # The end-to-end runs: REPEATS (default 3) of each thread count, taking turns; the median.
-  walls1=(); walls2=()
-  for _ in $(seq "${REPEATS:-3}"); do
+  walls1=(); walls2=(); ratios=()
+  for _ in $(seq "${REPEATS:-5}"); do
+    round_bare=$("$T" bench --scene "$out/swarm_$n.toml" --steps $((10000000 / n)) --repeats 1 --threads 1 | tail -1 | cut -d= -f2)
     for threads in 1 2; do
       # A fresh output name, as a first run has: replacing a file of the previous run would
       # add the release of its blocks (0.08 s for 176 MB on this disk) to the timed run.
@@ -50,7 +55,12 @@ for n in "${sizes[@]}"; do
       t0=$(date +%s.%N)
       "$T" simulate "$out/swarm_$n.toml" --duration "$duration" --out "$out/s$threads" --force --threads "$threads" >"$out/log$threads"
       wall=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN {print b - a}')
-      if [ "$threads" = 1 ]; then walls1+=("$wall"); else walls2+=("$wall"); fi
+      if [ "$threads" = 1 ]; then
+        walls1+=("$wall")
+        ratios+=("$(awk -v w="$wall" -v s="$startup" -v b="$round_bare" 'BEGIN {print (w - s) * 1e9 / 1e7 / b}')")
+      else
+        walls2+=("$wall")
+      fi
     done
   done
   median() { printf '%s\n' "$@" | sort -g | awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2}'; }
@@ -62,7 +72,7 @@ for n in "${sizes[@]}"; do
   mcap=$(stat -c %s "$out/s2.mcap"); rrd=$(stat -c %s "$out/s2.rrd")
   cmp -s "$out/s1.mcap" "$out/s2.mcap" && cmp -s "$out/s1.rrd" "$out/s2.rrd" || { echo "threads 1 and 2 differ" >&2; exit 1; }
   peak=$(awk '/peak memory \(VmHWM\)/ {v = $4; u = $5; if (u == "GiB") v *= 1024; if (u == "KiB") v /= 1024; print v}' "$out/log2")
-  printf '%-8s %10s %8s %10s %10s %8.1f %8.1f %9s %8s\n' "$n" "$startup" "$bare" "${e2e[0]}" "${e2e[1]}" \
+  printf '%-8s %10s %8s %10s %10s %8.2fx %8.1f %8.1f %9s %8s\n' "$n" "$startup" "$bare" "${e2e[0]}" "${e2e[1]}" "$(median "${ratios[@]}")" \
     "$(awk -v b="$mcap" -v n="$n" -v f="$frames" 'BEGIN {print b / (n * f)}')" \
     "$(awk -v b="$rrd" -v n="$n" -v f="$frames" 'BEGIN {print b / (n * f)}')" "${peak:-?}" "${scaling:-?}x"
 done

@@ -22,6 +22,7 @@
 //! written by `finish()`, which is always called explicitly. The file is written under
 //! `<path>.part` and renamed onto `path` only once it is complete.
 
+use super::mcap_writer::{Codec, McapWriter};
 use super::scene_update::{MeshCache, geometry_update, inertia_update};
 use super::writeback::WritebackFile;
 use super::{Frame, RecordingLayout, Sink};
@@ -51,15 +52,8 @@ const SCENE_SLICE: usize = 1024;
 /// tumble's chunks (64 KiB of poses and velocities: doubles that barely compress, frame ids and
 /// protobuf tags that do) it takes about half the CPU time of level 1 for files about 5 % larger
 /// (measured on the 10 000-body swarm: 0.45 s against 0.86 s for 226 MB, 163 MB against
-/// 154 MB; docs/scale.md). The mcap crate takes the level as a `u32` and hands
-/// `level as i32` to zstd (mcap 0.26 `write.rs`), so the negative level goes through as its
-/// two's-complement `u32` ([`zstd_level_u32`]).
+/// 154 MB; docs/scale.md).
 pub const ZSTD_LEVEL: i32 = -1;
-
-/// [`ZSTD_LEVEL`] as the `u32` the mcap crate's `compression_level` takes (it casts it back).
-pub const fn zstd_level_u32() -> u32 {
-    ZSTD_LEVEL as u32
-}
 
 /// LZ4 level of the chunks: -7, LZ4's fast mode with acceleration 8 (liblz4 `lz4frame.c`:
 /// a level below zero compresses with `LZ4_compress_fast_continue` at acceleration
@@ -67,13 +61,13 @@ pub const fn zstd_level_u32() -> u32 {
 /// tumble's chunks the misses are the doubles of poses and velocities, which no level
 /// compresses, and the matches the frame ids, names and protobuf tags, which every level finds.
 /// Measured on the 10 000-body swarm (1 s, 224 MB uncompressed): level 0 (acceleration 1)
-/// 175.0 MB in about 0.5 s of the MCAP thread's CPU, level -7 175.x MB in about a third of
-/// that (docs/scale.md "MCAP at scale"). The mcap crate hands the level to the lz4 crate as a
-/// `u32`, which stores it in liblz4's `int compressionLevel` unchanged, so the negative level
-/// goes through as its two's complement ([`lz4_level_u32`]).
+/// 175.0 MB with LZ4 about a quarter of all the run's CPU samples, level -7 176.2 MB and a
+/// tenth (docs/scale.md "MCAP at scale"). The lz4 crate takes the level as a `u32` and stores
+/// it in liblz4's `int compressionLevel` unchanged, so the negative level goes through as its
+/// two's complement ([`lz4_level_u32`]).
 pub const LZ4_LEVEL: i32 = -7;
 
-/// [`LZ4_LEVEL`] as the `u32` the mcap crate's `compression_level` takes.
+/// [`LZ4_LEVEL`] as the `u32` the lz4 crate's `EncoderBuilder::level` takes.
 pub const fn lz4_level_u32() -> u32 {
     LZ4_LEVEL as u32
 }
@@ -336,20 +330,11 @@ impl ChunkCompression {
             other => other,
         }
     }
-
-    fn mcap(self) -> Option<mcap::Compression> {
-        match self {
-            // Resolved by the caller; a library caller passing `Auto` gets the default.
-            Self::Zstd | Self::Auto => Some(mcap::Compression::Zstd),
-            Self::Lz4 => Some(mcap::Compression::Lz4),
-            Self::None => None,
-        }
-    }
 }
 
 /// Writes an MCAP file; see the module documentation for its layout.
 pub struct McapSink {
-    writer: McapFileWriter,
+    writer: McapWriter<BufWriter<WritebackFile>>,
     path: PathBuf,
     part: PathBuf,
     groups: Vec<ChannelGroup>,
@@ -382,35 +367,35 @@ impl McapSink {
         let part = part_path(path);
         let file =
             File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
-        let mut writer = mcap::WriteOptions::new()
-            .profile("")
-            .library(format!("tumble {}", crate::VERSION))
-            .chunk_size(Some(CHUNK_BYTES))
-            // zstd at [`ZSTD_LEVEL`] (or LZ4, or none), one thread: the file does not depend
-            // on the machine's core count, and the sink runs on a thread of its own.
-            .compression(options.compression.mcap())
-            .compression_level(match options.compression {
-                ChunkCompression::Zstd | ChunkCompression::Auto => zstd_level_u32(),
-                ChunkCompression::Lz4 => lz4_level_u32(),
-                ChunkCompression::None => 0,
-            })
-            .compression_threads(0)
-            .create(BufWriter::new(WritebackFile::new(file)))
-            .with_context(|| format!("cannot write {}", part.display()))?;
-        // The metadata record goes first. A metadata record cannot sit inside a chunk, so one
-        // written after the schemas and channels closes a chunk that holds them but no message:
-        // its chunk index lists no message indexes, and Foxglove's reader refuses such a chunk
-        // ("Chunks without message indexes are not currently supported"). Written before them,
-        // every chunk holds messages (tests/recordings.rs checks every chunk index).
-        let mut metadata = layout.metadata.clone();
-        metadata.insert(
-            super::layout_json::LAYOUT_KEY.into(),
-            super::layout_json::to_json(layout),
-        );
-        writer.write_metadata(&mcap::records::Metadata {
-            name: METADATA_NAME.into(),
-            metadata,
-        })?;
+        let codec = match options.compression {
+            ChunkCompression::Zstd | ChunkCompression::Auto => Codec::Zstd,
+            ChunkCompression::Lz4 => Codec::Lz4,
+            ChunkCompression::None => Codec::None,
+        };
+        let mut writer = McapWriter::new(
+            BufWriter::new(WritebackFile::new(file)),
+            "",
+            &format!("tumble {}", crate::VERSION),
+            codec,
+            CHUNK_BYTES as usize,
+        )
+        .with_context(|| format!("cannot write {}", part.display()))?;
+        // The metadata record goes first, before the schemas and channels (the order every
+        // tumble MCAP has had; the writer keeps metadata, schemas and channels outside chunks,
+        // so every chunk holds messages: Foxglove refuses chunks without message indexes,
+        // tests/recordings.rs checks every chunk index). Keys in order, as a map gives them.
+        let layout_json = super::layout_json::to_json(layout);
+        let mut entries: Vec<(&str, &str)> = layout
+            .metadata
+            .iter()
+            .filter(|(k, _)| k.as_str() != super::layout_json::LAYOUT_KEY)
+            .map(|(k, v)| (k.as_str(), v.as_str()))
+            .collect();
+        entries.push((super::layout_json::LAYOUT_KEY, &layout_json));
+        entries.sort_by(|a, b| a.0.cmp(b.0));
+        writer.write_metadata(METADATA_NAME, &entries)?;
+        drop(entries);
+        drop(layout_json);
         let tf_schema =
             FrameTransforms::get_schema().context("foxglove.FrameTransforms has no schema")?;
         let tf_schema_id =
@@ -533,13 +518,7 @@ impl McapSink {
                     }
                 }
             }
-            let header = mcap::records::MessageHeader {
-                channel_id: channel,
-                sequence: 0,
-                log_time: 0,
-                publish_time: 0,
-            };
-            writer.write_to_known_channel(&header, &update)?;
+            writer.write_message(channel, 0, 0, 0, &update)?;
         }
         Ok(Self {
             writer,
@@ -560,14 +539,9 @@ impl McapSink {
     }
 
     fn write_message(&mut self, channel_id: u16, time_ns: u64) -> anyhow::Result<()> {
-        let header = mcap::records::MessageHeader {
-            channel_id,
-            sequence: self.sequence,
-            log_time: time_ns,
-            publish_time: time_ns,
-        };
-        self.writer.write_to_known_channel(&header, &self.buf)?;
-        Ok(())
+        self.writer
+            .write_message(channel_id, self.sequence, time_ns, time_ns, &self.buf)
+            .with_context(|| format!("cannot write {}", self.part.display()))
     }
 }
 
@@ -636,7 +610,9 @@ impl Sink for McapSink {
         let McapSink {
             writer, part, path, ..
         } = *self;
-        finish_file(writer, &part, &path)
+        complete_own_file(writer, &part)?;
+        std::fs::rename(&part, &path)
+            .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))
     }
 
     fn path(&self) -> Option<PathBuf> {
@@ -645,8 +621,25 @@ impl Sink for McapSink {
 
     fn complete(self: Box<Self>) -> anyhow::Result<()> {
         let McapSink { writer, part, .. } = *self;
-        complete_file(writer, &part)
+        complete_own_file(writer, &part)
     }
+}
+
+/// Ends a file of [`McapWriter`] written under `part` (summary, indexes, footer), flushes and
+/// syncs it; it stays under `part`.
+fn complete_own_file(
+    writer: McapWriter<BufWriter<WritebackFile>>,
+    part: &Path,
+) -> anyhow::Result<()> {
+    let file = writer
+        .finish()
+        .with_context(|| format!("cannot finish {}", part.display()))?
+        .into_inner()
+        .map_err(|e| e.into_error())
+        .with_context(|| format!("cannot write {}", part.display()))?
+        .into_inner();
+    file.sync_all()
+        .with_context(|| format!("cannot sync {}", part.display()))
 }
 
 /// Ends an MCAP file written under `part` (summary, indexes, footer), flushes and syncs it; it

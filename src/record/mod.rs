@@ -8,6 +8,7 @@ pub mod cdr;
 pub mod layout_json;
 pub mod mcap;
 pub mod mcap_encode;
+pub mod mcap_writer;
 pub mod mechanism_proto;
 pub mod parquet;
 pub mod pipelined;

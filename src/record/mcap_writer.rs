@@ -1,0 +1,670 @@
+//! The MCAP writer of `simulate`'s recordings: chunked, indexed, summarised, and compressed
+//! without the work nobody reads.
+//!
+//! Written from the format's specification (<https://mcap.dev/spec>, version 0x30), for the
+//! records tumble writes: header, one metadata record, schemas and channels (in the data
+//! section, outside chunks, and repeated in the summary), messages in chunks each followed by
+//! one message index per channel, data end with the data section's CRC-32, and a summary of
+//! schemas, channels, statistics, chunk indexes and metadata indexes with a summary offset per
+//! group, then the footer with the summary's CRC-32. Every chunk holds at least one message
+//! (Foxglove refuses chunks without message indexes), a chunk is closed once its records reach
+//! the chunk size, and every CRC is computed (readers check them).
+//!
+//! Why not the `mcap` crate's writer (which `tumble` still reads with, and which writes the
+//! ROS 2 files): its LZ4 chunks are LZ4 frames with a content checksum (XXH32 over every
+//! uncompressed byte), which MCAP does not ask for (the chunk record holds its own CRC-32 of
+//! the uncompressed records) and which cost as much CPU as the compression itself (measured
+//! with the `lz4` command line on the 10 000-body swarm's 224 MB: 0.17-0.21 s with the
+//! checksum, 0.08-0.12 s without); and it offers no way to leave it out. Here the LZ4 frames
+//! have neither content nor block checksums, at [`super::mcap::LZ4_LEVEL`]; zstd chunks are
+//! single zstd frames at [`super::mcap::ZSTD_LEVEL`]. The bytes depend on the calls alone.
+
+use std::collections::BTreeMap;
+use std::io::{Seek, Write};
+
+/// The file's magic, at both ends.
+const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
+
+mod op {
+    pub const HEADER: u8 = 0x01;
+    pub const FOOTER: u8 = 0x02;
+    pub const SCHEMA: u8 = 0x03;
+    pub const CHANNEL: u8 = 0x04;
+    pub const MESSAGE: u8 = 0x05;
+    pub const CHUNK: u8 = 0x06;
+    pub const MESSAGE_INDEX: u8 = 0x07;
+    pub const CHUNK_INDEX: u8 = 0x08;
+    pub const STATISTICS: u8 = 0x0B;
+    pub const METADATA: u8 = 0x0C;
+    pub const METADATA_INDEX: u8 = 0x0D;
+    pub const SUMMARY_OFFSET: u8 = 0x0E;
+    pub const DATA_END: u8 = 0x0F;
+}
+
+/// How the chunks' records are compressed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Codec {
+    None,
+    Lz4,
+    Zstd,
+}
+
+impl Codec {
+    /// The chunk record's `compression` field.
+    fn name(self) -> &'static str {
+        match self {
+            Self::None => "",
+            Self::Lz4 => "lz4",
+            Self::Zstd => "zstd",
+        }
+    }
+}
+
+/// Little-endian field encoders appending to a record's content.
+struct Fields<'a>(&'a mut Vec<u8>);
+
+impl Fields<'_> {
+    fn u16(&mut self, v: u16) -> &mut Self {
+        self.0.extend_from_slice(&v.to_le_bytes());
+        self
+    }
+    fn u32(&mut self, v: u32) -> &mut Self {
+        self.0.extend_from_slice(&v.to_le_bytes());
+        self
+    }
+    fn u64(&mut self, v: u64) -> &mut Self {
+        self.0.extend_from_slice(&v.to_le_bytes());
+        self
+    }
+    fn u8(&mut self, v: u8) -> &mut Self {
+        self.0.push(v);
+        self
+    }
+    /// A `String`: u32 byte length, then UTF-8 bytes.
+    fn string(&mut self, s: &str) -> &mut Self {
+        self.u32(s.len() as u32);
+        self.0.extend_from_slice(s.as_bytes());
+        self
+    }
+    /// A `Bytes` field prefixed with its u32 length.
+    fn bytes32(&mut self, b: &[u8]) -> &mut Self {
+        self.u32(b.len() as u32);
+        self.0.extend_from_slice(b);
+        self
+    }
+    /// A `Map<String, String>`: u32 byte length of the entries, then key, value pairs.
+    fn string_map(&mut self, map: &BTreeMap<String, String>) -> &mut Self {
+        let len: usize = map.iter().map(|(k, v)| 8 + k.len() + v.len()).sum();
+        self.u32(len as u32);
+        for (k, v) in map {
+            self.string(k);
+            self.string(v);
+        }
+        self
+    }
+    /// A `Map<uint16, uint64>`.
+    fn u16_u64_map(&mut self, map: &BTreeMap<u16, u64>) -> &mut Self {
+        self.u32((map.len() * 10) as u32);
+        for (k, v) in map {
+            self.u16(*k);
+            self.u64(*v);
+        }
+        self
+    }
+}
+
+/// A record: opcode, u64 content length, content.
+fn record(out: &mut Vec<u8>, opcode: u8, content: impl FnOnce(&mut Fields<'_>)) {
+    out.push(opcode);
+    let at = out.len();
+    out.extend_from_slice(&[0; 8]);
+    content(&mut Fields(out));
+    let len = (out.len() - at - 8) as u64;
+    out[at..at + 8].copy_from_slice(&len.to_le_bytes());
+}
+
+/// The chunk being filled.
+#[derive(Default)]
+struct OpenChunk {
+    /// Its records, uncompressed.
+    records: Vec<u8>,
+    start_ns: u64,
+    end_ns: u64,
+    /// Per channel: (log time, offset of the message record in `records`).
+    index: BTreeMap<u16, Vec<(u64, u64)>>,
+}
+
+/// Writes an MCAP file to `W`; see the module doc.
+pub struct McapWriter<W: Write + Seek> {
+    out: W,
+    /// Bytes written so far.
+    position: u64,
+    /// CRC-32 of the data section so far (the file from its magic on, up to the data end).
+    data_crc: crc32fast::Hasher,
+    codec: Codec,
+    chunk_bytes: usize,
+    chunk: OpenChunk,
+    /// Encoded schema and channel records, by id (repeated in the summary).
+    schemas: BTreeMap<u16, Vec<u8>>,
+    channels: BTreeMap<u16, Vec<u8>>,
+    /// Encoded chunk index and metadata index records.
+    chunk_indexes: Vec<u8>,
+    chunk_count: u32,
+    metadata_indexes: Vec<u8>,
+    metadata_count: u32,
+    channel_counts: BTreeMap<u16, u64>,
+    /// Log times of the first and last message of the file.
+    bounds: Option<(u64, u64)>,
+    /// Scratch buffers: a record being encoded, a chunk's compressed records.
+    scratch: Vec<u8>,
+    compressed: Vec<u8>,
+}
+
+impl<W: Write + Seek> McapWriter<W> {
+    /// Starts the file: magic and header (`profile`, `library`). Chunks are closed once their
+    /// records reach `chunk_bytes` and compressed with `codec`.
+    pub fn new(
+        out: W,
+        profile: &str,
+        library: &str,
+        codec: Codec,
+        chunk_bytes: usize,
+    ) -> std::io::Result<Self> {
+        let mut w = Self {
+            out,
+            position: 0,
+            data_crc: crc32fast::Hasher::new(),
+            codec,
+            chunk_bytes,
+            chunk: OpenChunk::default(),
+            schemas: BTreeMap::new(),
+            channels: BTreeMap::new(),
+            chunk_indexes: Vec::new(),
+            chunk_count: 0,
+            metadata_indexes: Vec::new(),
+            metadata_count: 0,
+            channel_counts: BTreeMap::new(),
+            bounds: None,
+            scratch: Vec::new(),
+            compressed: Vec::new(),
+        };
+        let mut header = MAGIC.to_vec();
+        record(&mut header, op::HEADER, |f| {
+            f.string(profile).string(library);
+        });
+        w.put_data(&header)?;
+        Ok(w)
+    }
+
+    /// Writes `bytes` to the data section.
+    fn put_data(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        self.out.write_all(bytes)?;
+        self.data_crc.update(bytes);
+        self.position += bytes.len() as u64;
+        Ok(())
+    }
+
+    /// Writes the scratch record to the data section (outside any chunk).
+    fn put_scratch(&mut self) -> std::io::Result<()> {
+        let scratch = std::mem::take(&mut self.scratch);
+        let result = self.put_data(&scratch);
+        self.scratch = scratch;
+        result
+    }
+
+    /// A metadata record `name` holding `entries` in the given order (MCAP readers expect the
+    /// keys sorted, as a `BTreeMap` gives them), written outside chunks and indexed in the
+    /// summary. The entries are written as they are, never copied into one buffer (the layout
+    /// JSON of a 100 000-body scene is 30 MB).
+    pub fn write_metadata(&mut self, name: &str, entries: &[(&str, &str)]) -> std::io::Result<()> {
+        self.finish_chunk()?;
+        let offset = self.position;
+        let map_len: usize = entries.iter().map(|(k, v)| 8 + k.len() + v.len()).sum();
+        let content_len = 4 + name.len() + 4 + map_len;
+        self.scratch.clear();
+        let mut f = Fields(&mut self.scratch);
+        f.u8(op::METADATA)
+            .u64(content_len as u64)
+            .string(name)
+            .u32(map_len as u32);
+        self.put_scratch()?;
+        for (k, v) in entries {
+            for s in [k, v] {
+                self.put_data(&(s.len() as u32).to_le_bytes())?;
+                self.put_data(s.as_bytes())?;
+            }
+        }
+        let length = 9 + content_len as u64;
+        record(&mut self.metadata_indexes, op::METADATA_INDEX, |f| {
+            f.u64(offset).u64(length).string(name);
+        });
+        self.metadata_count += 1;
+        Ok(())
+    }
+
+    /// Adds a schema (ids from 1); written at once, outside chunks.
+    pub fn add_schema(&mut self, name: &str, encoding: &str, data: &[u8]) -> std::io::Result<u16> {
+        let id = self.schemas.len() as u16 + 1;
+        let mut rec = Vec::new();
+        record(&mut rec, op::SCHEMA, |f| {
+            f.u16(id).string(name).string(encoding).bytes32(data);
+        });
+        self.finish_chunk()?;
+        self.put_data(&rec)?;
+        self.schemas.insert(id, rec);
+        Ok(id)
+    }
+
+    /// Adds a channel (ids from 0); written at once, outside chunks.
+    pub fn add_channel(
+        &mut self,
+        schema_id: u16,
+        topic: &str,
+        message_encoding: &str,
+        metadata: &BTreeMap<String, String>,
+    ) -> std::io::Result<u16> {
+        let id = self.channels.len() as u16;
+        let mut rec = Vec::new();
+        record(&mut rec, op::CHANNEL, |f| {
+            f.u16(id)
+                .u16(schema_id)
+                .string(topic)
+                .string(message_encoding)
+                .string_map(metadata);
+        });
+        self.finish_chunk()?;
+        self.put_data(&rec)?;
+        self.channels.insert(id, rec);
+        Ok(id)
+    }
+
+    /// Appends a message to the open chunk; closes the chunk once it is big enough.
+    pub fn write_message(
+        &mut self,
+        channel_id: u16,
+        sequence: u32,
+        log_time: u64,
+        publish_time: u64,
+        data: &[u8],
+    ) -> std::io::Result<()> {
+        let chunk = &mut self.chunk;
+        if chunk.records.is_empty() {
+            chunk.start_ns = log_time;
+            chunk.end_ns = log_time;
+        }
+        chunk.start_ns = chunk.start_ns.min(log_time);
+        chunk.end_ns = chunk.end_ns.max(log_time);
+        let offset = chunk.records.len() as u64;
+        chunk
+            .index
+            .entry(channel_id)
+            .or_default()
+            .push((log_time, offset));
+        let records = &mut chunk.records;
+        records.reserve(29 + data.len());
+        records.push(op::MESSAGE);
+        records.extend_from_slice(&(22 + data.len() as u64).to_le_bytes());
+        records.extend_from_slice(&channel_id.to_le_bytes());
+        records.extend_from_slice(&sequence.to_le_bytes());
+        records.extend_from_slice(&log_time.to_le_bytes());
+        records.extend_from_slice(&publish_time.to_le_bytes());
+        records.extend_from_slice(data);
+        *self.channel_counts.entry(channel_id).or_insert(0) += 1;
+        self.bounds = Some(match self.bounds {
+            Some((a, b)) => (a.min(log_time), b.max(log_time)),
+            None => (log_time, log_time),
+        });
+        if self.chunk.records.len() >= self.chunk_bytes {
+            self.finish_chunk()?;
+        }
+        Ok(())
+    }
+
+    /// Compresses `self.chunk.records` into `self.compressed`.
+    fn compress(&mut self) -> std::io::Result<()> {
+        let records = &self.chunk.records;
+        self.compressed.clear();
+        match self.codec {
+            Codec::None => {}
+            Codec::Lz4 => {
+                let mut encoder = lz4::EncoderBuilder::new()
+                    .level(super::mcap::lz4_level_u32())
+                    .checksum(lz4::ContentChecksum::NoChecksum)
+                    .block_checksum(lz4::liblz4::BlockChecksum::NoBlockChecksum)
+                    .build(std::mem::take(&mut self.compressed))?;
+                encoder.write_all(records)?;
+                let (buf, result) = encoder.finish();
+                self.compressed = buf;
+                result?;
+            }
+            Codec::Zstd => {
+                let mut encoder = zstd::stream::Encoder::new(
+                    std::mem::take(&mut self.compressed),
+                    super::mcap::ZSTD_LEVEL,
+                )?;
+                encoder.set_pledged_src_size(Some(records.len() as u64))?;
+                encoder.write_all(records)?;
+                self.compressed = encoder.finish()?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes the open chunk (if it holds any message) and its message indexes.
+    fn finish_chunk(&mut self) -> std::io::Result<()> {
+        if self.chunk.records.is_empty() {
+            return Ok(());
+        }
+        self.compress()?;
+        let uncompressed_crc = crc32fast::hash(&self.chunk.records);
+        let data: &[u8] = match self.codec {
+            Codec::None => &self.chunk.records,
+            _ => &self.compressed,
+        };
+        let chunk_start = self.position;
+        let compression = self.codec.name();
+        let (start_ns, end_ns) = (self.chunk.start_ns, self.chunk.end_ns);
+        let uncompressed_size = self.chunk.records.len() as u64;
+        let mut head = Vec::with_capacity(64);
+        head.push(op::CHUNK);
+        let content_len = 8 + 8 + 8 + 4 + 4 + compression.len() as u64 + 8 + data.len() as u64;
+        Fields(&mut head)
+            .u64(content_len)
+            .u64(start_ns)
+            .u64(end_ns)
+            .u64(uncompressed_size)
+            .u32(uncompressed_crc)
+            .string(compression)
+            .u64(data.len() as u64);
+        let compressed_size = data.len() as u64;
+        self.out.write_all(&head)?;
+        self.data_crc.update(&head);
+        self.out.write_all(data)?;
+        self.data_crc.update(data);
+        self.position += head.len() as u64 + compressed_size;
+        let chunk_length = self.position - chunk_start;
+        // One message index per channel of the chunk, in channel order.
+        let index = std::mem::take(&mut self.chunk.index);
+        let mut indexes = Vec::new();
+        let mut offsets = BTreeMap::new();
+        for (channel, entries) in &index {
+            offsets.insert(*channel, self.position + indexes.len() as u64);
+            record(&mut indexes, op::MESSAGE_INDEX, |f| {
+                f.u16(*channel).u32((entries.len() * 16) as u32);
+                for (time, offset) in entries {
+                    f.u64(*time).u64(*offset);
+                }
+            });
+        }
+        self.put_data(&indexes)?;
+        record(&mut self.chunk_indexes, op::CHUNK_INDEX, |f| {
+            f.u64(start_ns)
+                .u64(end_ns)
+                .u64(chunk_start)
+                .u64(chunk_length)
+                .u16_u64_map(&offsets)
+                .u64(indexes.len() as u64)
+                .string(compression)
+                .u64(compressed_size)
+                .u64(uncompressed_size);
+        });
+        self.chunk_count += 1;
+        self.chunk.records.clear();
+        Ok(())
+    }
+
+    /// Closes the last chunk, writes the data end, the summary and the footer, flushes, and
+    /// hands back the writer.
+    pub fn finish(mut self) -> std::io::Result<W> {
+        self.finish_chunk()?;
+        let mut end = Vec::new();
+        let data_crc = std::mem::take(&mut self.data_crc).finalize();
+        record(&mut end, op::DATA_END, |f| {
+            f.u32(data_crc);
+        });
+        self.out.write_all(&end)?;
+        self.position += end.len() as u64;
+        let summary_start = self.position;
+        // The summary groups, each with its summary offset.
+        let mut summary = Vec::new();
+        let mut offsets = Vec::new();
+        let mut group = |summary: &mut Vec<u8>, opcode: u8, write: &mut dyn FnMut(&mut Vec<u8>)| {
+            let start = summary.len();
+            write(summary);
+            if summary.len() > start {
+                offsets.push((
+                    opcode,
+                    summary_start + start as u64,
+                    (summary.len() - start) as u64,
+                ));
+            }
+        };
+        group(&mut summary, op::SCHEMA, &mut |s| {
+            self.schemas.values().for_each(|r| s.extend_from_slice(r))
+        });
+        group(&mut summary, op::CHANNEL, &mut |s| {
+            self.channels.values().for_each(|r| s.extend_from_slice(r))
+        });
+        let (start_ns, end_ns) = self.bounds.unwrap_or((0, 0));
+        let message_count = self.channel_counts.values().sum();
+        group(&mut summary, op::STATISTICS, &mut |s| {
+            record(s, op::STATISTICS, |f| {
+                f.u64(message_count)
+                    .u16(self.schemas.len() as u16)
+                    .u32(self.channels.len() as u32)
+                    .u32(0)
+                    .u32(self.metadata_count)
+                    .u32(self.chunk_count)
+                    .u64(start_ns)
+                    .u64(end_ns)
+                    .u16_u64_map(&self.channel_counts);
+            })
+        });
+        group(&mut summary, op::CHUNK_INDEX, &mut |s| {
+            s.extend_from_slice(&self.chunk_indexes)
+        });
+        group(&mut summary, op::METADATA_INDEX, &mut |s| {
+            s.extend_from_slice(&self.metadata_indexes)
+        });
+        let summary_offset_start = summary_start + summary.len() as u64;
+        for (opcode, start, length) in offsets {
+            record(&mut summary, op::SUMMARY_OFFSET, |f| {
+                f.u8(opcode).u64(start).u64(length);
+            });
+        }
+        // The footer; the summary CRC covers the summary and the footer up to its CRC field.
+        let footer_at = summary.len();
+        record(&mut summary, op::FOOTER, |f| {
+            f.u64(summary_start).u64(summary_offset_start).u32(0);
+        });
+        let crc = crc32fast::hash(&summary[..summary.len() - 4]);
+        let n = summary.len();
+        summary[n - 4..].copy_from_slice(&crc.to_le_bytes());
+        debug_assert_eq!(summary.len() - footer_at, 1 + 8 + 20);
+        summary.extend_from_slice(MAGIC);
+        self.out.write_all(&summary)?;
+        self.out.flush()?;
+        Ok(self.out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
+    use std::io::{Cursor, Read};
+
+    /// Messages of a small file: (channel, sequence, log time, data), on three channels, in
+    /// time order, some big enough to close a chunk alone.
+    fn messages() -> Vec<(u16, u32, u64, Vec<u8>)> {
+        (0..60u32)
+            .map(|k| {
+                let channel = (k % 3) as u16;
+                let len = if k % 17 == 5 { 3000 } else { 40 + k as usize };
+                let data = (0..len).map(|i| (i as u32 * 31 + k) as u8).collect();
+                (channel, k / 3, 1_000 * u64::from(k / 3), data)
+            })
+            .collect()
+    }
+
+    fn write(codec: Codec) -> Vec<u8> {
+        let mut w = McapWriter::new(Cursor::new(Vec::new()), "", "test", codec, 1024).unwrap();
+        w.write_metadata("tumble", &[("a", "1"), ("layout_json", "{\"x\": [1, 2]}")])
+            .unwrap();
+        let s1 = w.add_schema("one", "protobuf", b"\x01\x02").unwrap();
+        let s2 = w.add_schema("two", "protobuf", b"").unwrap();
+        let mut meta = BTreeMap::new();
+        meta.insert("k".to_string(), "v".to_string());
+        assert_eq!(w.add_channel(s1, "/a", "protobuf", &meta).unwrap(), 0);
+        assert_eq!(
+            w.add_channel(s2, "/b", "protobuf", &BTreeMap::new())
+                .unwrap(),
+            1
+        );
+        assert_eq!(
+            w.add_channel(s1, "/c", "protobuf", &BTreeMap::new())
+                .unwrap(),
+            2
+        );
+        for (channel, sequence, time, data) in messages() {
+            w.write_message(channel, sequence, time, time + 7, &data)
+                .unwrap();
+        }
+        w.finish().unwrap().into_inner()
+    }
+
+    /// The `mcap` crate's reader (written by others) reads back every message, the
+    /// metadata, the statistics and the chunk and message indexes of each codec's file.
+    #[test]
+    fn the_mcap_crate_reads_back_every_message_and_index() {
+        for codec in [Codec::None, Codec::Lz4, Codec::Zstd] {
+            let file = write(codec);
+            let read: Vec<_> = mcap::MessageStream::new(&file)
+                .unwrap()
+                .map(|m| {
+                    let m = m.unwrap();
+                    (
+                        m.channel.id,
+                        m.sequence,
+                        m.log_time,
+                        m.publish_time,
+                        m.data.to_vec(),
+                    )
+                })
+                .collect();
+            let expected: Vec<_> = messages()
+                .into_iter()
+                .map(|(c, s, t, d)| (c, s, t, t + 7, d))
+                .collect();
+            assert!(read == expected, "{codec:?}: messages differ");
+            let summary = mcap::Summary::read(&file).unwrap().expect("a summary");
+            let stats = summary.stats.as_ref().unwrap();
+            assert_eq!(stats.message_count, 60, "{codec:?}");
+            assert_eq!((stats.schema_count, stats.channel_count), (2, 3));
+            assert_eq!((stats.metadata_count, stats.attachment_count), (1, 0));
+            assert_eq!(
+                (stats.message_start_time, stats.message_end_time),
+                (0, 19_000)
+            );
+            assert_eq!(
+                stats
+                    .channel_message_counts
+                    .values()
+                    .copied()
+                    .collect::<Vec<_>>(),
+                [20, 20, 20]
+            );
+            assert_eq!(stats.chunk_count as usize, summary.chunk_indexes.len());
+            assert!(summary.chunk_indexes.len() > 5, "{codec:?}: several chunks");
+            assert_eq!(summary.channels[&0].topic, "/a");
+            assert_eq!(summary.channels[&0].metadata["k"], "v");
+            assert_eq!(summary.channels[&1].schema.as_ref().unwrap().name, "two");
+            let meta = mcap::read::metadata(&file, &summary.metadata_indexes[0]).unwrap();
+            assert_eq!(meta.name, "tumble");
+            assert_eq!(meta.metadata["layout_json"], "{\"x\": [1, 2]}");
+            // Every chunk's message indexes point at its messages, in the chunk's time range.
+            let mut seen = 0;
+            for index in &summary.chunk_indexes {
+                assert_eq!(index.compression, codec.name());
+                let entries = summary.read_message_indexes(&file, index).unwrap();
+                assert!(
+                    !entries.is_empty(),
+                    "{codec:?}: a chunk without message indexes"
+                );
+                for (channel, entries) in &entries {
+                    for entry in entries {
+                        assert!(
+                            (index.message_start_time..=index.message_end_time)
+                                .contains(&entry.log_time)
+                        );
+                        let m = summary.seek_message(&file, index, entry).unwrap();
+                        assert_eq!((m.channel.id, m.log_time), (channel.id, entry.log_time));
+                        seen += 1;
+                    }
+                }
+            }
+            assert_eq!(seen, 60, "{codec:?}: every message indexed once");
+        }
+    }
+
+    /// The crate's validating reader checks the chunk, data section and summary CRCs (a zero
+    /// CRC would pass unchecked: they are asserted non-zero too).
+    #[test]
+    fn every_crc_checks_out() {
+        for codec in [Codec::None, Codec::Lz4, Codec::Zstd] {
+            let file = write(codec);
+            let mut reader = LinearReader::new_with_options(
+                LinearReaderOptions::default()
+                    .with_validate_chunk_crcs(true)
+                    .with_validate_data_section_crc(true)
+                    .with_validate_summary_section_crc(true),
+            );
+            let mut cursor = Cursor::new(&file);
+            let mut opcodes = Vec::new();
+            while let Some(event) = reader.next_event() {
+                match event.unwrap_or_else(|e| panic!("{codec:?}: {e}")) {
+                    LinearReadEvent::ReadRequest(n) => {
+                        let written = cursor.read(reader.insert(n)).unwrap();
+                        reader.notify_read(written);
+                    }
+                    LinearReadEvent::Record { data, opcode } => {
+                        match mcap::parse_record(opcode, data).unwrap() {
+                            mcap::records::Record::DataEnd(end) => {
+                                assert_ne!(end.data_section_crc, 0)
+                            }
+                            mcap::records::Record::Footer(footer) => {
+                                assert_ne!(footer.summary_crc, 0)
+                            }
+                            _ => {}
+                        }
+                        opcodes.push(opcode);
+                    }
+                }
+            }
+            assert_eq!(opcodes.first(), Some(&op::HEADER));
+            assert_eq!(opcodes.last(), Some(&op::FOOTER));
+            assert!(opcodes.contains(&op::DATA_END) && opcodes.contains(&op::SUMMARY_OFFSET));
+        }
+    }
+
+    /// LZ4 chunks are LZ4 frames without content or block checksums (frame descriptor flags,
+    /// LZ4 frame format 1.6.x: bit 2 content checksum, bit 4 block checksum).
+    #[test]
+    fn lz4_frames_carry_no_checksums() {
+        let file = write(Codec::Lz4);
+        let summary = mcap::Summary::read(&file).unwrap().unwrap();
+        for index in &summary.chunk_indexes {
+            let start = index.chunk_start_offset as usize;
+            // Chunk record: opcode, length, 3 x u64, u32 crc, "lz4" (4 + 3), u64 records length.
+            let data = start + 1 + 8 + 24 + 4 + 7 + 8;
+            assert_eq!(
+                &file[data..data + 4],
+                &[0x04, 0x22, 0x4d, 0x18],
+                "LZ4 frame magic"
+            );
+            let flags = file[data + 4];
+            assert_eq!(flags & 0b0000_0100, 0, "no content checksum");
+            assert_eq!(flags & 0b0001_0000, 0, "no block checksum");
+        }
+    }
+}
