@@ -110,6 +110,30 @@ fn ten_thousand_bodies_record_verify_and_replay() {
         std::fs::read(d.join("swarm.rrd")).unwrap() == std::fs::read(d.join("replay.rrd")).unwrap(),
         "convert does not rebuild the batched .rrd byte for byte"
     );
+    // `tumble info` lists the first 20 frames and bodies and says how many more there are;
+    // `--all` lists every one.
+    let info = tumble(&["info", "swarm.mcap"], d);
+    assert!(info.status.success(), "{}", text(&info.stderr));
+    let report = text(&info.stdout);
+    let head: String = report.chars().take(1500).collect();
+    assert!(
+        report.contains("10000 frames: box_0000/box, box_0001/box"),
+        "{head}"
+    );
+    assert!(
+        report.contains("box_0019/box ... and 9980 more (tumble info --all"),
+        "{head}"
+    );
+    assert!(!report.contains("box_0020/box"), "{head}");
+    assert!(
+        report.lines().count() < 60,
+        "{} lines",
+        report.lines().count()
+    );
+    let all = tumble(&["info", "swarm.mcap", "--all"], d);
+    let all = text(&all.stdout);
+    assert!(all.contains("disc_2999/disc"));
+    assert_eq!(all.matches(" mass ").count(), 10_000);
 }
 
 /// Copy `i` of a `[[model]]` with `seed = S` starts exactly where run `i` of a dataset with

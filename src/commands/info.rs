@@ -13,6 +13,10 @@ pub struct InfoArgs {
     /// Print the report as JSON (keys as in the text; see `tumble::replay::info::RecordingInfo`).
     #[arg(long)]
     pub json: bool,
+    /// List every frame, body, articulated model and joint (the text report shows the first
+    /// 20 of each and says how many more there are).
+    #[arg(long)]
+    pub all: bool,
 }
 
 /// Prints the report; `Ok(false)` when the file is truncated.
@@ -21,7 +25,8 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<bool> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        print!("{}", info::text(&report));
+        let limit = (!args.all).then_some(info::TEXT_LIST_LIMIT);
+        print!("{}", info::text_with(&report, limit));
     }
     if let Some(t) = &report.truncation {
         eprintln!("warning: {t}");

@@ -270,8 +270,32 @@ pub fn info(path: &Path) -> anyhow::Result<RecordingInfo> {
     })
 }
 
-/// The human-readable report.
+/// Items of each list (frames, bodies, articulated models, joints) the text report shows
+/// unless asked for all of them (`tumble info --all`): a 10 000-body recording would print
+/// 10 000 frame ids on one line and 10 000 body lines.
+pub const TEXT_LIST_LIMIT: usize = 20;
+
+/// The first `limit` items of `items` and, when some are left out, a note saying how many.
+fn shown<T>(items: &[T], limit: Option<usize>) -> (&[T], Option<String>) {
+    match limit {
+        Some(n) if items.len() > n => (
+            &items[..n],
+            Some(format!(
+                "... and {} more (tumble info --all lists every one)",
+                items.len() - n
+            )),
+        ),
+        _ => (items, None),
+    }
+}
+
+/// The human-readable report, every list cut at [`TEXT_LIST_LIMIT`] items.
 pub fn text(info: &RecordingInfo) -> String {
+    text_with(info, Some(TEXT_LIST_LIMIT))
+}
+
+/// The human-readable report, each list cut at `limit` items (`None`: all of them).
+pub fn text_with(info: &RecordingInfo, limit: Option<usize>) -> String {
     let mut out = String::new();
     let status = if info.complete {
         "complete (summary and footer present)".to_string()
@@ -300,14 +324,17 @@ pub fn text(info: &RecordingInfo) -> String {
         "recorded span {} s, {} messages\n",
         info.duration, info.messages
     ));
+    let (frames, more_frames) = shown(&info.frames, limit);
     out.push_str(&format!(
-        "{} frames: {}\n",
+        "{} frames: {}{}\n",
         info.frames.len(),
-        info.frames.join(", ")
+        frames.join(", "),
+        more_frames.map_or(String::new(), |m| format!(" {m}"))
     ));
     if !info.bodies.is_empty() {
         out.push_str(&format!("{} bodies:\n", info.bodies.len()));
-        for b in &info.bodies {
+        let (bodies, more) = shown(&info.bodies, limit);
+        for b in bodies {
             out.push_str(&format!(
                 "  {:<24} mass {:.6} kg, principal moments [{:.6e}, {:.6e}, {:.6e}] kg m^2 (frame {})\n",
                 b.name,
@@ -318,6 +345,9 @@ pub fn text(info: &RecordingInfo) -> String {
                 b.frame
             ));
         }
+        if let Some(more) = more {
+            out.push_str(&format!("  {more}\n"));
+        }
     }
     if !info.mechanisms.is_empty() {
         out.push_str(&format!(
@@ -325,17 +355,25 @@ pub fn text(info: &RecordingInfo) -> String {
             info.mechanisms.len(),
             info.joints.len()
         ));
-        for m in &info.mechanisms {
+        let (mechanisms, more) = shown(&info.mechanisms, limit);
+        for m in mechanisms {
             out.push_str(&format!(
                 "  {:<24} {} base, {} bodies, {} joints\n",
                 m.name, m.base, m.bodies, m.joints
             ));
         }
-        for j in &info.joints {
+        if let Some(more) = more {
+            out.push_str(&format!("  {more}\n"));
+        }
+        let (joints, more_joints) = shown(&info.joints, limit);
+        for j in joints {
             let range = j.limits.map_or(String::new(), |[lo, hi]| {
                 format!(", URDF range [{lo}, {hi}]")
             });
             out.push_str(&format!("  joint {:<18} {}{range}\n", j.name, j.kind));
+        }
+        if let Some(more) = more_joints {
+            out.push_str(&format!("  {more}\n"));
         }
     }
     out.push_str("topics:\n");
