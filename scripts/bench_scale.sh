@@ -75,6 +75,7 @@ for n in "${sizes[@]}"; do
   printf '%-8s %10s %8s %10s %10s %8.2fx %8.1f %8.1f %9s %8s\n' "$n" "$startup" "$bare" "${e2e[0]}" "${e2e[1]}" "$(median "${ratios[@]}")" \
     "$(awk -v b="$mcap" -v n="$n" -v f="$frames" 'BEGIN {print b / (n * f)}')" \
     "$(awk -v b="$rrd" -v n="$n" -v f="$frames" 'BEGIN {print b / (n * f)}')" "${peak:-?}" "${scaling:-?}x"
+  echo "  $n bodies, e2e_T1 / bare per round (sorted): $(printf '%s\n' "${ratios[@]}" | sort -g | awk '{printf "%.2f ", $1}')"
 done
 alone=$( { "$T" bench --bodies 10000 --steps 300 --repeats 3 --threads 1 | tail -1 | cut -d= -f2; } )
 "$T" bench --bodies 10000 --steps 300 --repeats 3 --threads 1 | tail -1 | cut -d= -f2 >"$out/pair_b" &

@@ -123,27 +123,118 @@ fn record(out: &mut Vec<u8>, opcode: u8, content: impl FnOnce(&mut Fields<'_>)) 
     out[at..at + 8].copy_from_slice(&len.to_le_bytes());
 }
 
-/// The chunk being filled.
-#[derive(Default)]
-struct OpenChunk {
-    /// Its records, uncompressed.
-    records: Vec<u8>,
+/// Where a chunk's (compressed) records go: the file itself, the bytes counted and hashed as
+/// they pass (the data section's CRC is combined from the pieces once the chunk's header is
+/// known).
+struct ChunkSink<W> {
+    out: W,
+    written: u64,
+    crc: crc32fast::Hasher,
+}
+
+impl<W: Write> Write for ChunkSink<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.out.write(buf)?;
+        self.crc.update(&buf[..n]);
+        self.written += n as u64;
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.out.flush()
+    }
+}
+
+/// The compressor of the open chunk, writing straight to the file.
+enum Encoder<W: Write> {
+    None(ChunkSink<W>),
+    Lz4(lz4::Encoder<ChunkSink<W>>),
+    Zstd(zstd::stream::Encoder<'static, ChunkSink<W>>),
+}
+
+impl<W: Write> Encoder<W> {
+    fn new(codec: Codec, sink: ChunkSink<W>) -> std::io::Result<Self> {
+        Ok(match codec {
+            Codec::None => Self::None(sink),
+            Codec::Lz4 => Self::Lz4(
+                lz4::EncoderBuilder::new()
+                    .level(super::mcap::lz4_level_u32())
+                    .checksum(lz4::ContentChecksum::NoChecksum)
+                    .block_checksum(lz4::liblz4::BlockChecksum::NoBlockChecksum)
+                    .build(sink)?,
+            ),
+            Codec::Zstd => Self::Zstd(zstd::stream::Encoder::new(sink, super::mcap::ZSTD_LEVEL)?),
+        })
+    }
+
+    fn write_all(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        match self {
+            Self::None(w) => w.write_all(bytes),
+            Self::Lz4(w) => w.write_all(bytes),
+            Self::Zstd(w) => w.write_all(bytes),
+        }
+    }
+
+    fn finish(self) -> std::io::Result<ChunkSink<W>> {
+        match self {
+            Self::None(w) => Ok(w),
+            Self::Lz4(w) => {
+                let (sink, result) = w.finish();
+                result.map(|()| sink)
+            }
+            Self::Zstd(w) => w.finish(),
+        }
+    }
+}
+
+/// The chunk being written: its header is a placeholder in the file until it is closed.
+struct OpenChunk<W: Write> {
+    encoder: Encoder<W>,
+    /// File offset of the chunk record, and the length of its header.
+    start: u64,
+    header_len: u64,
+    /// Bytes of records written so far (uncompressed), and their CRC-32.
+    records: u64,
+    records_crc: crc32fast::Hasher,
     start_ns: u64,
     end_ns: u64,
-    /// Per channel: (log time, offset of the message record in `records`).
+    /// Per channel: (log time, offset of the message record among the chunk's records).
     index: BTreeMap<u16, Vec<(u64, u64)>>,
+}
+
+/// The chunk record's header: opcode, length, times, sizes, CRC, compression, records length.
+fn chunk_header(
+    compression: &str,
+    (start_ns, end_ns): (u64, u64),
+    uncompressed: u64,
+    uncompressed_crc: u32,
+    compressed: u64,
+) -> Vec<u8> {
+    let mut head = Vec::with_capacity(64);
+    let content_len = 8 + 8 + 8 + 4 + 4 + compression.len() as u64 + 8 + compressed;
+    Fields(&mut head)
+        .u8(op::CHUNK)
+        .u64(content_len)
+        .u64(start_ns)
+        .u64(end_ns)
+        .u64(uncompressed)
+        .u32(uncompressed_crc)
+        .string(compression)
+        .u64(compressed);
+    head
 }
 
 /// Writes an MCAP file to `W`; see the module doc.
 pub struct McapWriter<W: Write + Seek> {
-    out: W,
+    /// The file; inside the open chunk's encoder while a chunk is open.
+    out: Option<W>,
     /// Bytes written so far.
     position: u64,
     /// CRC-32 of the data section so far (the file from its magic on, up to the data end).
     data_crc: crc32fast::Hasher,
     codec: Codec,
     chunk_bytes: usize,
-    chunk: OpenChunk,
+    chunk: Option<OpenChunk<W>>,
     /// Encoded schema and channel records, by id (repeated in the summary).
     schemas: BTreeMap<u16, Vec<u8>>,
     channels: BTreeMap<u16, Vec<u8>>,
@@ -155,9 +246,8 @@ pub struct McapWriter<W: Write + Seek> {
     channel_counts: BTreeMap<u16, u64>,
     /// Log times of the first and last message of the file.
     bounds: Option<(u64, u64)>,
-    /// Scratch buffers: a record being encoded, a chunk's compressed records.
+    /// A record being encoded.
     scratch: Vec<u8>,
-    compressed: Vec<u8>,
 }
 
 impl<W: Write + Seek> McapWriter<W> {
@@ -171,12 +261,12 @@ impl<W: Write + Seek> McapWriter<W> {
         chunk_bytes: usize,
     ) -> std::io::Result<Self> {
         let mut w = Self {
-            out,
+            out: Some(out),
             position: 0,
             data_crc: crc32fast::Hasher::new(),
             codec,
             chunk_bytes,
-            chunk: OpenChunk::default(),
+            chunk: None,
             schemas: BTreeMap::new(),
             channels: BTreeMap::new(),
             chunk_indexes: Vec::new(),
@@ -186,7 +276,6 @@ impl<W: Write + Seek> McapWriter<W> {
             channel_counts: BTreeMap::new(),
             bounds: None,
             scratch: Vec::new(),
-            compressed: Vec::new(),
         };
         let mut header = MAGIC.to_vec();
         record(&mut header, op::HEADER, |f| {
@@ -196,9 +285,16 @@ impl<W: Write + Seek> McapWriter<W> {
         Ok(w)
     }
 
+    /// The file (no chunk is open outside `write_message` and `finish_chunk`).
+    fn out(&mut self) -> std::io::Result<&mut W> {
+        self.out
+            .as_mut()
+            .ok_or_else(|| std::io::Error::other("the MCAP writer failed in a chunk"))
+    }
+
     /// Writes `bytes` to the data section.
     fn put_data(&mut self, bytes: &[u8]) -> std::io::Result<()> {
-        self.out.write_all(bytes)?;
+        self.out()?.write_all(bytes)?;
         self.data_crc.update(bytes);
         self.position += bytes.len() as u64;
         Ok(())
@@ -278,7 +374,35 @@ impl<W: Write + Seek> McapWriter<W> {
         Ok(id)
     }
 
-    /// Appends a message to the open chunk; closes the chunk once it is big enough.
+    /// Opens a chunk: a placeholder header in the file, then an encoder writing to the file.
+    fn open_chunk(&mut self, log_time: u64) -> std::io::Result<()> {
+        let compression = self.codec.name();
+        let placeholder = chunk_header(compression, (0, 0), 0, 0, 0);
+        let mut out = self
+            .out
+            .take()
+            .ok_or_else(|| std::io::Error::other("no file"))?;
+        out.write_all(&placeholder)?;
+        let sink = ChunkSink {
+            out,
+            written: 0,
+            crc: crc32fast::Hasher::new(),
+        };
+        self.chunk = Some(OpenChunk {
+            encoder: Encoder::new(self.codec, sink)?,
+            start: self.position,
+            header_len: placeholder.len() as u64,
+            records: 0,
+            records_crc: crc32fast::Hasher::new(),
+            start_ns: log_time,
+            end_ns: log_time,
+            index: BTreeMap::new(),
+        });
+        Ok(())
+    }
+
+    /// Appends a message to the open chunk (opening one if none is); closes the chunk once its
+    /// records reach the chunk size.
     pub fn write_message(
         &mut self,
         channel_id: u16,
@@ -287,107 +411,75 @@ impl<W: Write + Seek> McapWriter<W> {
         publish_time: u64,
         data: &[u8],
     ) -> std::io::Result<()> {
-        let chunk = &mut self.chunk;
-        if chunk.records.is_empty() {
-            chunk.start_ns = log_time;
-            chunk.end_ns = log_time;
+        if self.chunk.is_none() {
+            self.open_chunk(log_time)?;
         }
+        let chunk = self.chunk.as_mut().expect("a chunk is open");
         chunk.start_ns = chunk.start_ns.min(log_time);
         chunk.end_ns = chunk.end_ns.max(log_time);
-        let offset = chunk.records.len() as u64;
         chunk
             .index
             .entry(channel_id)
             .or_default()
-            .push((log_time, offset));
-        let records = &mut chunk.records;
-        records.reserve(29 + data.len());
-        records.push(op::MESSAGE);
-        records.extend_from_slice(&(22 + data.len() as u64).to_le_bytes());
-        records.extend_from_slice(&channel_id.to_le_bytes());
-        records.extend_from_slice(&sequence.to_le_bytes());
-        records.extend_from_slice(&log_time.to_le_bytes());
-        records.extend_from_slice(&publish_time.to_le_bytes());
-        records.extend_from_slice(data);
+            .push((log_time, chunk.records));
+        let mut head = [0u8; 31];
+        head[0] = op::MESSAGE;
+        head[1..9].copy_from_slice(&(22 + data.len() as u64).to_le_bytes());
+        head[9..11].copy_from_slice(&channel_id.to_le_bytes());
+        head[11..15].copy_from_slice(&sequence.to_le_bytes());
+        head[15..23].copy_from_slice(&log_time.to_le_bytes());
+        head[23..31].copy_from_slice(&publish_time.to_le_bytes());
+        chunk.encoder.write_all(&head)?;
+        chunk.encoder.write_all(data)?;
+        chunk.records_crc.update(&head);
+        chunk.records_crc.update(data);
+        chunk.records += (head.len() + data.len()) as u64;
+        let full = chunk.records >= self.chunk_bytes as u64;
         *self.channel_counts.entry(channel_id).or_insert(0) += 1;
         self.bounds = Some(match self.bounds {
             Some((a, b)) => (a.min(log_time), b.max(log_time)),
             None => (log_time, log_time),
         });
-        if self.chunk.records.len() >= self.chunk_bytes {
+        if full {
             self.finish_chunk()?;
         }
         Ok(())
     }
 
-    /// Compresses `self.chunk.records` into `self.compressed`.
-    fn compress(&mut self) -> std::io::Result<()> {
-        let records = &self.chunk.records;
-        self.compressed.clear();
-        match self.codec {
-            Codec::None => {}
-            Codec::Lz4 => {
-                let mut encoder = lz4::EncoderBuilder::new()
-                    .level(super::mcap::lz4_level_u32())
-                    .checksum(lz4::ContentChecksum::NoChecksum)
-                    .block_checksum(lz4::liblz4::BlockChecksum::NoBlockChecksum)
-                    .build(std::mem::take(&mut self.compressed))?;
-                encoder.write_all(records)?;
-                let (buf, result) = encoder.finish();
-                self.compressed = buf;
-                result?;
-            }
-            Codec::Zstd => {
-                let mut encoder = zstd::stream::Encoder::new(
-                    std::mem::take(&mut self.compressed),
-                    super::mcap::ZSTD_LEVEL,
-                )?;
-                encoder.set_pledged_src_size(Some(records.len() as u64))?;
-                encoder.write_all(records)?;
-                self.compressed = encoder.finish()?;
-            }
-        }
-        Ok(())
-    }
-
-    /// Writes the open chunk (if it holds any message) and its message indexes.
+    /// Closes the open chunk (if any): finishes its compression, writes its header over the
+    /// placeholder, then its message indexes.
     fn finish_chunk(&mut self) -> std::io::Result<()> {
-        if self.chunk.records.is_empty() {
+        let Some(chunk) = self.chunk.take() else {
             return Ok(());
-        }
-        self.compress()?;
-        let uncompressed_crc = crc32fast::hash(&self.chunk.records);
-        let data: &[u8] = match self.codec {
-            Codec::None => &self.chunk.records,
-            _ => &self.compressed,
         };
-        let chunk_start = self.position;
+        let sink = chunk.encoder.finish()?;
+        let mut out = sink.out;
         let compression = self.codec.name();
-        let (start_ns, end_ns) = (self.chunk.start_ns, self.chunk.end_ns);
-        let uncompressed_size = self.chunk.records.len() as u64;
-        let mut head = Vec::with_capacity(64);
-        head.push(op::CHUNK);
-        let content_len = 8 + 8 + 8 + 4 + 4 + compression.len() as u64 + 8 + data.len() as u64;
-        Fields(&mut head)
-            .u64(content_len)
-            .u64(start_ns)
-            .u64(end_ns)
-            .u64(uncompressed_size)
-            .u32(uncompressed_crc)
-            .string(compression)
-            .u64(data.len() as u64);
-        let compressed_size = data.len() as u64;
-        self.out.write_all(&head)?;
-        self.data_crc.update(&head);
-        self.out.write_all(data)?;
-        self.data_crc.update(data);
-        self.position += head.len() as u64 + compressed_size;
-        let chunk_length = self.position - chunk_start;
+        let header = chunk_header(
+            compression,
+            (chunk.start_ns, chunk.end_ns),
+            chunk.records,
+            chunk.records_crc.finalize(),
+            sink.written,
+        );
+        debug_assert_eq!(header.len() as u64, chunk.header_len);
+        out.seek(std::io::SeekFrom::Start(chunk.start))?;
+        out.write_all(&header)?;
+        out.seek(std::io::SeekFrom::Start(
+            chunk.start + chunk.header_len + sink.written,
+        ))?;
+        self.out = Some(out);
+        // The data section's CRC in file order: header, then the records as written.
+        let mut header_crc = crc32fast::Hasher::new();
+        header_crc.update(&header);
+        self.data_crc.combine(&header_crc);
+        self.data_crc.combine(&sink.crc);
+        self.position = chunk.start + chunk.header_len + sink.written;
+        let chunk_length = self.position - chunk.start;
         // One message index per channel of the chunk, in channel order.
-        let index = std::mem::take(&mut self.chunk.index);
         let mut indexes = Vec::new();
         let mut offsets = BTreeMap::new();
-        for (channel, entries) in &index {
+        for (channel, entries) in &chunk.index {
             offsets.insert(*channel, self.position + indexes.len() as u64);
             record(&mut indexes, op::MESSAGE_INDEX, |f| {
                 f.u16(*channel).u32((entries.len() * 16) as u32);
@@ -398,18 +490,17 @@ impl<W: Write + Seek> McapWriter<W> {
         }
         self.put_data(&indexes)?;
         record(&mut self.chunk_indexes, op::CHUNK_INDEX, |f| {
-            f.u64(start_ns)
-                .u64(end_ns)
-                .u64(chunk_start)
+            f.u64(chunk.start_ns)
+                .u64(chunk.end_ns)
+                .u64(chunk.start)
                 .u64(chunk_length)
                 .u16_u64_map(&offsets)
                 .u64(indexes.len() as u64)
                 .string(compression)
-                .u64(compressed_size)
-                .u64(uncompressed_size);
+                .u64(sink.written)
+                .u64(chunk.records);
         });
         self.chunk_count += 1;
-        self.chunk.records.clear();
         Ok(())
     }
 
@@ -422,7 +513,7 @@ impl<W: Write + Seek> McapWriter<W> {
         record(&mut end, op::DATA_END, |f| {
             f.u32(data_crc);
         });
-        self.out.write_all(&end)?;
+        self.out()?.write_all(&end)?;
         self.position += end.len() as u64;
         let summary_start = self.position;
         // The summary groups, each with its summary offset.
@@ -482,9 +573,13 @@ impl<W: Write + Seek> McapWriter<W> {
         summary[n - 4..].copy_from_slice(&crc.to_le_bytes());
         debug_assert_eq!(summary.len() - footer_at, 1 + 8 + 20);
         summary.extend_from_slice(MAGIC);
-        self.out.write_all(&summary)?;
-        self.out.flush()?;
-        Ok(self.out)
+        let mut out = self
+            .out
+            .take()
+            .ok_or_else(|| std::io::Error::other("no file"))?;
+        out.write_all(&summary)?;
+        out.flush()?;
+        Ok(out)
     }
 }
 
