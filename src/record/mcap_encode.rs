@@ -211,6 +211,9 @@ fn put_entries(
         .map(|i| message_field_len(inner_len(i, &mut long_at)))
         .sum();
     let start = buf.len();
+    // Exactly what is needed: growing by doubling would keep up to twice the largest message
+    // (at 100 000 bodies a 12.5 MB `/bodies` message left a 19.2 MB buffer).
+    buf.reserve_exact((start + total + ID_BLOCK).saturating_sub(buf.len()));
     buf.resize(start + total + ID_BLOCK, 0);
     let mut c = Cursor {
         out: &mut buf[start..],

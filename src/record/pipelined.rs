@@ -28,12 +28,13 @@ pub const QUEUE_FRAMES: usize = 2;
 /// What the queue of a sink may hold, bytes of frames ([`queue_frames`]).
 pub const QUEUE_BYTES: usize = 4 << 20;
 
-/// Frames queued per sink for frames of `frame_bytes` bytes: [`QUEUE_BYTES`] of them, at least 2
+/// Frames queued per sink for frames of `frame_bytes` bytes: [`QUEUE_BYTES`] of them, at least 1
 /// and at most 64. Small frames come often (1000 bodies: one every 0.4 ms), and a short queue
 /// then makes the stepping wait for a sink thread's wake-up; big ones come seldom (10 000
-/// bodies: 1.44 MB every 4 ms), and a long queue only holds memory.
+/// bodies: 1.44 MB every 4 ms, 2 queued; 100 000 bodies: 14.4 MB every 40 ms, 1 queued), and a
+/// long queue only holds memory (at 100 000 bodies each queued frame is 144 bytes per body).
 pub fn queue_frames(frame_bytes: usize) -> usize {
-    (QUEUE_BYTES / frame_bytes.max(1)).clamp(2, 64)
+    (QUEUE_BYTES / frame_bytes.max(1)).clamp(1, 64)
 }
 
 /// Bytes of a frame of `frames` link frames, `bodies` bodies and `joints` joints.
@@ -481,6 +482,7 @@ mod tests {
         assert_eq!(frame_bytes(10_000, 10_000, 0), 10_000 * (56 + 88));
         // A joint state is 2 doubles; frames, bodies and joints add.
         assert_eq!(frame_bytes(3, 5, 7), 3 * 56 + 5 * 88 + 7 * 16);
+        assert_eq!(queue_frames(frame_bytes(100_000, 100_000, 0)), 1);
         assert_eq!(queue_frames(frame_bytes(10_000, 10_000, 0)), 2);
         assert_eq!(queue_frames(frame_bytes(1000, 1000, 0)), 29);
         assert_eq!(queue_frames(frame_bytes(1, 1, 0)), 64);
