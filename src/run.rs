@@ -69,10 +69,9 @@ pub fn time_ns(step: u64, dt_secs: f64) -> i64 {
 /// model its joint coordinates and totals; compound joints' massless links are placed from the
 /// report. A joint found outside its URDF range at a recorded step is warned about once (on
 /// standard error), naming the joint and the time.
-pub struct FrameBuilder<'w> {
-    /// The world's (borrowed: a copy was 64 bytes per link frame).
-    attachments: &'w [crate::scene::Attachment],
-    interior: &'w [crate::scene::InteriorFrame],
+pub struct FrameBuilder {
+    attachments: Vec<crate::scene::Attachment>,
+    interior: Vec<crate::scene::InteriorFrame>,
     mechanisms: Vec<(Arc<Mechanism>, Reporter)>,
     /// Per mechanism, once a partitioned batch was seen: its partition and itself re-based to
     /// it ([`crate::sim::partition::rebase`]).
@@ -101,8 +100,8 @@ fn body_state(bodies: &Bodies, j: usize, gravity: &Vector3<f64>) -> BodyState {
 /// Items per parallel task when a frame is built from partitions.
 const FRAME_TASK_ITEMS: usize = 2048;
 
-impl<'w> FrameBuilder<'w> {
-    pub fn new(world: &'w World) -> Self {
+impl FrameBuilder {
+    pub fn new(world: &World) -> Self {
         let mechanisms: Vec<_> = world
             .mechanisms
             .iter()
@@ -115,8 +114,8 @@ impl<'w> FrameBuilder<'w> {
             .map(|m| (m.bodies.clone(), m.joints.clone()))
             .collect();
         Self {
-            attachments: &world.attachments,
-            interior: &world.interior_frames,
+            attachments: world.attachments.clone(),
+            interior: world.interior_frames.clone(),
             mechanisms,
             located: Vec::new(),
             mechanism_ranges,
@@ -226,7 +225,7 @@ impl<'w> FrameBuilder<'w> {
 
     /// Places the compound joints' massless links from the last reports.
     fn place_interior_frames(&mut self) {
-        for f in self.interior {
+        for f in &self.interior {
             let report = &self.mechanisms[f.mechanism].1.report;
             self.poses[f.frame] =
                 report.interior_world_from_link[f.interior] * f.interior_from_link;
@@ -253,7 +252,7 @@ impl<'w> FrameBuilder<'w> {
                 potential_energy: 0.0,
             },
         );
-        let (attachments, poses, states) = (self.attachments, &mut self.poses, &mut self.states);
+        let (attachments, poses, states) = (&self.attachments, &mut self.poses, &mut self.states);
         let view = batch.view();
         let parts = &view;
         view.install(|| {
