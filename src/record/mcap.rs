@@ -631,9 +631,15 @@ fn complete_own_file(
     writer: McapWriter<BufWriter<WritebackFile>>,
     part: &Path,
 ) -> anyhow::Result<()> {
-    let file = writer
+    let buffered = writer
         .finish()
-        .with_context(|| format!("cannot finish {}", part.display()))?
+        .with_context(|| format!("cannot finish {}", part.display()))?;
+    sync_file(buffered, part)
+}
+
+/// Flushes `buffered`, the writer of the file `part`, and syncs the file.
+fn sync_file(buffered: BufWriter<WritebackFile>, part: &Path) -> anyhow::Result<()> {
+    let file = buffered
         .into_inner()
         .map_err(|e| e.into_error())
         .with_context(|| format!("cannot write {}", part.display()))?
@@ -643,19 +649,13 @@ fn complete_own_file(
 }
 
 /// Ends an MCAP file written under `part` (summary, indexes, footer), flushes and syncs it; it
-/// stays under `part` (the caller renames it). Shared by every MCAP sink.
+/// stays under `part` (the caller renames it). Shared by the MCAP sinks of the mcap crate's
+/// writer (the ROS 2 files).
 pub fn complete_file(mut writer: McapFileWriter, part: &Path) -> anyhow::Result<()> {
     writer
         .finish()
         .with_context(|| format!("cannot finish {}", part.display()))?;
-    let file = writer
-        .into_inner()
-        .into_inner()
-        .map_err(|e| e.into_error())
-        .with_context(|| format!("cannot write {}", part.display()))?
-        .into_inner();
-    file.sync_all()
-        .with_context(|| format!("cannot sync {}", part.display()))
+    sync_file(writer.into_inner(), part)
 }
 
 /// [`complete_file`], then renames `part` onto `path`.
