@@ -18,9 +18,11 @@
 //! A metadata record named `tumble` holds the scene, integrator settings and tool version
 //! (see [`RecordingLayout::metadata`]) and, under `layout_json`, the recording layout (frames,
 //! visuals, bodies, topic groups; [`super::layout_json`]) from which `tumble convert` replays the
-//! file into Rerun. Chunks are zstd-compressed; the summary and indexes are
-//! written by `finish()`, which is always called explicitly. The file is written under
-//! `<path>.part` and renamed onto `path` only once it is complete.
+//! file into Rerun. The file is written by [`super::mcap_writer`]; chunks are zstd-compressed,
+//! or LZ4 or uncompressed ([`ChunkCompression`]); the summary and indexes are written when the
+//! sink finishes, which is always explicit. The file is written under `<path>.part` (its bytes
+//! handed to the disk's writeback as they are written, [`super::writeback`]) and renamed onto
+//! `path` only once it is complete.
 
 use super::mcap_writer::{Codec, McapWriter};
 use super::scene_update::{MeshCache, geometry_update, inertia_update};
