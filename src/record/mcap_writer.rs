@@ -742,6 +742,65 @@ mod tests {
         }
     }
 
+    /// A channel's metadata map is prefixed with its length in bytes (MCAP `Map<String,
+    /// String>`): 4 + 1 + 4 + 1 for `k`/`v` and 4 + 4 + 4 + 6 for `key2`/`value2`, 28, and the
+    /// record ends right after the map. (The crate's reader stops at the first entry that
+    /// reaches the length, so it would accept a shorter one: checked here on the bytes.)
+    #[test]
+    fn a_metadata_map_is_prefixed_with_its_byte_length() {
+        let mut w = McapWriter::new(Cursor::new(Vec::new()), "", "t", Codec::None, 1024).unwrap();
+        let schema = w.add_schema("s", "protobuf", b"").unwrap();
+        let mut meta = BTreeMap::new();
+        meta.insert("k".to_string(), "v".to_string());
+        meta.insert("key2".to_string(), "value2".to_string());
+        w.add_channel(schema, "/t", "protobuf", &meta).unwrap();
+        let file = w.finish().unwrap().into_inner();
+        // Walk the records after the magic up to the first channel record.
+        let mut at = MAGIC.len();
+        loop {
+            let opcode = file[at];
+            let len = u64::from_le_bytes(file[at + 1..at + 9].try_into().unwrap()) as usize;
+            if opcode == op::CHANNEL {
+                let content = &file[at + 9..at + 9 + len];
+                // id, schema id, topic "/t" (4 + 2), encoding "protobuf" (4 + 8).
+                let map_at = 2 + 2 + 6 + 12;
+                let map_len = u32::from_le_bytes(content[map_at..map_at + 4].try_into().unwrap());
+                assert_eq!(map_len, 28);
+                assert_eq!(len, map_at + 4 + 28, "the record ends with the map");
+                break;
+            }
+            at += 9 + len;
+        }
+    }
+
+    /// A chunk is closed by the message that makes its records reach the chunk size (1024
+    /// bytes here): every chunk but the last holds at least that much, and its last message
+    /// starts below it.
+    #[test]
+    fn chunks_close_once_they_reach_the_chunk_size() {
+        for codec in [Codec::None, Codec::Lz4, Codec::Zstd] {
+            let file = write(codec);
+            let summary = mcap::Summary::read(&file).unwrap().unwrap();
+            let n = summary.chunk_indexes.len();
+            for (k, index) in summary.chunk_indexes.iter().enumerate() {
+                let last_offset = summary
+                    .read_message_indexes(&file, index)
+                    .unwrap()
+                    .values()
+                    .flat_map(|entries| entries.iter().map(|e| e.offset))
+                    .max()
+                    .unwrap();
+                assert!(last_offset < 1024, "{codec:?} chunk {k}: closed late");
+                if k + 1 < n {
+                    assert!(
+                        index.uncompressed_size >= 1024,
+                        "{codec:?} chunk {k}: closed early"
+                    );
+                }
+            }
+        }
+    }
+
     /// LZ4 chunks are LZ4 frames without content or block checksums (frame descriptor flags,
     /// LZ4 frame format 1.6.x: bit 2 content checksum, bit 4 block checksum).
     #[test]
