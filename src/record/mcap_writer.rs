@@ -94,8 +94,7 @@ impl Fields<'_> {
     }
     /// A `Map<String, String>`: u32 byte length of the entries, then key, value pairs.
     fn string_map(&mut self, map: &BTreeMap<String, String>) -> &mut Self {
-        let len: usize = map.iter().map(|(k, v)| 8 + k.len() + v.len()).sum();
-        self.u32(len as u32);
+        self.u32(string_map_len(map.iter()) as u32);
         for (k, v) in map {
             self.string(k);
             self.string(v);
@@ -111,6 +110,13 @@ impl Fields<'_> {
         }
         self
     }
+}
+
+/// Bytes of the entries of a `Map<String, String>`: each key and value a u32 length and its bytes.
+fn string_map_len<K: AsRef<str>, V: AsRef<str>>(entries: impl Iterator<Item = (K, V)>) -> usize {
+    entries
+        .map(|(k, v)| 8 + k.as_ref().len() + v.as_ref().len())
+        .sum()
 }
 
 /// A record: opcode, u64 content length, content.
@@ -246,8 +252,6 @@ pub struct McapWriter<W: Write + Seek> {
     channel_counts: BTreeMap<u16, u64>,
     /// Log times of the first and last message of the file.
     bounds: Option<(u64, u64)>,
-    /// A record being encoded.
-    scratch: Vec<u8>,
 }
 
 impl<W: Write + Seek> McapWriter<W> {
@@ -275,7 +279,6 @@ impl<W: Write + Seek> McapWriter<W> {
             metadata_count: 0,
             channel_counts: BTreeMap::new(),
             bounds: None,
-            scratch: Vec::new(),
         };
         let mut header = MAGIC.to_vec();
         record(&mut header, op::HEADER, |f| {
@@ -300,14 +303,6 @@ impl<W: Write + Seek> McapWriter<W> {
         Ok(())
     }
 
-    /// Writes the scratch record to the data section (outside any chunk).
-    fn put_scratch(&mut self) -> std::io::Result<()> {
-        let scratch = std::mem::take(&mut self.scratch);
-        let result = self.put_data(&scratch);
-        self.scratch = scratch;
-        result
-    }
-
     /// A metadata record `name` holding `entries` in the given order (MCAP readers expect the
     /// keys sorted, as a `BTreeMap` gives them), written outside chunks and indexed in the
     /// summary. The entries are written as they are, never copied into one buffer (the layout
@@ -315,15 +310,15 @@ impl<W: Write + Seek> McapWriter<W> {
     pub fn write_metadata(&mut self, name: &str, entries: &[(&str, &str)]) -> std::io::Result<()> {
         self.finish_chunk()?;
         let offset = self.position;
-        let map_len: usize = entries.iter().map(|(k, v)| 8 + k.len() + v.len()).sum();
+        let map_len = string_map_len(entries.iter().copied());
         let content_len = 4 + name.len() + 4 + map_len;
-        self.scratch.clear();
-        let mut f = Fields(&mut self.scratch);
-        f.u8(op::METADATA)
+        let mut head = Vec::new();
+        Fields(&mut head)
+            .u8(op::METADATA)
             .u64(content_len as u64)
             .string(name)
             .u32(map_len as u32);
-        self.put_scratch()?;
+        self.put_data(&head)?;
         for (k, v) in entries {
             for s in [k, v] {
                 self.put_data(&(s.len() as u32).to_le_bytes())?;
