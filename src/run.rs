@@ -1,12 +1,12 @@
 //! The simulation loop: steps a [`World`]'s bodies and hands decimated frames to the sinks.
 
-use crate::record::{BodyState, Frame, JointState, MechanismState, Sink};
+use crate::record::{BodyState, Frame, FramePool, JointState, MechanismState, OwnedFrame, Sink};
 use crate::scene::World;
 use crate::sim::guard::Divergence;
 use crate::sim::mechanism::Mechanism;
 use crate::sim::mechanism::project::Reporter;
 use crate::sim::partition::Partitions;
-use crate::sim::{Bodies, Integrator, StepStats};
+use crate::sim::{Bodies, BodyInit, Integrator, StepStats};
 use nalgebra::{Isometry3, Vector3};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -70,7 +70,7 @@ pub fn time_ns(step: u64, dt_secs: f64) -> i64 {
 /// report. A joint found outside its URDF range at a recorded step is warned about once (on
 /// standard error), naming the joint and the time.
 pub struct FrameBuilder {
-    attachments: Vec<crate::scene::Attachment>,
+    attachments: Arc<Vec<crate::scene::Attachment>>,
     interior: Vec<crate::scene::InteriorFrame>,
     mechanisms: Vec<(Arc<Mechanism>, Reporter)>,
     /// Per mechanism, once a partitioned batch was seen: its partition and itself re-based to
@@ -80,10 +80,9 @@ pub struct FrameBuilder {
     mechanism_ranges: Vec<(std::ops::Range<usize>, std::ops::Range<usize>)>,
     joint_names: Vec<String>,
     warned_range: Vec<bool>,
-    poses: Vec<Isometry3<f64>>,
-    states: Vec<BodyState>,
-    joints: Vec<JointState>,
-    totals: Vec<MechanismState>,
+    /// The frames built: each is written once, straight into a buffer the sinks then share
+    /// ([`FrameBuilder::shared`], [`crate::record::owned_frame`]).
+    pool: FramePool,
 }
 
 /// The state of body `j` of `bodies`, as recorded.
@@ -100,6 +99,15 @@ fn body_state(bodies: &Bodies, j: usize, gravity: &Vector3<f64>) -> BodyState {
 /// Items per parallel task when a frame is built from partitions.
 const FRAME_TASK_ITEMS: usize = 2048;
 
+/// A body state of zeros (the slots of a new frame buffer, all overwritten).
+const NO_STATE: BodyState = BodyState {
+    linvel_world: Vector3::new(0.0, 0.0, 0.0),
+    angvel_world: Vector3::new(0.0, 0.0, 0.0),
+    angmom_world: Vector3::new(0.0, 0.0, 0.0),
+    kinetic_energy: 0.0,
+    potential_energy: 0.0,
+};
+
 impl FrameBuilder {
     pub fn new(world: &World) -> Self {
         let mechanisms: Vec<_> = world
@@ -114,21 +122,50 @@ impl FrameBuilder {
             .map(|m| (m.bodies.clone(), m.joints.clone()))
             .collect();
         Self {
-            attachments: world.attachments.clone(),
+            attachments: Arc::clone(&world.attachments),
             interior: world.interior_frames.clone(),
             mechanisms,
             located: Vec::new(),
             mechanism_ranges,
             joint_names: world.layout.joints.iter().map(|j| j.name.clone()).collect(),
             warned_range: vec![false; world.layout.joints.len()],
-            poses: Vec::with_capacity(world.attachments.len()),
-            states: Vec::with_capacity(world.bodies.len()),
-            joints: vec![JointState::default(); world.layout.joints.len()],
-            totals: vec![MechanismState::default(); world.mechanisms.len()],
+            pool: FramePool::default(),
         }
     }
 
-    /// Fills the buffers from `bodies` and returns the frame of step `step`.
+    /// A free frame buffer for step `step`, sized for `bodies` bodies (every slot is then
+    /// written).
+    fn start(pool: &mut FramePool, sizes: [usize; 4], step: u64, time_ns: i64) -> &mut OwnedFrame {
+        let out = pool.next_free();
+        out.step = step;
+        out.time_ns = time_ns;
+        out.world_from_link.resize(sizes[0], Isometry3::identity());
+        out.bodies.resize(sizes[1], NO_STATE);
+        out.joints.resize(sizes[2], JointState::default());
+        out.mechanisms.resize(sizes[3], MechanismState::default());
+        out
+    }
+
+    fn sizes(&self, bodies: usize) -> [usize; 4] {
+        [
+            self.attachments.len(),
+            bodies,
+            self.joint_names.len(),
+            self.mechanisms.len(),
+        ]
+    }
+
+    /// The last frame built.
+    fn last(&self) -> Frame<'_> {
+        self.pool.current().expect("a frame was built").as_frame()
+    }
+
+    /// The last frame built, as the buffer the sinks share ([`Sink::write_shared`]).
+    pub fn shared(&mut self) -> &Arc<OwnedFrame> {
+        self.pool.shared()
+    }
+
+    /// Fills a frame buffer from `bodies` and returns the frame of step `step`.
     pub fn frame(
         &mut self,
         bodies: &Bodies,
@@ -136,41 +173,39 @@ impl FrameBuilder {
         step: u64,
         dt_secs: f64,
     ) -> Frame<'_> {
-        self.poses.clear();
-        self.poses.extend(self.attachments.iter().map(|a| {
-            if a.body == crate::scene::Attachment::WORLD {
+        let time_ns = time_ns(step, dt_secs);
+        let time_secs = time_ns as f64 / 1e9;
+        let sizes = self.sizes(bodies.len());
+        let mut pool = std::mem::take(&mut self.pool);
+        let out = Self::start(&mut pool, sizes, step, time_ns);
+        for (pose, a) in out.world_from_link.iter_mut().zip(self.attachments.iter()) {
+            *pose = if a.body == crate::scene::Attachment::WORLD {
                 a.body_from_link
             } else {
                 bodies.world_from_body(a.body) * a.body_from_link
-            }
-        }));
-        self.states.clear();
-        self.states
-            .extend((0..bodies.len()).map(|i| body_state(bodies, i, gravity)));
-        let time_ns = time_ns(step, dt_secs);
-        let time_secs = time_ns as f64 / 1e9;
+            };
+        }
+        for (i, state) in out.bodies.iter_mut().enumerate() {
+            *state = body_state(bodies, i, gravity);
+        }
         for k in 0..self.mechanisms.len() {
             let (model, reporter) = &mut self.mechanisms[k];
             reporter.report(model, bodies, gravity, time_secs);
             let model = Arc::clone(model);
-            self.write_mechanism(k, &model, bodies, 0, gravity, time_secs);
+            self.write_mechanism(out, k, &model, bodies, 0, gravity, time_secs);
         }
-        self.place_interior_frames();
-        Frame {
-            step,
-            time_ns,
-            world_from_link: &self.poses,
-            bodies: &self.states,
-            joints: &self.joints,
-            mechanisms: &self.totals,
-        }
+        self.place_interior_frames(out);
+        self.pool = pool;
+        self.last()
     }
 
-    /// Copies mechanism `k`'s last report into the frame buffers: its bodies' projected states
+    /// Copies mechanism `k`'s last report into the frame `out`: its bodies' projected states
     /// (`model` is the mechanism as `bodies` index it, `offset` the batch index of `bodies`'
     /// first body), joints and totals; warns once per joint found outside its URDF range.
+    #[allow(clippy::too_many_arguments)]
     fn write_mechanism(
         &mut self,
+        out: &mut OwnedFrame,
         k: usize,
         model: &Mechanism,
         bodies: &Bodies,
@@ -185,7 +220,7 @@ impl FrameBuilder {
             let omega = m.component_mul(&bodies.inv_inertia_body[gi]);
             let v = report.linvel_world[i];
             let mass = bodies.mass[gi];
-            self.states[offset + gi] = BodyState {
+            out.bodies[offset + gi] = BodyState {
                 linvel_world: v,
                 angvel_world: q * omega,
                 angmom_world: q * m,
@@ -195,7 +230,7 @@ impl FrameBuilder {
         }
         let joints = self.mechanism_ranges[k].1.clone();
         for (c, j) in joints.enumerate() {
-            self.joints[j] = JointState {
+            out.joints[j] = JointState {
                 position: report.position[c],
                 velocity: report.velocity[c],
             };
@@ -212,7 +247,7 @@ impl FrameBuilder {
             }
         }
         let t = &report.totals;
-        self.totals[k] = MechanismState {
+        out.mechanisms[k] = MechanismState {
             linear_momentum: t.linear_momentum,
             angular_momentum: t.angular_momentum,
             com: t.com,
@@ -223,11 +258,11 @@ impl FrameBuilder {
         };
     }
 
-    /// Places the compound joints' massless links from the last reports.
-    fn place_interior_frames(&mut self) {
+    /// Places the compound joints' massless links of `out` from the last reports.
+    fn place_interior_frames(&self, out: &mut OwnedFrame) {
         for f in &self.interior {
             let report = &self.mechanisms[f.mechanism].1.report;
-            self.poses[f.frame] =
+            out.world_from_link[f.frame] =
                 report.interior_world_from_link[f.interior] * f.interior_from_link;
         }
     }
@@ -240,21 +275,14 @@ impl FrameBuilder {
         step: u64,
         dt_secs: f64,
     ) -> Frame<'_> {
-        let identity = Isometry3::identity();
-        self.poses.resize(self.attachments.len(), identity);
-        self.states.resize(
-            batch.len(),
-            BodyState {
-                linvel_world: Vector3::zeros(),
-                angvel_world: Vector3::zeros(),
-                angmom_world: Vector3::zeros(),
-                kinetic_energy: 0.0,
-                potential_energy: 0.0,
-            },
-        );
-        let (attachments, poses, states) = (&self.attachments, &mut self.poses, &mut self.states);
+        let time_ns = time_ns(step, dt_secs);
+        let sizes = self.sizes(batch.len());
+        let mut pool = std::mem::take(&mut self.pool);
+        let out = Self::start(&mut pool, sizes, step, time_ns);
+        let attachments = &self.attachments;
         let view = batch.view();
         let parts = &view;
+        let (poses, states) = (&mut out.world_from_link, &mut out.bodies);
         view.install(|| {
             poses
                 .par_chunks_mut(FRAME_TASK_ITEMS)
@@ -278,7 +306,6 @@ impl FrameBuilder {
                     }
                 });
         });
-        let time_ns = time_ns(step, dt_secs);
         if !self.mechanisms.is_empty() {
             let time_secs = time_ns as f64 / 1e9;
             if self.located.len() != self.mechanisms.len() {
@@ -308,24 +335,19 @@ impl FrameBuilder {
             let located = std::mem::take(&mut self.located);
             for (m, (k, local)) in located.iter().enumerate() {
                 let part = &batch.parts[*k];
-                self.write_mechanism(m, local, &part.bodies, part.first, gravity, time_secs);
+                self.write_mechanism(out, m, local, &part.bodies, part.first, gravity, time_secs);
             }
             self.located = located;
-            self.place_interior_frames();
+            self.place_interior_frames(out);
         }
-        Frame {
-            step,
-            time_ns,
-            world_from_link: &self.poses,
-            bodies: &self.states,
-            joints: &self.joints,
-            mechanisms: &self.totals,
-        }
+        self.pool = pool;
+        self.last()
     }
 
     /// Total mechanical energy of the last frame built (reported states), J.
     pub fn total_energy(&self) -> f64 {
-        self.states
+        self.last()
+            .bodies
             .iter()
             .map(|s| s.kinetic_energy + s.potential_energy)
             .sum()
@@ -337,17 +359,18 @@ impl FrameBuilder {
     /// left out.
     pub fn conserved_angmom(&self, out: &mut Vec<Vector3<f64>>) {
         out.clear();
-        let mut in_mechanism = vec![false; self.states.len()];
+        let last = self.last();
+        let mut in_mechanism = vec![false; last.bodies.len()];
         for (k, (model, _)) in self.mechanisms.iter().enumerate() {
             for i in model.bodies() {
                 in_mechanism[i] = true;
             }
             if model.base == crate::sim::mechanism::Base::Floating {
-                out.push(self.totals[k].angular_momentum);
+                out.push(last.mechanisms[k].angular_momentum);
             }
         }
         out.extend(
-            self.states
+            last.bodies
                 .iter()
                 .zip(&in_mechanism)
                 .filter(|(_, m)| !**m)
@@ -374,6 +397,7 @@ pub fn run(
     let whole = 0..world.bodies.len();
     run_partitions(
         world,
+        Inits::Borrowed(&world.bodies),
         vec![whole],
         vec![integrator],
         1,
@@ -402,8 +426,33 @@ pub fn run_parts(
     settings: &RunSettings,
     sinks: &mut [Box<dyn Sink>],
 ) -> anyhow::Result<RunSummary> {
+    run_parts_from(
+        world,
+        Inits::Borrowed(&world.bodies),
+        make,
+        threads,
+        settings,
+        sinks,
+    )
+}
+
+/// The initial states a run starts from: the world's own (borrowed), or taken out of the world
+/// (owned: dropped as soon as the partitions hold them, so the run does not keep the
+/// 136 bytes per body of [`BodyInit`] beside the stepping batch's own 160).
+pub type Inits<'a> = std::borrow::Cow<'a, [BodyInit]>;
+
+/// [`run_parts`] from `inits`, the initial states of `world`'s bodies given apart from it
+/// (`world.bodies` may be empty then: `simulate` moves them out, [`Inits`]).
+pub fn run_parts_from(
+    world: &World,
+    inits: Inits<'_>,
+    make: &dyn Fn(&PartSpec<'_>) -> anyhow::Result<Box<dyn Integrator>>,
+    threads: usize,
+    settings: &RunSettings,
+    sinks: &mut [Box<dyn Sink>],
+) -> anyhow::Result<RunSummary> {
     let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
-    let ranges = crate::sim::partition::ranges(world.bodies.len(), threads, &mechanism_ranges);
+    let ranges = crate::sim::partition::ranges(inits.len(), threads, &mechanism_ranges);
     let mechanisms: Vec<Vec<Arc<Mechanism>>> = ranges
         .iter()
         .map(|r| crate::sim::partition::rebase(&world.mechanisms, r))
@@ -423,7 +472,7 @@ pub fn run_parts(
         .map(|b| &mut **b as &mut dyn Integrator)
         .collect();
     run_partitions(
-        world, ranges, borrowed, threads, mechanisms, settings, sinks,
+        world, inits, ranges, borrowed, threads, mechanisms, settings, sinks,
     )
 }
 
@@ -462,8 +511,10 @@ pub fn run_threaded_ranges(
     )
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run_partitions(
     world: &World,
+    inits: Inits<'_>,
     ranges: Vec<std::ops::Range<usize>>,
     integrators: Vec<&mut dyn Integrator>,
     threads: usize,
@@ -473,7 +524,7 @@ fn run_partitions(
 ) -> anyhow::Result<RunSummary> {
     let g = settings.gravity;
     let mut parts = Partitions::with_ranges(
-        &world.bodies,
+        &inits,
         &ranges,
         integrators,
         threads,
@@ -482,6 +533,8 @@ fn run_partitions(
         settings.divergence_energy_ratio,
         settings.stop_on_newton_failure,
     )?;
+    // The partitions hold the states now; owned initial states are freed here.
+    drop(inits);
     let dt = parts.dt();
     // With articulated models the summary's energy and momenta are the reported ones
     // (projected momenta; a mechanism's total angular momentum), read from the recorded frames.
@@ -504,9 +557,12 @@ fn run_partitions(
                       step: u64,
                       summary: &mut RunSummary|
      -> anyhow::Result<()> {
-        let frame = frames.frame_of_parts(parts, &g, step, dt);
+        frames.frame_of_parts(parts, &g, step, dt);
+        // Every sink gets the one buffer the frame was built in (a pipelined sink queues it
+        // without a copy).
+        let frame = frames.shared();
         for sink in sinks.iter_mut() {
-            sink.write(&frame)?;
+            sink.write_shared(frame)?;
         }
         summary.frames_recorded += 1;
         summary.last_recorded_step = step;

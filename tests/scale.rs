@@ -452,3 +452,89 @@ fn mcap_compression_auto_picks_lz4_for_big_scenes_and_every_choice_reads_the_sam
     assert!(text(&out.stderr).contains("expected auto, zstd, lz4 or none"));
     assert!(!d.join("x.mcap").exists());
 }
+
+/// Keeps every frame it is given (step, first pose's x, every body's kinetic energy), slowly
+/// when `delay` is set, so that frame buffers are still held while the run builds the next.
+type Kept = std::sync::Arc<std::sync::Mutex<Vec<(u64, f64, Vec<f64>)>>>;
+
+struct Keep {
+    seen: Kept,
+    delay: std::time::Duration,
+}
+
+impl tumble::record::Sink for Keep {
+    fn write(&mut self, frame: &tumble::record::Frame<'_>) -> anyhow::Result<()> {
+        std::thread::sleep(self.delay);
+        self.seen.lock().unwrap().push((
+            frame.step,
+            frame.world_from_link[0].translation.x,
+            frame.bodies.iter().map(|b| b.kinetic_energy).collect(),
+        ));
+        Ok(())
+    }
+    fn finish(self: Box<Self>) -> anyhow::Result<()> {
+        Ok(())
+    }
+}
+
+/// The run builds each frame once, in a buffer the pipelined sinks share: no sink copies a
+/// frame (the share made no copy of its own), and two slow sinks on their own threads see the
+/// same frames as a sink on the stepping thread, so no buffer was rewritten while a sink still
+/// held it.
+#[test]
+fn pipelined_sinks_take_the_frames_without_a_copy() {
+    use tumble::record::pipelined::{FrameShare, Pipelined};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    big_scene(d, 700);
+    let scene = Scene::load(&d.join("big.toml")).unwrap();
+    let world = scene.build().unwrap();
+    let share = FrameShare::default();
+    let logs: Vec<Kept> = (0..3).map(|_| Kept::default()).collect();
+    let mut sinks: Vec<Box<dyn tumble::record::Sink>> = vec![Box::new(Keep {
+        seen: std::sync::Arc::clone(&logs[0]),
+        delay: std::time::Duration::ZERO,
+    })];
+    for (k, log) in logs.iter().enumerate().skip(1) {
+        let sink = Keep {
+            seen: std::sync::Arc::clone(log),
+            delay: std::time::Duration::from_millis(2 * k as u64),
+        };
+        sinks.push(Box::new(
+            Pipelined::shared(Box::new(sink), "keep", &share, 1).unwrap(),
+        ));
+    }
+    let (kind, dt, settings) = (
+        scene.integrator(),
+        scene.sim.dt,
+        scene.variational_settings(),
+    );
+    let summary = tumble::run::run_parts(
+        &world,
+        &|part| {
+            tumble::scene::World::integrator_of(
+                kind,
+                dt,
+                &settings,
+                part.mechanisms,
+                part.range.len(),
+            )
+        },
+        2,
+        &scene.run_settings(),
+        &mut sinks,
+    )
+    .unwrap();
+    for sink in sinks {
+        sink.finish().unwrap();
+    }
+    assert_eq!(share.buffers(), 0, "a pipelined sink copied a frame");
+    let direct = logs[0].lock().unwrap().clone();
+    // duration 0.03 s at dt 1 ms, every 5th step: steps 0, 5, ..., 30.
+    assert_eq!(summary.frames_recorded, 7);
+    assert_eq!(direct.len(), 7);
+    assert_eq!(direct.last().unwrap().0, 30);
+    for log in &logs[1..] {
+        assert_eq!(*log.lock().unwrap(), direct);
+    }
+}

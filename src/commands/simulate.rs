@@ -392,7 +392,7 @@ pub fn simulate(
         mcap_compression: ChunkCompression::Zstd,
         accuracy_model: Default::default(),
     };
-    simulate_world(scene, &scene.build()?, stem, &options)
+    simulate_world(scene, &mut scene.build()?, stem, &options)
 }
 
 /// The files `formats` names for `stem`, in the order of [`Outputs::written`].
@@ -448,13 +448,17 @@ pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
 
 /// Runs the built `world` of `scene` and writes the files `options.formats` names under
 /// `stem`. A run the guard stops ([`crate::sim::guard`]) still finishes the files (they end at
-/// the last good recorded step) and then returns a [`Diverged`] error.
+/// the last good recorded step) and then returns a [`Diverged`] error. Without `--accuracy`
+/// (whose check after the run starts from them) the initial states are moved out of
+/// `world.bodies`, which is left empty: the run frees them once the partitions hold theirs
+/// ([`crate::run::Inits`]).
 pub fn simulate_world(
     scene: &Scene,
-    world: &World,
+    world: &mut World,
     stem: &Path,
     options: &SimulateOptions,
 ) -> anyhow::Result<Outputs> {
+    let body_count = world.bodies.len();
     // Before any file exists: an integrator the world cannot use is refused with nothing written.
     world.integrator(
         scene.integrator(),
@@ -466,7 +470,7 @@ pub fn simulate_world(
     let plan = match scene.sim.accuracy {
         Some(tol) => Some(accuracy_plan(
             scene,
-            world,
+            &*world,
             tol,
             &options.accuracy_model,
             options.threads,
@@ -554,7 +558,7 @@ pub fn simulate_world(
     };
     let result = if let Some(plan) = &plan {
         crate::run::run_threaded_ranges(
-            world,
+            &*world,
             &|range| plan.integrator(&variational, range),
             options.threads,
             &settings,
@@ -562,9 +566,12 @@ pub fn simulate_world(
         )
     } else {
         // A mechanism's bodies are coupled by its joint rows: the batch is cut between
-        // mechanisms, each partition's integrator steps its own (docs/mechanisms.md).
-        crate::run::run_parts(
-            world,
+        // mechanisms, each partition's integrator steps its own (docs/mechanisms.md). The
+        // initial states leave the world: the run frees them once the partitions hold theirs.
+        let inits = std::mem::take(&mut world.bodies);
+        crate::run::run_parts_from(
+            &*world,
+            crate::run::Inits::Owned(inits),
             &|part| World::integrator_of(kind, dt, &variational, part.mechanisms, part.range.len()),
             options.threads,
             &settings,
@@ -621,7 +628,7 @@ pub fn simulate_world(
         ros2: ros2.clone(),
         written: written.clone(),
         summary,
-        bodies: world.bodies.len(),
+        bodies: body_count,
         accuracy,
     })
 }
@@ -756,7 +763,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         check_not_overwriting(&accuracy_json, args.force)?;
     }
     let threads = thread_count(args.threads)?;
-    let world = scene.build()?;
+    let mut world = scene.build()?;
     for warning in &world.warnings {
         eprintln!("warning: {warning}");
     }
@@ -775,9 +782,16 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     }
     crate::interrupt::install()?;
     let started = std::time::Instant::now();
+    // What will step: a small batch uses fewer partitions than threads (and a scene with
+    // mechanisms is cut only between them).
+    let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
+    let stepping = crate::sim::partition::stepping_threads(
+        crate::sim::partition::ranges(world.bodies.len(), threads, &mechanism_ranges).len(),
+        threads,
+    );
     let out = simulate_world(
         &scene,
-        &world,
+        &mut world,
         &stem,
         &SimulateOptions {
             rerun: RerunOptions {
@@ -793,13 +807,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     )?;
     let wall = started.elapsed().as_secs_f64();
     let s = &out.summary;
-    // What actually stepped: a small batch uses fewer partitions than threads (and a scene
-    // with mechanisms is cut only between them).
-    let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
-    let threads = crate::sim::partition::stepping_threads(
-        crate::sim::partition::ranges(world.bodies.len(), threads, &mechanism_ranges).len(),
-        threads,
-    );
+    let threads = stepping;
     println!(
         "simulated {} bodies for {} steps of {} s ({} s) with {} on {threads} thread{} in {wall:.2} s wall time",
         out.bodies,

@@ -10,6 +10,7 @@ pub mod mcap;
 pub mod mcap_encode;
 pub mod mcap_writer;
 pub mod mechanism_proto;
+pub mod owned_frame;
 pub mod parquet;
 pub mod pipelined;
 pub mod rerun;
@@ -24,6 +25,8 @@ pub mod writeback;
 use crate::model::Visual;
 use nalgebra::{Isometry3, Vector3};
 use std::collections::BTreeMap;
+
+pub use owned_frame::{FramePool, OwnedFrame};
 
 /// Everything a recorder needs to know before the first frame.
 #[derive(Debug, Clone, Default)]
@@ -296,6 +299,12 @@ pub fn finish_all<T>(
 pub trait Sink {
     /// Record one step. Frames arrive in increasing time.
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()>;
+    /// Record one step held in a shared buffer ([`owned_frame`]). By default it is written as
+    /// any frame; a sink on its own thread ([`pipelined::Pipelined`]) queues the buffer itself,
+    /// without a copy.
+    fn write_shared(&mut self, frame: &std::sync::Arc<OwnedFrame>) -> anyhow::Result<()> {
+        self.write(&frame.as_frame())
+    }
     /// Flush everything and close the file so that readers see a complete recording under its
     /// final name.
     fn finish(self: Box<Self>) -> anyhow::Result<()>;

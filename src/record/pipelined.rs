@@ -12,7 +12,7 @@
 //! by `finish` / `complete`), after which the sink is gone; dropping an unfinished `Pipelined`
 //! drops the sink on its thread (removing its `.part` file) and joins it.
 
-use super::{BodyState, Frame, JointState, MechanismState, Sink};
+use super::{BodyState, Frame, JointState, OwnedFrame, Sink};
 use anyhow::{Context, anyhow};
 use nalgebra::Isometry3;
 use std::cell::RefCell;
@@ -90,33 +90,6 @@ impl FrameShare {
     }
 }
 
-/// A frame owned by the channel.
-#[derive(Default)]
-struct OwnedFrame {
-    step: u64,
-    time_ns: i64,
-    world_from_link: Vec<Isometry3<f64>>,
-    bodies: Vec<BodyState>,
-    joints: Vec<JointState>,
-    mechanisms: Vec<MechanismState>,
-}
-
-impl OwnedFrame {
-    fn fill(&mut self, frame: &Frame<'_>) {
-        self.step = frame.step;
-        self.time_ns = frame.time_ns;
-        self.world_from_link.clear();
-        self.world_from_link
-            .extend_from_slice(frame.world_from_link);
-        self.bodies.clear();
-        self.bodies.extend_from_slice(frame.bodies);
-        self.joints.clear();
-        self.joints.extend_from_slice(frame.joints);
-        self.mechanisms.clear();
-        self.mechanisms.extend_from_slice(frame.mechanisms);
-    }
-}
-
 enum Job {
     Write(Arc<OwnedFrame>),
     /// `true`: complete (leave the `.part`), `false`: finish (rename too).
@@ -156,16 +129,7 @@ impl Pipelined {
                 let mut sink = sink;
                 while let Ok(job) = inbox.recv() {
                     match job {
-                        Job::Write(owned) => {
-                            sink.write(&Frame {
-                                step: owned.step,
-                                time_ns: owned.time_ns,
-                                world_from_link: &owned.world_from_link,
-                                bodies: &owned.bodies,
-                                joints: &owned.joints,
-                                mechanisms: &owned.mechanisms,
-                            })?;
-                        }
+                        Job::Write(owned) => sink.write(&owned.as_frame())?,
                         Job::End(keep_part) => {
                             return if keep_part {
                                 sink.complete()
@@ -223,9 +187,9 @@ impl Pipelined {
     }
 }
 
-impl Sink for Pipelined {
-    fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
-        let owned = self.share.copy(frame);
+impl Pipelined {
+    /// Queues `owned` for the sink's thread (waiting while the queue is full).
+    fn send(&mut self, owned: Arc<OwnedFrame>) -> anyhow::Result<()> {
         let sent = self
             .jobs
             .as_ref()
@@ -238,6 +202,18 @@ impl Sink for Pipelined {
             .join()
             .err()
             .unwrap_or_else(|| anyhow!("the recording thread ended early")))
+    }
+}
+
+impl Sink for Pipelined {
+    fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
+        let owned = self.share.copy(frame);
+        self.send(owned)
+    }
+
+    /// The buffer itself is queued: no copy.
+    fn write_shared(&mut self, frame: &Arc<OwnedFrame>) -> anyhow::Result<()> {
+        self.send(Arc::clone(frame))
     }
 
     fn finish(self: Box<Self>) -> anyhow::Result<()> {

@@ -525,7 +525,7 @@ fn place(
             }
             None => bail!("internal error: link `{}` in no group", link.name),
         };
-        world.attachments.push(attachment);
+        std::sync::Arc::make_mut(&mut world.attachments).push(attachment);
         world.layout.frames.push(FrameLayout {
             frame_id: frame_id(&link.name),
             model: label.to_string(),
