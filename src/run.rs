@@ -283,29 +283,43 @@ impl FrameBuilder {
         let view = batch.view();
         let parts = &view;
         let (poses, states) = (&mut out.world_from_link, &mut out.bodies);
-        view.install(|| {
+        let place = |(poses, attachments): (&mut [Isometry3<f64>], &[crate::scene::Attachment])| {
+            for (pose, a) in poses.iter_mut().zip(attachments) {
+                *pose = if a.body == crate::scene::Attachment::WORLD {
+                    a.body_from_link
+                } else {
+                    parts.world_from_body(a.body) * a.body_from_link
+                };
+            }
+        };
+        let fill = |(c, states): (usize, &mut [BodyState])| {
+            for (k, state) in states.iter_mut().enumerate() {
+                let (bodies, j) = parts.body(c * FRAME_TASK_ITEMS + k);
+                *state = body_state(bodies, j, gravity);
+            }
+        };
+        // On the stepping pool's threads, or here on one thread (`View::is_threaded`).
+        if view.is_threaded() {
+            view.install(|| {
+                poses
+                    .par_chunks_mut(FRAME_TASK_ITEMS)
+                    .zip(attachments.par_chunks(FRAME_TASK_ITEMS))
+                    .for_each(place);
+                states
+                    .par_chunks_mut(FRAME_TASK_ITEMS)
+                    .enumerate()
+                    .for_each(fill);
+            });
+        } else {
             poses
-                .par_chunks_mut(FRAME_TASK_ITEMS)
-                .zip(attachments.par_chunks(FRAME_TASK_ITEMS))
-                .for_each(|(poses, attachments)| {
-                    for (pose, a) in poses.iter_mut().zip(attachments) {
-                        *pose = if a.body == crate::scene::Attachment::WORLD {
-                            a.body_from_link
-                        } else {
-                            parts.world_from_body(a.body) * a.body_from_link
-                        };
-                    }
-                });
+                .chunks_mut(FRAME_TASK_ITEMS)
+                .zip(attachments.chunks(FRAME_TASK_ITEMS))
+                .for_each(place);
             states
-                .par_chunks_mut(FRAME_TASK_ITEMS)
+                .chunks_mut(FRAME_TASK_ITEMS)
                 .enumerate()
-                .for_each(|(c, states)| {
-                    for (k, state) in states.iter_mut().enumerate() {
-                        let (bodies, j) = parts.body(c * FRAME_TASK_ITEMS + k);
-                        *state = body_state(bodies, j, gravity);
-                    }
-                });
-        });
+                .for_each(fill);
+        }
         if !self.mechanisms.is_empty() {
             let time_secs = time_ns as f64 / 1e9;
             if self.located.len() != self.mechanisms.len() {
@@ -324,14 +338,22 @@ impl FrameBuilder {
             // The reports (projections, coordinates) on the pool, one task per mechanism; then
             // copied into the frame in order (warnings in joint order).
             let located = &self.located;
-            view.install(|| {
-                self.mechanisms
-                    .par_iter_mut()
-                    .zip(located.par_iter())
-                    .for_each(|((_, reporter), (k, local))| {
-                        reporter.report(local, view.part(*k), gravity, time_secs);
-                    });
-            });
+            let report = |((_, reporter), (k, local)): (
+                &mut (Arc<Mechanism>, Reporter),
+                &(usize, Mechanism),
+            )| {
+                reporter.report(local, view.part(*k), gravity, time_secs);
+            };
+            if view.is_threaded() {
+                view.install(|| {
+                    self.mechanisms
+                        .par_iter_mut()
+                        .zip(located.par_iter())
+                        .for_each(report);
+                });
+            } else {
+                self.mechanisms.iter_mut().zip(located).for_each(report);
+            }
             let located = std::mem::take(&mut self.located);
             for (m, (k, local)) in located.iter().enumerate() {
                 let part = &batch.parts[*k];

@@ -96,11 +96,12 @@ use crate::model::{Geometry, Visual};
 use anyhow::{Context, Result, anyhow, bail};
 use nalgebra::Isometry3;
 use rerun::external::re_log_encoding::{CrateVersion, Encoder, EncodingOptions};
-use rerun::log::{Chunk, ChunkId, LogMsg, RowId};
+use rerun::external::re_log_types::StoreId;
+use rerun::log::{Chunk, ChunkComponents, ChunkId, LogMsg, RowId};
 use rerun::sink::{LogSink, SinkFlushError};
 use rerun::{
     AsComponents, EntityPath, EntityPathPart, RecordingStream, RecordingStreamBuilder,
-    SerializedComponentBatch, TimeColumn, TimePoint,
+    SerializedComponentBatch, SerializedComponentColumn, TimeColumn, TimePoint,
 };
 use std::collections::BTreeSet;
 use std::fs::File;
@@ -299,28 +300,105 @@ impl FileState {
             }
             LogMsg::ArrowMsg(store_id, arrow_msg) => {
                 let chunk = Chunk::from_arrow_msg(&arrow_msg)?;
-                let chunk_id = ChunkId::from_u128(self.next_id());
-                let row_ids: Vec<RowId> = (0..chunk.num_rows())
-                    .map(|_| RowId::from_u128(self.next_id()))
-                    .collect();
-                let chunk = Chunk::from_native_row_ids(
-                    chunk_id,
+                let (timelines, components) =
+                    (chunk.timelines().clone(), chunk.components().clone());
+                return self.write_chunk(
+                    &store_id,
                     chunk.entity_path().clone(),
-                    None,
-                    &row_ids,
-                    chunk.timelines().clone(),
-                    chunk.components().clone(),
-                )?;
-                LogMsg::ArrowMsg(store_id, chunk.to_arrow_msg()?)
+                    timelines,
+                    components,
+                );
             }
             other => other,
         };
+        self.append(&msg)
+    }
+
+    /// Writes a chunk of these columns, its ids renumbered (chunk id first, then one row id
+    /// per row, from the counter). A chunk without components is dropped, as Rerun's batcher
+    /// drops it.
+    fn write_chunk(
+        &mut self,
+        store_id: &StoreId,
+        entity: EntityPath,
+        timelines: rerun::external::nohash_hasher::IntMap<rerun::time::TimelineName, TimeColumn>,
+        components: ChunkComponents,
+    ) -> Result<()> {
+        if components.0.is_empty() {
+            return Ok(());
+        }
+        let rows = components
+            .list_arrays()
+            .next()
+            .map_or(0, arrow_array::Array::len);
+        let chunk_id = ChunkId::from_u128(self.next_id());
+        let row_ids: Vec<RowId> = (0..rows)
+            .map(|_| RowId::from_u128(self.next_id()))
+            .collect();
+        let chunk =
+            Chunk::from_native_row_ids(chunk_id, entity, None, &row_ids, timelines, components)?;
+        self.append(&LogMsg::ArrowMsg(store_id.clone(), chunk.to_arrow_msg()?))
+    }
+
+    fn append(&mut self, msg: &LogMsg) -> Result<()> {
         let encoder = self
             .encoder
             .as_mut()
             .ok_or_else(|| anyhow!("message after the recording was closed"))?;
-        encoder.append(&msg)?;
+        encoder.append(msg)?;
         Ok(())
+    }
+}
+
+/// Writes chunks into the file on the calling thread ([`FileState::write_chunk`]): after the
+/// recording stream has written its store info and properties, every chunk goes this way,
+/// not through the stream's batcher and forwarding thread, which turned each chunk into an
+/// Arrow message that [`RrdFileSink`] had to turn back into a chunk to renumber its ids (the
+/// same bytes; two threads and an Arrow round trip per chunk less).
+pub(super) struct ChunkWriter<'a> {
+    state: &'a Mutex<FileState>,
+    store_id: &'a StoreId,
+    path: &'a Path,
+}
+
+impl ChunkWriter<'_> {
+    /// A chunk of `columns` on `entity` at the times of `indexes` (what
+    /// `RecordingStream::send_columns` sends).
+    pub(super) fn send_columns(
+        &self,
+        entity: EntityPath,
+        indexes: impl IntoIterator<Item = TimeColumn>,
+        columns: impl IntoIterator<Item = SerializedComponentColumn>,
+    ) -> Result<()> {
+        let timelines = indexes
+            .into_iter()
+            .map(|column| (*column.timeline().name(), column))
+            .collect();
+        let components: ChunkComponents = columns
+            .into_iter()
+            .map(|column| (column.descriptor, column.list_array))
+            .collect();
+        self.write(entity, timelines, components)
+    }
+
+    fn send(&self, chunk: Chunk) -> Result<()> {
+        let (timelines, components) = (chunk.timelines().clone(), chunk.components().clone());
+        self.write(chunk.entity_path().clone(), timelines, components)
+    }
+
+    fn write(
+        &self,
+        entity: EntityPath,
+        timelines: rerun::external::nohash_hasher::IntMap<rerun::time::TimelineName, TimeColumn>,
+        components: ChunkComponents,
+    ) -> Result<()> {
+        let mut state = lock(self.state);
+        if let Some(err) = &state.error {
+            bail!("writing {}: {err}", self.path.display());
+        }
+        state
+            .write_chunk(self.store_id, entity, timelines, components)
+            .with_context(|| format!("writing {}", self.path.display()))
     }
 }
 
@@ -625,7 +703,11 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
     .context("cannot start the Rerun recording stream")?;
     rec.set_log_time_enabled(false);
     rec.set_log_tick_enabled(false);
+    // The store info and properties are in the file before the first chunk ([`ChunkWriter`]).
+    rec.flush_blocking()
+        .with_context(|| format!("writing {}", sink.part_path.display()))?;
     sink.rec = Some(rec);
+    sink.check_sink()?;
 
     sink.write_layout(layout, options)?;
     Ok(sink)
@@ -673,15 +755,17 @@ impl RerunSink {
         &self.warnings
     }
 
-    fn rec(&self) -> Result<&RecordingStream> {
-        self.rec
-            .as_ref()
-            .ok_or_else(|| anyhow!("the Rerun recording is closed"))
+    fn send(&self, chunk: Chunk) -> Result<()> {
+        self.writer().send(chunk)
     }
 
-    fn send(&self, chunk: Chunk) -> Result<()> {
-        self.rec()?.send_chunk(chunk);
-        self.check_sink()
+    /// Where chunks go ([`ChunkWriter`]).
+    fn writer(&self) -> ChunkWriter<'_> {
+        ChunkWriter {
+            state: &self.state,
+            store_id: &self.store_info.store_id,
+            path: &self.part_path,
+        }
     }
 
     /// Surfaces an error of the file writer (it runs on Rerun's forwarding thread).
@@ -1003,7 +1087,11 @@ impl RerunSink {
         if self.buffer.len() == 0 {
             return Ok(());
         }
-        let rec = self.rec()?;
+        let writer = ChunkWriter {
+            state: &self.state,
+            store_id: &self.store_info.store_id,
+            path: &self.part_path,
+        };
         let buffer = &self.buffer;
         let n = buffer.len();
         let times = || {
@@ -1012,15 +1100,10 @@ impl RerunSink {
                 TimeColumn::new_sequence(STEP_TIMELINE, buffer.step.iter().copied()),
             ]
         };
-        if let Some(batched) = &self.batched {
-            for (b, batch) in batched.list.iter().enumerate() {
-                let per_row = batch.frames.len();
-                rec.send_columns(
-                    batch.entity.clone(),
-                    times(),
-                    super::rerun_batched::pose_columns(batched, b, n)?,
-                )?;
-                debug_assert_eq!(batched.translations[b].len(), n * per_row);
+        if let Some(batched) = &mut self.batched {
+            for b in 0..batched.list.len() {
+                let columns = super::rerun_batched::pose_columns(batched, b, n)?;
+                writer.send_columns(batched.list[b].entity.clone(), times(), columns)?;
             }
         }
         for (i, track) in self.frames.iter().enumerate() {
@@ -1033,20 +1116,20 @@ impl RerunSink {
                 )
                 .with_many_parent_frame(std::iter::repeat_n(WORLD_FRAME, n))
                 .with_many_child_frame(std::iter::repeat_n(track.frame_id.as_str(), n));
-            rec.send_columns(
+            writer.send_columns(
                 track.entity.clone(),
                 times(),
                 transforms.columns_of_unit_batches()?,
             )?;
         }
         for (i, track) in self.bodies.iter().enumerate() {
-            rec.send_columns(
+            writer.send_columns(
                 track.energy.clone(),
                 times(),
                 rerun::Scalars::new(buffer.energy[i].iter().copied())
                     .columns(std::iter::repeat_n(3, n))?,
             )?;
-            rec.send_columns(
+            writer.send_columns(
                 track.angular_momentum.clone(),
                 times(),
                 rerun::Scalars::new(buffer.angular_momentum[i].iter().copied())
@@ -1054,34 +1137,26 @@ impl RerunSink {
             )?;
         }
         if self.body_count > 0 {
-            rec.send_columns(
+            writer.send_columns(
                 scene_energy_entity_path(),
                 times(),
                 rerun::Scalars::new(buffer.scene_energy.iter().copied())
                     .columns(std::iter::repeat_n(3, n))?,
             )?;
-            rec.send_columns(
+            writer.send_columns(
                 scene_energy_change_entity_path(),
                 times(),
                 rerun::Scalars::new(buffer.scene_energy_change.iter().copied())
                     .columns_of_unit_batches()?,
             )?;
-            rec.send_columns(
+            writer.send_columns(
                 scene_angmom_change_entity_path(),
                 times(),
                 rerun::Scalars::new(buffer.scene_angmom_change.iter().copied())
                     .columns_of_unit_batches()?,
             )?;
         }
-        let rec = self
-            .rec
-            .as_ref()
-            .ok_or_else(|| anyhow!("the Rerun recording is closed"))?;
-        self.joint_plots.send(rec, &times, n)?;
-        // Wait until the stream's forwarding thread has encoded what was sent: a producer faster
-        // than the encoder would otherwise queue chunks without bound.
-        rec.flush_blocking()
-            .with_context(|| format!("writing {}", self.part_path.display()))?;
+        self.joint_plots.send(&writer, &times, n)?;
         self.buffer.clear();
         if let Some(batched) = &mut self.batched {
             batched.clear();
@@ -1120,8 +1195,7 @@ impl RerunSink {
             return Ok(());
         }
         self.flush_buffer()?;
-        let rec = self.rec()?;
-        rec.send_columns(
+        self.writer().send_columns(
             entity.clone(),
             [
                 TimeColumn::new_duration_nanos(SIM_TIME_TIMELINE, time_ns.iter().copied()),

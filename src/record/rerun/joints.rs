@@ -33,7 +33,6 @@
 
 use super::{ENERGY_SERIES, EntityPath, EntityPathPart, Frame, RecordingLayout, Result};
 use super::{PlotView, TimeColumn, nonzero, static_chunk};
-use rerun::RecordingStream;
 use rerun::log::Chunk;
 
 fn path(parts: &[&str], name: &str) -> EntityPath {
@@ -272,7 +271,7 @@ impl JointPlots {
     /// Sends the buffered rows (`times` builds the two time columns) and clears them.
     pub(super) fn send(
         &mut self,
-        rec: &RecordingStream,
+        rec: &super::ChunkWriter<'_>,
         times: &dyn Fn() -> [TimeColumn; 2],
         rows: usize,
     ) -> Result<()> {
