@@ -58,9 +58,11 @@
 //!
 //! # Writing
 //!
-//! Time-varying data is buffered and sent by columns (`send_columns`) every [`batch_frames`]
-//! frames (about [`BATCH_BYTES`] of columns) and on [`Sink::finish`]; after each batch the sink waits until Rerun's
-//! forwarding thread has encoded it, so memory stays bounded however fast frames arrive. The file is written
+//! Time-varying data is buffered and sent by columns every [`batch_frames`] frames (about
+//! [`BATCH_BYTES`] of columns) and on [`Sink::finish`]. Every chunk is encoded and written on
+//! the sink's own thread as it is sent ([`ChunkWriter`]), so memory stays bounded however fast
+//! frames arrive; Rerun's `RecordingStream` writes only the store info and the properties at
+//! the start (its batcher and forwarding thread had cost an Arrow round trip per chunk). The file is written
 //! as `<path>.part` and renamed onto `<path>` by [`Sink::finish`] after the footer is written and
 //! the file synced; on error, or when the sink is dropped unfinished, `<path>.part` is removed
 //! and nothing appears under `<path>`.
@@ -71,7 +73,7 @@
 //! `RecordingStream::save` cannot: every row and chunk carries a Rerun TUID (wall-clock
 //! nanoseconds plus a random per-thread counter), the `SetStoreInfo` message has one too, the
 //! properties chunk holds `Timestamp::now()`, rows logged with `log` are grouped into chunks by a
-//! timer, and the RRD footer lists its columns in hash-map order. So this module (1) sends every
+//! timer, and the RRD footer lists its columns in hash-map order. So this module (1) writes every
 //! chunk itself, never row by row, (2) records the name but no start time in the properties,
 //! (3) writes through its own [`LogSink`] that renumbers TUIDs with a counter (time part 0,
 //! increasing in send order, so Rerun's ordering semantics are kept) before encoding, and (4)

@@ -1,0 +1,90 @@
+//! A run on one thread stays on that thread: loading, stepping and building the recorded
+//! frames (free bodies and an articulated model's reports) never start rayon's global pool,
+//! whose idle workers spin (`sched_yield`) after every task and took 0.19 s of the two cores'
+//! CPU in a 1 s, 10 000-body `--threads 1` run while the frames were built there (docs/scale.md,
+//! sixth session). Its own test binary: the global pool is per process, and this test must be
+//! the only one that could start it.
+
+mod common;
+
+use tumble::scene::Scene;
+
+struct Count(usize);
+
+impl tumble::record::Sink for Count {
+    fn write(&mut self, frame: &tumble::record::Frame<'_>) -> anyhow::Result<()> {
+        assert!(
+            frame
+                .world_from_link
+                .iter()
+                .all(|p| p.translation.x.is_finite())
+        );
+        self.0 += 1;
+        Ok(())
+    }
+    fn finish(self: Box<Self>) -> anyhow::Result<()> {
+        Ok(())
+    }
+}
+
+fn run_on_one_thread(scene: &std::path::Path) -> u64 {
+    let scene = Scene::load(scene).unwrap();
+    let world = scene.build().unwrap();
+    let (kind, dt, settings) = (
+        scene.integrator(),
+        scene.sim.dt,
+        scene.variational_settings(),
+    );
+    let mut run = scene.run_settings();
+    run.steps = run.steps.min(50);
+    let mut sinks: Vec<Box<dyn tumble::record::Sink>> = vec![Box::new(Count(0))];
+    let summary = tumble::run::run_parts(
+        &world,
+        &|part| {
+            tumble::scene::World::integrator_of(
+                kind,
+                dt,
+                &settings,
+                part.mechanisms,
+                part.range.len(),
+            )
+        },
+        1,
+        &run,
+        &mut sinks,
+    )
+    .unwrap();
+    summary.frames_recorded
+}
+
+#[test]
+fn a_one_thread_run_never_starts_the_global_pool() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["box", "t_handle", "disc"] {
+        std::fs::copy(
+            common::root().join(format!("models/{name}.urdf")),
+            dir.path().join(format!("{name}.urdf")),
+        )
+        .unwrap();
+    }
+    // The swarm's shapes at 3000 bodies: more than one frame task (2048 items) per array.
+    let swarm = std::fs::read_to_string(common::root().join("models/swarm.toml"))
+        .unwrap()
+        .replace("copies = 4000", "copies = 1000")
+        .replace("copies = 3000", "copies = 1000");
+    std::fs::write(dir.path().join("swarm.toml"), swarm).unwrap();
+    let frames = run_on_one_thread(&dir.path().join("swarm.toml"));
+    assert!(frames >= 2, "{frames} frames");
+    // An articulated model: the mechanism reports of the frame builder.
+    let frames = run_on_one_thread(&common::root().join("models/double_pendulum.toml"));
+    assert!(frames >= 2, "{frames} frames");
+    // `build_global` fails once the global pool exists (it was started by a parallel
+    // iterator outside any pool).
+    assert!(
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build_global()
+            .is_ok(),
+        "a one-thread run started rayon's global pool"
+    );
+}
