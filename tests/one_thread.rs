@@ -30,30 +30,10 @@ impl tumble::record::Sink for Count {
 fn run_on_one_thread(scene: &std::path::Path) -> u64 {
     let scene = Scene::load(scene).unwrap();
     let world = scene.build().unwrap();
-    let (kind, dt, settings) = (
-        scene.integrator(),
-        scene.sim.dt,
-        scene.variational_settings(),
-    );
     let mut run = scene.run_settings();
     run.steps = run.steps.min(50);
     let mut sinks: Vec<Box<dyn tumble::record::Sink>> = vec![Box::new(Count(0))];
-    let summary = tumble::run::run_parts(
-        &world,
-        &|part| {
-            tumble::scene::World::integrator_of(
-                kind,
-                dt,
-                &settings,
-                part.mechanisms,
-                part.range.len(),
-            )
-        },
-        1,
-        &run,
-        &mut sinks,
-    )
-    .unwrap();
+    let summary = common::run_scene_parts(&scene, &world, 1, &run, &mut sinks);
     summary.frames_recorded
 }
 

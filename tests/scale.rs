@@ -504,27 +504,7 @@ fn pipelined_sinks_take_the_frames_without_a_copy() {
             Pipelined::shared(Box::new(sink), "keep", &share, 1).unwrap(),
         ));
     }
-    let (kind, dt, settings) = (
-        scene.integrator(),
-        scene.sim.dt,
-        scene.variational_settings(),
-    );
-    let summary = tumble::run::run_parts(
-        &world,
-        &|part| {
-            tumble::scene::World::integrator_of(
-                kind,
-                dt,
-                &settings,
-                part.mechanisms,
-                part.range.len(),
-            )
-        },
-        2,
-        &scene.run_settings(),
-        &mut sinks,
-    )
-    .unwrap();
+    let summary = common::run_scene_parts(&scene, &world, 2, &scene.run_settings(), &mut sinks);
     for sink in sinks {
         sink.finish().unwrap();
     }

@@ -106,3 +106,35 @@ pub fn tumble(args: &[&str], cwd: &Path) -> std::process::Output {
 pub fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
+
+/// Runs `world` (built from `scene`) with `run_parts` on `threads` threads, each partition
+/// stepped by the scene's own integrator, into `sinks`.
+pub fn run_scene_parts(
+    scene: &tumble::scene::Scene,
+    world: &tumble::scene::World,
+    threads: usize,
+    settings: &tumble::run::RunSettings,
+    sinks: &mut [Box<dyn tumble::record::Sink>],
+) -> tumble::run::RunSummary {
+    let (kind, dt, variational) = (
+        scene.integrator(),
+        scene.sim.dt,
+        scene.variational_settings(),
+    );
+    tumble::run::run_parts(
+        world,
+        &|part| {
+            tumble::scene::World::integrator_of(
+                kind,
+                dt,
+                &variational,
+                part.mechanisms,
+                part.range.len(),
+            )
+        },
+        threads,
+        settings,
+        sinks,
+    )
+    .unwrap()
+}
