@@ -383,6 +383,43 @@ mod tests {
         }
     }
 
+    /// A batch's pose buffers are sized for a whole send on the first push after a send (they
+    /// move into the columns), so the rows of a send never make them grow again.
+    #[test]
+    fn pose_buffers_are_sized_for_a_send() {
+        let pose = Isometry3::identity();
+        let poses = vec![pose; 3];
+        let frame = Frame {
+            step: 0,
+            time_ns: 0,
+            world_from_link: &poses,
+            bodies: &[],
+            joints: &[],
+            mechanisms: &[],
+        };
+        let mut batches = Batches {
+            list: vec![Batch {
+                entity: entity(&["a"]),
+                first_frame: 0,
+                content: Content::Visual { index: 0 },
+                frames: vec![0, 1, 2],
+                offset: None,
+                scale: None,
+            }],
+            translations: vec![Vec::new()],
+            quaternions: vec![Vec::new()],
+            rows_per_send: 5,
+        };
+        for _ in 0..2 {
+            batches.push(&frame);
+            // 5 rows of 3 poses.
+            assert_eq!(batches.translations[0].capacity(), 15);
+            assert_eq!(batches.quaternions[0].capacity(), 15);
+            assert_eq!(batches.translations[0].len(), 3);
+            pose_columns(&mut batches, 0, 1).unwrap();
+        }
+    }
+
     #[test]
     fn copy_indices_are_removed_from_group_names() {
         assert_eq!(without_copy_index("box_0042"), "box");
