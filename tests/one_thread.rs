@@ -31,7 +31,8 @@ impl tumble::record::Sink for Check {
             assert_eq!(frame.bodies.len(), initial.len());
             for (i, (state, (v, w))) in frame.bodies.iter().zip(initial).enumerate() {
                 // The state at step 0 is the initial one up to the rounding of `J Ω` and back
-                // (measured: within 4e-16 relative); another body's is off by order 1.
+                // (measured over the 3000 bodies: linear velocities exact, angular within
+                // 1.95e-15 relative); another body's is off by order 1.
                 assert!(
                     (state.linvel_world - v).norm() <= 1e-12 * v.norm(),
                     "body {i}"
