@@ -536,15 +536,7 @@ fn the_run_summary_measures_the_recorded_energy_and_momentum() {
     std::fs::write(d.join("swarm.toml"), swarm).unwrap();
     let scene = Scene::load(&d.join("swarm.toml")).unwrap();
     let world = scene.build().unwrap();
-    let expected: f64 = world
-        .bodies
-        .iter()
-        .map(|b| {
-            let omega_body = b.world_from_body.rotation.inverse() * b.angvel_world;
-            0.5 * b.mass * b.linvel_world.norm_squared()
-                + 0.5 * omega_body.dot(&b.principal_moments.component_mul(&omega_body))
-        })
-        .sum();
+    let expected = initial_energy(&world, &nalgebra::Vector3::zeros());
     let mut run = scene.run_settings();
     run.steps = 200;
     let mut sinks: Vec<Box<dyn tumble::record::Sink>> = Vec::new();
@@ -576,16 +568,7 @@ fn an_articulated_run_summary_measures_the_reported_energy() {
     let scene = Scene::load(&common::root().join("models/satellite_arm.toml")).unwrap();
     let world = scene.build().unwrap();
     let g = scene.gravity();
-    let expected: f64 = world
-        .bodies
-        .iter()
-        .map(|b| {
-            let omega_body = b.world_from_body.rotation.inverse() * b.angvel_world;
-            0.5 * b.mass * b.linvel_world.norm_squared()
-                + 0.5 * omega_body.dot(&b.principal_moments.component_mul(&omega_body))
-                - b.mass * g.dot(&b.world_from_body.translation.vector)
-        })
-        .sum();
+    let expected = initial_energy(&world, &g);
     let mut run = scene.run_settings();
     run.steps = 100;
     let summary = common::run_scene_parts(&scene, &world, 1, &run, &mut Vec::new());
@@ -601,4 +584,19 @@ fn an_articulated_run_summary_measures_the_reported_energy() {
         "{}",
         summary.angmom_rel_change_max
     );
+}
+
+/// `Σ ½ m |v|² + ½ Ωᵀ J Ω − m g·c` over the scene's initial states (body-frame `Ω = Rᵀ ω`),
+/// computed here, apart from the simulator's own energy code.
+fn initial_energy(world: &tumble::scene::World, g: &nalgebra::Vector3<f64>) -> f64 {
+    world
+        .bodies
+        .iter()
+        .map(|b| {
+            let omega_body = b.world_from_body.rotation.inverse() * b.angvel_world;
+            0.5 * b.mass * b.linvel_world.norm_squared()
+                + 0.5 * omega_body.dot(&b.principal_moments.component_mul(&omega_body))
+                - b.mass * g.dot(&b.world_from_body.translation.vector)
+        })
+        .sum()
 }
