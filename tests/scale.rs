@@ -549,10 +549,13 @@ fn the_run_summary_measures_the_recorded_energy_and_momentum() {
             "initial energy {} against {expected}",
             summary.energy_initial
         );
+        // The variational step keeps the energy within O(h²) of its initial value, without
+        // drift: measured 1.0e-8 after 200 steps (1 and 2 threads).
         assert!((summary.energy_final - expected).abs() <= 1e-6 * expected);
-        // Measured 6.2e-15 over 200 steps (1 and 2 threads).
+        // Conserved to rounding by the variational step: measured 6.2e-15 over 200 steps
+        // (1 and 2 threads).
         assert!(
-            summary.angmom_rel_change_max > 0.0 && summary.angmom_rel_change_max < 1e-10,
+            summary.angmom_rel_change_max > 0.0 && summary.angmom_rel_change_max < 1e-12,
             "{}",
             summary.angmom_rel_change_max
         );
@@ -580,7 +583,7 @@ fn an_articulated_run_summary_measures_the_reported_energy() {
         summary.energy_initial
     );
     assert!(
-        summary.angmom_rel_change_max > 0.0 && summary.angmom_rel_change_max < 1e-6,
+        summary.angmom_rel_change_max > 0.0 && summary.angmom_rel_change_max < 1e-12,
         "{}",
         summary.angmom_rel_change_max
     );

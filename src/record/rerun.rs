@@ -770,7 +770,9 @@ impl RerunSink {
         }
     }
 
-    /// Surfaces an error of the file writer (it runs on Rerun's forwarding thread).
+    /// Surfaces an error the recording stream's forwarding thread met writing the store info,
+    /// the properties or the blueprint ([`RrdFileSink`]); chunks report theirs directly
+    /// ([`ChunkWriter`]).
     fn check_sink(&self) -> Result<()> {
         match &lock(&self.state).error {
             Some(err) => bail!("writing {}: {err}", self.part_path.display()),
