@@ -352,3 +352,115 @@ fn bench_threads_alternates_runs_and_reports_both_scalings() {
         "{last}"
     );
 }
+
+/// `bench --scene --threads 2` on a scene big enough for several partitions: after the
+/// integrator's own runs, the guarded stepping runs on 1 thread (one partition) and on 2
+/// threads take turns; the scaling line is the ratio of their medians, the best-run line the
+/// ratio of the fastest, and the last lines the 2-thread median, all from the printed runs.
+#[test]
+fn bench_scene_threads_times_the_same_stepping_on_both_thread_counts() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = env!("CARGO_MANIFEST_DIR");
+    std::fs::copy(
+        format!("{root}/models/box.urdf"),
+        dir.path().join("box.urdf"),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("boxes.toml"),
+        "[sim]\ndt = 0.001\nduration = 0.01\n\n[[model]]\nurdf = \"box.urdf\"\nname = \"box\"\n\
+         copies = 600\nseed = 1\nposition = { uniform = [[-5.0, -5.0, 0.0], [5.0, 5.0, 5.0]] }\n\
+         angvel = { uniform = [[-3.0, -3.0, -3.0], [3.0, 3.0, 3.0]] }\n",
+    )
+    .unwrap();
+    let out = tumble(
+        &[
+            "bench",
+            "--scene",
+            "boxes.toml",
+            "--steps",
+            "20",
+            "--repeats",
+            "3",
+            "--threads",
+            "2",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let value = |l: &str, key: &str| -> f64 {
+        let rest = &l[l.find(key).unwrap_or_else(|| panic!("{key} in {l}")) + key.len()..];
+        rest.split([' ', ';', 'x']).next().unwrap().parse().unwrap()
+    };
+    let runs: Vec<(Option<bool>, f64)> = stdout
+        .lines()
+        .filter(|l| l.starts_with("run "))
+        .map(|l| {
+            let threads = if l.contains("(2 threads)") {
+                Some(true)
+            } else if l.contains("(1 thread)") {
+                Some(false)
+            } else {
+                None
+            };
+            let key = if threads.is_some() { "): " } else { ": " };
+            (threads, value(l, key))
+        })
+        .collect();
+    assert_eq!(
+        runs.iter().map(|r| r.0).collect::<Vec<_>>(),
+        [
+            None,
+            None,
+            None,
+            Some(false),
+            Some(true),
+            Some(false),
+            Some(true),
+            Some(false),
+            Some(true)
+        ],
+        "{stdout}"
+    );
+    let of = |two: bool| -> Vec<f64> {
+        let mut v: Vec<f64> = runs
+            .iter()
+            .filter(|r| r.0 == Some(two))
+            .map(|r| r.1)
+            .collect();
+        v.sort_by(f64::total_cmp);
+        v
+    };
+    let (one, many) = (of(false), of(true));
+    let line = |prefix: &str| stdout.lines().find(|l| l.starts_with(prefix)).unwrap();
+    let scaling = line("ns_per_step 1 thread=");
+    // Printed to 1 decimal: the values read back agree to 0.06 ns.
+    assert!(
+        (value(scaling, "1 thread=") - one[1]).abs() < 0.06,
+        "{scaling}"
+    );
+    assert!(
+        (value(scaling, "2 threads=") - many[1]).abs() < 0.06,
+        "{scaling}"
+    );
+    let ratio = value(scaling, "threads: ");
+    // Each printed value is off by ≤ 0.05 ns on ≥ 1000 ns (600 bodies): the recomputed ratio
+    // is off by ≤ 1e-4 relative, plus the ratio's own rounding.
+    assert!(
+        (ratio - one[1] / many[1]).abs() < 0.006 + 1e-4 * ratio,
+        "{scaling}"
+    );
+    let best = line("best runs:");
+    assert!((value(best, "1 thread=") - one[0]).abs() < 0.06, "{best}");
+    assert!((value(best, "2 threads=") - many[0]).abs() < 0.06, "{best}");
+    let last = stdout.lines().rev().nth(1).unwrap();
+    assert!(
+        (value(last, "ns_per_step=") - many[1]).abs() < 0.06,
+        "{last}"
+    );
+}

@@ -60,12 +60,52 @@ pub struct Divergence {
     pub cause: Cause,
 }
 
+/// The guard's per-body test, one pass with no branches and no early exit (so it vectorises):
+/// body `i` is suspect when its rotational energy `2T = M·(J^-1 M)` is above twice the limit
+/// or NaN, or any of its pose and velocity values is not finite (their sum is then not finite).
+///
+/// The test reads the state after a step only, so an integrator may run it on each block of
+/// bodies right after stepping that block, while the block is still in the core's cache,
+/// instead of in a second pass over the batch ([`crate::sim::Integrator::step_watched`]): at
+/// 10 000 bodies the second pass cost 8-10 % of the variational step (`tumble bench --scene`,
+/// 16 partitions on one thread with and without it).
+#[derive(Debug, Clone)]
+pub struct Watch {
+    /// Per body: twice the largest rotational energy allowed, J (infinite for the bodies of
+    /// a mechanism, which exchange energy through their joints).
+    two_t_max: Vec<f64>,
+}
+
+impl Watch {
+    /// Whether body `i` is suspect.
+    #[inline(always)]
+    fn suspect_at(&self, bodies: &Bodies, i: usize) -> bool {
+        let m = bodies.angmom_body[i];
+        let ij = bodies.inv_inertia_body[i];
+        let two_t = m.x * (m.x * ij.x) + m.y * (m.y * ij.y) + m.z * (m.z * ij.z);
+        let q = bodies.world_from_body[i].coords;
+        let sum = q.x + q.y + q.z + q.w + bodies.com_world[i].sum() + bodies.linvel_world[i].sum();
+        (two_t.partial_cmp(&self.two_t_max[i]) == Some(Ordering::Greater) || two_t.is_nan())
+            | !sum.is_finite()
+    }
+
+    /// Whether any body of `range` (batch indices) is suspect.
+    #[inline]
+    pub fn any_suspect(&self, bodies: &Bodies, range: std::ops::Range<usize>) -> bool {
+        range.fold(false, |acc, i| acc | self.suspect_at(bodies, i))
+    }
+
+    /// The lowest suspect body.
+    fn first_suspect(&self, bodies: &Bodies) -> Option<usize> {
+        (0..bodies.len()).find(|&i| self.suspect_at(bodies, i))
+    }
+}
+
 /// Per-run guard state.
 #[derive(Debug, Clone)]
 pub struct Guard {
     energy_ratio: f64,
-    /// Per body: the largest rotational energy allowed, J.
-    energy_limit: Vec<f64>,
+    watch: Watch,
     initial_energy: Vec<f64>,
     /// `Some(max_substeps)` when a Newton failure stops the run (substepping on).
     stop_on_newton_failure: Option<u32>,
@@ -111,7 +151,12 @@ impl Guard {
             .collect();
         Self {
             energy_ratio,
-            energy_limit: initial_energy.iter().map(|t| t * energy_ratio).collect(),
+            watch: Watch {
+                two_t_max: initial_energy
+                    .iter()
+                    .map(|t| 2.0 * (t * energy_ratio))
+                    .collect(),
+            },
             initial_energy,
             stop_on_newton_failure,
             mechanisms: Vec::new(),
@@ -130,7 +175,7 @@ impl Guard {
         for m in mechanisms {
             let range = m.bodies();
             for i in range.clone() {
-                self.energy_limit[i] = f64::INFINITY;
+                self.watch.two_t_max[i] = f64::INFINITY;
             }
             let relative = m.base == Base::Floating;
             let mut reference = mechanism_kinetic_energy(bodies, range.clone(), relative);
@@ -152,8 +197,26 @@ impl Guard {
         }
     }
 
+    /// The per-body test ([`Watch`]), for an integrator that runs it inside its step.
+    pub fn watch(&self) -> &Watch {
+        &self.watch
+    }
+
     /// Checks the state after step `step`; the first failing body (lowest index) wins.
     pub fn check(&self, bodies: &Bodies, stats: &StepStats, step: u64) -> Option<Divergence> {
+        let any = self.watch.any_suspect(bodies, 0..bodies.len());
+        self.check_flagged(bodies, stats, step, any)
+    }
+
+    /// [`Guard::check`] when the per-body test has already run over the whole batch and
+    /// found a suspect body or not (`any_suspect`, from [`crate::sim::Integrator::step_watched`]).
+    pub fn check_flagged(
+        &self,
+        bodies: &Bodies,
+        stats: &StepStats,
+        step: u64,
+        any_suspect: bool,
+    ) -> Option<Divergence> {
         let newton =
             self.stop_on_newton_failure
                 .zip(stats.failed_body)
@@ -162,22 +225,8 @@ impl Guard {
                     step,
                     cause: Cause::NewtonFailed { max_substeps },
                 });
-        // One pass with no branches and no early exit (so it vectorises): a body is suspect
-        // when its energy `2T = M·(J^-1 M)` is above twice the limit or NaN (`!(2t <= 2limit)`),
-        // or any pose/velocity value is not finite (their sum is then not finite).
-        let suspect_at = |i: usize| {
-            let m = bodies.angmom_body[i];
-            let two_t = m.dot(&m.component_mul(&bodies.inv_inertia_body[i]));
-            let q = bodies.world_from_body[i].coords;
-            let sum =
-                q.x + q.y + q.z + q.w + bodies.com_world[i].sum() + bodies.linvel_world[i].sum();
-            (two_t.partial_cmp(&(2.0 * self.energy_limit[i])) == Some(Ordering::Greater)
-                || two_t.is_nan())
-                | !sum.is_finite()
-        };
-        let any = (0..bodies.len()).fold(false, |acc, i| acc | suspect_at(i));
-        let suspect = if any {
-            (0..bodies.len()).find(|&i| suspect_at(i))
+        let suspect = if any_suspect {
+            self.watch.first_suspect(bodies)
         } else {
             None
         };

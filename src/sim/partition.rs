@@ -376,11 +376,16 @@ impl<'a> Partitions<'a> {
             part.stats.clear();
             part.stop = None;
             for step in from + 1..=to {
-                let local = part.integrator.step(&mut part.bodies, gravity);
+                let (local, any_suspect) =
+                    part.integrator
+                        .step_watched(&mut part.bodies, gravity, part.guard.watch());
                 let mut global = local;
                 global.failed_body = local.failed_body.map(|b| b + part.first);
                 part.stats.push(global);
-                if let Some(d) = part.guard.check(&part.bodies, &local, step) {
+                if let Some(d) = part
+                    .guard
+                    .check_flagged(&part.bodies, &local, step, any_suspect)
+                {
                     part.stop = Some(Divergence {
                         body: d.body + part.first,
                         ..d

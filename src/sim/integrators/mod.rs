@@ -29,6 +29,7 @@ pub use translation::Potential;
 pub use variational::{Jacobian, Variational, VariationalSettings};
 
 use super::Bodies;
+use super::guard::Watch;
 use nalgebra::Vector3;
 
 /// What one step did, summed or maximised over the batch.
@@ -84,6 +85,19 @@ pub trait Integrator: Send {
     fn init(&mut self, bodies: &Bodies);
     /// Advances every body by one step.
     fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats;
+    /// [`Integrator::step`], then the run guard's per-body test ([`Watch::any_suspect`]) over
+    /// the batch: whether any body is suspect. An integrator that can run the test on each
+    /// block of bodies right after stepping it, while the block is in cache, overrides this;
+    /// the answer must be the same.
+    fn step_watched(
+        &mut self,
+        bodies: &mut Bodies,
+        gravity: &Vector3<f64>,
+        watch: &Watch,
+    ) -> (StepStats, bool) {
+        let stats = self.step(bodies, gravity);
+        (stats, watch.any_suspect(bodies, 0..bodies.len()))
+    }
     /// The step size, s.
     fn dt(&self) -> f64;
 }
