@@ -437,6 +437,29 @@ fn bench_scene_threads_times_the_same_stepping_on_both_thread_counts() {
         v
     };
     let (one, many) = (of(false), of(true));
+    // The guarded runs step the same 600 bodies as the integrator's own runs and test them
+    // after every step: no 1-thread guarded run can take a tenth of the fastest unguarded one,
+    // nor a 2-thread one a twentieth (two cores at most halve it); and the fastest of each
+    // takes less than 40 times the slowest unguarded run (they take about as long: 40x leaves
+    // room for a busy test machine, while a time per step miscounted by the 20 steps is 400x
+    // off). None meets a non-converged solve (h|Ω| ≤ 0.0052 rad per step).
+    let bare: Vec<f64> = runs.iter().filter(|r| r.0.is_none()).map(|r| r.1).collect();
+    let bare_min = bare.iter().copied().fold(f64::INFINITY, f64::min);
+    let bare_max = bare.iter().copied().fold(0.0, f64::max);
+    assert!(
+        one[0] > 0.1 * bare_min && many[0] > 0.1 * bare_min / 2.0,
+        "{stdout}"
+    );
+    assert!(
+        one[0] < 40.0 * bare_max && many[0] < 40.0 * bare_max,
+        "{stdout}"
+    );
+    let solves = stdout
+        .lines()
+        .filter(|l| l.starts_with("run "))
+        .filter(|l| !l.contains("(0 non-converged solves)"))
+        .count();
+    assert_eq!(solves, 0, "{stdout}");
     let line = |prefix: &str| stdout.lines().find(|l| l.starts_with(prefix)).unwrap();
     let scaling = line("ns_per_step 1 thread=");
     // Printed to 1 decimal: the values read back agree to 0.06 ns.

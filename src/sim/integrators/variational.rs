@@ -1272,31 +1272,36 @@ mod tests {
     /// The guard's test run block by block inside the step (`step_watched`) answers as the
     /// separate pass over the batch after a plain `step` does, for a suspect body at the start,
     /// inside and at the end of a 64-body block, in the lanes and in the 2 bodies left after
-    /// them (150 = 37 x 4 + 2), and for each cause (energy grown 121-fold against the limit
-    /// of 100, a NaN position, an infinite velocity); and the state it leaves is the same bits.
+    /// them (150 = 37 x 4 + 2), for two suspect bodies in two blocks, and for each cause
+    /// (energy grown 121-fold against the limit of 100, a NaN position, an infinite velocity,
+    /// a NaN angular momentum, which fails both the energy and the finiteness test); and the
+    /// state it leaves is the same bits.
     #[test]
     fn the_watched_step_flags_what_the_guard_pass_flags() {
         use crate::sim::guard::Guard;
         let g = Vector3::new(0.0, 0.0, -9.81);
         let inits = crate::sim::workload::free_body_batch(150);
-        for suspect in [
-            None,
-            Some(0),
-            Some(5),
-            Some(63),
-            Some(64),
-            Some(130),
-            Some(148),
-            Some(149),
-        ] {
-            for cause in 0..3 {
+        let cases: [&[usize]; 9] = [
+            &[],
+            &[0],
+            &[5],
+            &[63],
+            &[64],
+            &[130],
+            &[148],
+            &[149],
+            &[5, 70],
+        ];
+        for suspects in cases {
+            for cause in 0..4 {
                 let mut watched = Bodies::new(&inits);
                 let guard = Guard::new(&watched, 100.0, None);
-                if let Some(i) = suspect {
+                for &i in suspects {
                     match cause {
                         0 => watched.angmom_body[i] *= 11.0,
                         1 => watched.com_world[i].y = f64::NAN,
-                        _ => watched.linvel_world[i].z = f64::INFINITY,
+                        2 => watched.linvel_world[i].z = f64::INFINITY,
+                        _ => watched.angmom_body[i].x = f64::NAN,
                     }
                 }
                 let mut plain = watched.clone();
@@ -1308,8 +1313,8 @@ mod tests {
                     let (stats_a, any) = a.step_watched(&mut watched, &g, guard.watch());
                     let stats_b = b.step(&mut plain, &g);
                     let scanned = guard.watch().any_suspect(&plain, 0..plain.len());
-                    let what = format!("suspect {suspect:?}, cause {cause}, step {step}");
-                    assert_eq!(any, suspect.is_some(), "{what}");
+                    let what = format!("suspects {suspects:?}, cause {cause}, step {step}");
+                    assert_eq!(any, !suspects.is_empty(), "{what}");
                     assert_eq!(any, scanned, "{what}");
                     assert_eq!(stats_a, stats_b, "{what}");
                     for i in 0..150 {
@@ -1322,7 +1327,10 @@ mod tests {
                         let v = |b: &Bodies| b.linvel_world[i].map(f64::to_bits);
                         assert_eq!(v(&watched), v(&plain), "{what}, body {i}");
                     }
-                    assert_eq!(a.xi(), b.xi(), "{what}");
+                    let xi = |x: &[Vector3<f64>]| {
+                        x.iter().map(|v| v.map(f64::to_bits)).collect::<Vec<_>>()
+                    };
+                    assert_eq!(xi(a.xi()), xi(b.xi()), "{what}");
                 }
             }
         }
