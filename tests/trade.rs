@@ -277,6 +277,38 @@ fn bench_prints_the_median_last() {
     assert_eq!(out.status.code(), Some(2));
 }
 
+/// The number after `key` in the line `l` (up to a space, `;` or `x`).
+fn value(l: &str, key: &str) -> f64 {
+    let rest = &l[l.find(key).unwrap_or_else(|| panic!("{key} in {l}")) + key.len()..];
+    rest.split([' ', ';', 'x']).next().unwrap().parse().unwrap()
+}
+
+/// A bench's scaling lines against its printed runs (`one`, `many`: the 1- and 2-thread
+/// values, sorted, three each): the line starting `prefix` holds the medians and their ratio,
+/// `best runs:` the fastest and theirs. `tol` is the printing's absolute rounding of a value,
+/// `rel` the relative error it puts on a ratio recomputed from printed values (plus the
+/// ratio's own rounding, 0.006).
+fn check_scaling_lines(stdout: &str, prefix: &str, one: &[f64], many: &[f64], tol: f64, rel: f64) {
+    let line = |prefix: &str| stdout.lines().find(|l| l.starts_with(prefix)).unwrap();
+    let scaling = line(prefix);
+    assert!(
+        (value(scaling, "1 thread=") - one[1]).abs() < tol,
+        "{scaling}"
+    );
+    assert!(
+        (value(scaling, "2 threads=") - many[1]).abs() < tol,
+        "{scaling}"
+    );
+    let ratio = value(scaling, "threads: ");
+    assert!(
+        (ratio - one[1] / many[1]).abs() < 0.006 + rel * ratio,
+        "{scaling}"
+    );
+    let best = line("best runs:");
+    assert!((value(best, "1 thread=") - one[0]).abs() < tol, "{best}");
+    assert!((value(best, "2 threads=") - many[0]).abs() < tol, "{best}");
+}
+
 /// `bench --threads 2` on a batch big enough for two partitions: the runs alternate between 1
 /// and 2 threads; the scaling line is the ratio of the medians, the best-run line the ratio of
 /// the fastest runs, and the last line the 2-thread median, all from the printed runs.
@@ -303,10 +335,6 @@ fn bench_threads_alternates_runs_and_reports_both_scalings() {
         String::from_utf8_lossy(&out.stderr)
     );
     let stdout = String::from_utf8(out.stdout).unwrap();
-    let value = |l: &str, key: &str| -> f64 {
-        let rest = &l[l.find(key).unwrap_or_else(|| panic!("{key} in {l}")) + key.len()..];
-        rest.split([' ', ';', 'x']).next().unwrap().parse().unwrap()
-    };
     let runs: Vec<(bool, f64)> = stdout
         .lines()
         .filter(|l| l.starts_with("run "))
@@ -322,29 +350,15 @@ fn bench_threads_alternates_runs_and_reports_both_scalings() {
         v
     };
     let (one, many) = (of(false), of(true));
-    let line = |prefix: &str| stdout.lines().find(|l| l.starts_with(prefix)).unwrap();
-    let scaling = line("ns_per_body_step 1 thread=");
-    // Printed to 2 decimals: the values read back agree to 0.006.
-    assert!(
-        (value(scaling, "1 thread=") - one[1]).abs() < 0.006,
-        "{scaling}"
-    );
-    assert!(
-        (value(scaling, "2 threads=") - many[1]).abs() < 0.006,
-        "{scaling}"
-    );
-    let ratio = value(scaling, "threads: ");
-    // The ratio is of unrounded values: each printed one is off by ≤ 0.005 ns on ≥ 5 ns, so
-    // the recomputed ratio is off by ≤ 2e-3 relative, plus the ratio's own rounding.
-    assert!(
-        (ratio - one[1] / many[1]).abs() < 0.006 + 2e-3 * ratio,
-        "{scaling}"
-    );
-    let best = line("best runs:");
-    assert!((value(best, "1 thread=") - one[0]).abs() < 0.006, "{best}");
-    assert!(
-        (value(best, "2 threads=") - many[0]).abs() < 0.006,
-        "{best}"
+    // Printed to 2 decimals: the values read back agree to 0.006; each is off by ≤ 0.005 ns on
+    // ≥ 5 ns, so a ratio recomputed from them is off by ≤ 2e-3 relative.
+    check_scaling_lines(
+        &stdout,
+        "ns_per_body_step 1 thread=",
+        &one,
+        &many,
+        0.006,
+        2e-3,
     );
     let last = stdout.lines().last().unwrap();
     assert!(
@@ -393,10 +407,6 @@ fn bench_scene_threads_times_the_same_stepping_on_both_thread_counts() {
         String::from_utf8_lossy(&out.stderr)
     );
     let stdout = String::from_utf8(out.stdout).unwrap();
-    let value = |l: &str, key: &str| -> f64 {
-        let rest = &l[l.find(key).unwrap_or_else(|| panic!("{key} in {l}")) + key.len()..];
-        rest.split([' ', ';', 'x']).next().unwrap().parse().unwrap()
-    };
     let runs: Vec<(Option<bool>, f64)> = stdout
         .lines()
         .filter(|l| l.starts_with("run "))
@@ -460,27 +470,9 @@ fn bench_scene_threads_times_the_same_stepping_on_both_thread_counts() {
         .filter(|l| !l.contains("(0 non-converged solves)"))
         .count();
     assert_eq!(solves, 0, "{stdout}");
-    let line = |prefix: &str| stdout.lines().find(|l| l.starts_with(prefix)).unwrap();
-    let scaling = line("ns_per_step 1 thread=");
-    // Printed to 1 decimal: the values read back agree to 0.06 ns.
-    assert!(
-        (value(scaling, "1 thread=") - one[1]).abs() < 0.06,
-        "{scaling}"
-    );
-    assert!(
-        (value(scaling, "2 threads=") - many[1]).abs() < 0.06,
-        "{scaling}"
-    );
-    let ratio = value(scaling, "threads: ");
-    // Each printed value is off by ≤ 0.05 ns on ≥ 1000 ns (600 bodies): the recomputed ratio
-    // is off by ≤ 1e-4 relative, plus the ratio's own rounding.
-    assert!(
-        (ratio - one[1] / many[1]).abs() < 0.006 + 1e-4 * ratio,
-        "{scaling}"
-    );
-    let best = line("best runs:");
-    assert!((value(best, "1 thread=") - one[0]).abs() < 0.06, "{best}");
-    assert!((value(best, "2 threads=") - many[0]).abs() < 0.06, "{best}");
+    // Printed to 1 decimal: the values read back agree to 0.06 ns; each is off by ≤ 0.05 ns on
+    // ≥ 1000 ns (600 bodies), so a ratio recomputed from them is off by ≤ 1e-4 relative.
+    check_scaling_lines(&stdout, "ns_per_step 1 thread=", &one, &many, 0.06, 1e-4);
     let last = stdout.lines().rev().nth(1).unwrap();
     assert!(
         (value(last, "ns_per_step=") - many[1]).abs() < 0.06,

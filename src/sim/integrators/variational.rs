@@ -1274,8 +1274,8 @@ mod tests {
     /// inside and at the end of a 64-body block, in the lanes and in the 2 bodies left after
     /// them (150 = 37 x 4 + 2), for two suspect bodies in two blocks, and for each cause
     /// (energy grown 121-fold against the limit of 100, a NaN position, an infinite velocity,
-    /// a NaN angular momentum, which fails both the energy and the finiteness test); and the
-    /// state it leaves is the same bits.
+    /// a NaN angular momentum, which fails both the energy and the finiteness test), the guard
+    /// then naming the lowest suspect body; and the state it leaves is the same bits.
     #[test]
     fn the_watched_step_flags_what_the_guard_pass_flags() {
         use crate::sim::guard::Guard;
@@ -1316,6 +1316,9 @@ mod tests {
                     let what = format!("suspects {suspects:?}, cause {cause}, step {step}");
                     assert_eq!(any, !suspects.is_empty(), "{what}");
                     assert_eq!(any, scanned, "{what}");
+                    // The guard then names the lowest suspect body.
+                    let stop = guard.check_flagged(&watched, &stats_a, step + 1, any);
+                    assert_eq!(stop.map(|d| d.body), suspects.first().copied(), "{what}");
                     assert_eq!(stats_a, stats_b, "{what}");
                     for i in 0..150 {
                         let q = |b: &Bodies| b.world_from_body[i].coords.map(f64::to_bits);
