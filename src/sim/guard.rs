@@ -60,7 +60,7 @@ pub struct Divergence {
     pub cause: Cause,
 }
 
-/// The guard's per-body test, one pass with no branches and no early exit (so it vectorises):
+/// The guard's per-body test, one pass with no branches and no early exit:
 /// body `i` is suspect when its rotational energy `2T = M·(J^-1 M)` is above twice the limit
 /// or NaN, or any of its pose and velocity values is not finite (their sum is then not finite).
 ///
