@@ -645,7 +645,8 @@ fn sync_file(buffered: BufWriter<WritebackFile>, part: &Path) -> anyhow::Result<
         .into_inner()
         .map_err(|e| e.into_error())
         .with_context(|| format!("cannot write {}", part.display()))?
-        .into_inner();
+        .finish()
+        .with_context(|| format!("cannot sync {}", part.display()))?;
     file.sync_all()
         .with_context(|| format!("cannot sync {}", part.display()))
 }

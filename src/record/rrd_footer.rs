@@ -65,8 +65,9 @@ impl FooterWriter {
         self.inner.flush()?;
         self.inner
             .into_inner()
-            .map(WritebackFile::into_inner)
-            .map_err(|e| anyhow!("cannot flush the .rrd file: {}", e.error()))
+            .map_err(|e| anyhow!("cannot flush the .rrd file: {}", e.error()))?
+            .finish()
+            .map_err(|e| anyhow!("cannot sync the .rrd file: {e}"))
     }
 }
 
