@@ -8,8 +8,11 @@
 //!
 //! Same writer settings as the dataset's files ([`crate::dataset::parquet::writer_properties`]:
 //! zstd level 1, row groups of 128 Ki rows; same rows, same bytes). Both are written under
-//! `<path>.part` and published by [`super::finish_all`] with the other files of the run.
+//! `<path>.part` and published by [`super::finish_all`] with the other files of the run. The
+//! trajectories file is written back and synced while it grows, as the MCAP and Rerun files are
+//! ([`super::writeback`]).
 
+use super::writeback::WritebackFile;
 use super::{Frame, RecordingLayout, Sink};
 use crate::dataset::parquet::{ROW_GROUP_ROWS, writer_properties};
 use crate::dataset::tables::{TrajectoryColumns, bodies_rows, trajectories_schema};
@@ -30,7 +33,7 @@ fn publish(path: &Path) -> anyhow::Result<()> {
 
 /// Writes `STEM.trajectories.parquet`.
 pub struct TrajectorySink {
-    writer: Option<ArrowWriter<BufWriter<File>>>,
+    writer: Option<ArrowWriter<BufWriter<WritebackFile>>>,
     path: PathBuf,
     /// Per body: its frame and `link_from_principal` (the row's pose is its principal frame).
     bodies: Vec<(usize, Isometry3<f64>)>,
@@ -45,7 +48,7 @@ impl TrajectorySink {
         let file =
             File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
         let writer = ArrowWriter::try_new(
-            BufWriter::with_capacity(1 << 20, file),
+            BufWriter::with_capacity(1 << 20, WritebackFile::new(file)),
             trajectories_schema(),
             Some(writer_properties(true)?),
         )
@@ -110,7 +113,9 @@ impl Sink for TrajectorySink {
             .with_context(|| format!("cannot finish {}", part.display()))?
             .into_inner()
             .map_err(|e| e.into_error())
-            .with_context(|| format!("cannot write {}", part.display()))?;
+            .with_context(|| format!("cannot write {}", part.display()))?
+            .finish()
+            .with_context(|| format!("cannot sync {}", part.display()))?;
         file.sync_all()
             .with_context(|| format!("cannot sync {}", part.display()))
     }

@@ -368,6 +368,21 @@ mod tests {
         assert_eq!(file.metadata().unwrap().len(), 49 << 20);
     }
 
+    /// A writer dropped without `finish` (an error path) stops its sync thread: the thread's
+    /// share of the state is gone once the writer is.
+    #[test]
+    fn a_dropped_writer_stops_its_sync_thread() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut w = WritebackFile::new(File::create(dir.path().join("f")).unwrap());
+        w.write_all(&vec![0u8; 16 << 20]).unwrap();
+        let shared = Arc::downgrade(&w.syncer.as_ref().expect("a sync thread").shared);
+        drop(w);
+        assert!(
+            shared.upgrade().is_none(),
+            "the sync thread outlived its writer"
+        );
+    }
+
     /// A failed background sync is reported by `finish`, not lost: a pipe cannot be synced
     /// (`EINVAL`), so the thread's first sync fails.
     #[test]
