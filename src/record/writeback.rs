@@ -62,8 +62,10 @@ pub struct WritebackFile {
     started: u64,
     /// Writeback requests made (for tests).
     requests: u64,
-    /// The end of the file when the sync thread was last asked to sync.
+    /// The multiple of [`SYNC_BYTES`] the end had passed when the sync thread was last asked.
     sync_requested: u64,
+    /// Syncs asked of the sync thread (for tests).
+    sync_requests: u64,
     /// The sync thread, from the first [`SYNC_BYTES`] on.
     syncer: Option<Syncer>,
 }
@@ -78,6 +80,7 @@ impl WritebackFile {
             started: 0,
             requests: 0,
             sync_requested: 0,
+            sync_requests: 0,
             syncer: None,
         }
     }
@@ -96,9 +99,10 @@ impl WritebackFile {
         self.syncer.as_ref().map_or(0, |s| s.state().completed)
     }
 
-    /// Syncs asked of the sync thread so far (for tests): one per [`SYNC_BYTES`] written.
+    /// Syncs asked of the sync thread so far (for tests): one each time the end passes
+    /// another multiple of [`SYNC_BYTES`] (one for a write passing several).
     pub fn sync_requests(&self) -> u64 {
-        self.sync_requested / SYNC_BYTES
+        self.sync_requests
     }
 
     /// The file, for syncing.
@@ -133,13 +137,15 @@ impl WritebackFile {
         }
     }
 
-    /// Asks the sync thread (started here the first time) to sync, once per [`SYNC_BYTES`]
-    /// written. A thread that cannot be started leaves the whole sync to the end.
+    /// Asks the sync thread (started here the first time) to sync each time the end passes
+    /// another multiple of [`SYNC_BYTES`]. A thread that cannot be started leaves the whole
+    /// sync to the end.
     fn request_sync(&mut self) {
         if self.end - self.sync_requested < SYNC_BYTES {
             return;
         }
         self.sync_requested = self.end - self.end % SYNC_BYTES;
+        self.sync_requests += 1;
         if self.syncer.is_none() {
             self.syncer = self.file.try_clone().ok().and_then(Syncer::start);
         }
@@ -306,7 +312,7 @@ mod tests {
         // (50_000_150 - 32 MiB) / 8 MiB = 1.96: one whole block handed over.
         assert_eq!(w.requests(), 1);
         assert_eq!(w.started(), WRITEBACK_BYTES);
-        // 50_000_150 / 16 MiB = 2.98: two syncs asked for.
+        // 50_000_150 / 16 MiB = 2.98: the end passed two multiples of 16 MiB.
         assert_eq!(w.sync_requests(), 2);
         w.flush().unwrap();
         w.finish().unwrap().sync_all().unwrap();
@@ -363,9 +369,16 @@ mod tests {
         assert_eq!(w.sync_requests(), 3, "49 MiB");
         let syncs = w.syncs();
         assert!((1..=3).contains(&syncs), "{syncs} syncs for 3 asked");
+        // Writes of 12 MiB: the end passes 64 MiB on the way from 61 to 73, 80 from 73 to 85
+        // and 96 from 85 to 97, one sync each (counting 16 MiB from the end at the last request
+        // instead would miss 80).
+        for (end_mib, asked) in [(61, 3), (73, 4), (85, 5), (97, 6)] {
+            w.write_all(&vec![1u8; 12 << 20]).unwrap();
+            assert_eq!(w.sync_requests(), asked, "{end_mib} MiB");
+        }
         // Stopping waits for the thread: it is gone with its descriptor.
         let file = w.finish().unwrap();
-        assert_eq!(file.metadata().unwrap().len(), 49 << 20);
+        assert_eq!(file.metadata().unwrap().len(), 97 << 20);
     }
 
     /// A writer dropped without `finish` (an error path) stops its sync thread: the thread's
