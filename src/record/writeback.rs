@@ -342,6 +342,15 @@ mod tests {
         assert_eq!((w.requests(), w.started()), (3, 24 << 20), "56 MiB");
     }
 
+    /// Waits until `w`'s sync thread has completed a sync (60 s at most).
+    fn wait_for_a_sync(w: &WritebackFile) {
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+        while w.syncs() == 0 {
+            assert!(std::time::Instant::now() < deadline, "no sync within 60 s");
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+    }
+
     /// No sync thread below [`SYNC_BYTES`]; from there one sync asked per [`SYNC_BYTES`], and
     /// the thread syncs while the writer goes on.
     #[test]
@@ -358,11 +367,7 @@ mod tests {
         w.write_all(&[1]).unwrap();
         assert_eq!(w.sync_requests(), 1, "16 MiB");
         // The thread answers without the writer doing anything more.
-        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
-        while w.syncs() == 0 {
-            assert!(std::time::Instant::now() < deadline, "no sync within 60 s");
-            std::thread::sleep(std::time::Duration::from_millis(1));
-        }
+        wait_for_a_sync(&w);
         for _ in 0..33 {
             w.write_all(&mb).unwrap();
         }
@@ -409,11 +414,7 @@ mod tests {
             w.write_all(&mb).unwrap();
         }
         assert_eq!(w.sync_requests(), 1);
-        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
-        while w.syncs() == 0 {
-            assert!(std::time::Instant::now() < deadline, "no sync within 60 s");
-            std::thread::sleep(std::time::Duration::from_millis(1));
-        }
+        wait_for_a_sync(&w);
         let err = w.finish().expect_err("the sync of a pipe fails");
         assert_eq!(
             err.raw_os_error(),
