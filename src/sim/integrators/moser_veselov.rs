@@ -60,9 +60,11 @@
 //! ([`step_translation`] with the configured [`super::Potential`], symmetric by default: exact parabola).
 
 use super::translation::step_translation;
-use super::{Integrator, StepStats, VariationalSettings};
+use super::{Integrator, StepStats, VariationalSettings, step_blocks_watched};
 use crate::sim::Bodies;
+use crate::sim::guard::Watch;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+use std::ops::Range;
 
 /// Result of one Cayley-parameter Newton solve.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -232,30 +234,16 @@ impl MoserVeselov {
             f: Vec::new(),
         }
     }
-}
 
-impl Integrator for MoserVeselov {
-    fn name(&self) -> &'static str {
-        "moser-veselov"
-    }
-
-    fn dt(&self) -> f64 {
-        self.dt_secs
-    }
-
-    fn init(&mut self, bodies: &Bodies) {
-        // Cold start f = hΩ/2 (the first-order solution); the first step refines it.
-        self.f = (0..bodies.len())
-            .map(|i| bodies.angvel_body(i) * (0.5 * self.dt_secs))
-            .collect();
-    }
-
-    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
-        if self.f.len() != bodies.len() {
-            self.init(bodies);
-        }
+    /// One step of the bodies `range` of the batch (after [`Integrator::init`] of the batch).
+    fn step_range(
+        &mut self,
+        bodies: &mut Bodies,
+        range: Range<usize>,
+        gravity: &Vector3<f64>,
+    ) -> StepStats {
         let mut stats = StepStats::default();
-        for i in 0..bodies.len() {
+        for i in range.clone() {
             let pi = bodies.angmom_body[i];
             let j = bodies.inertia_body[i];
             let solve = solve_cayley(&j, &pi, self.dt_secs, &self.f[i], &self.settings);
@@ -286,13 +274,51 @@ impl Integrator for MoserVeselov {
             self.f[i] = f_next;
         }
         step_translation(
-            &mut bodies.com_world,
-            &mut bodies.linvel_world,
+            &mut bodies.com_world[range.clone()],
+            &mut bodies.linvel_world[range],
             self.dt_secs,
             gravity,
             self.settings.potential,
         );
         stats
+    }
+}
+
+impl Integrator for MoserVeselov {
+    fn name(&self) -> &'static str {
+        "moser-veselov"
+    }
+
+    fn dt(&self) -> f64 {
+        self.dt_secs
+    }
+
+    fn init(&mut self, bodies: &Bodies) {
+        // Cold start f = hΩ/2 (the first-order solution); the first step refines it.
+        self.f = (0..bodies.len())
+            .map(|i| bodies.angvel_body(i) * (0.5 * self.dt_secs))
+            .collect();
+    }
+
+    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
+        if self.f.len() != bodies.len() {
+            self.init(bodies);
+        }
+        self.step_range(bodies, 0..bodies.len(), gravity)
+    }
+
+    fn step_watched(
+        &mut self,
+        bodies: &mut Bodies,
+        gravity: &Vector3<f64>,
+        watch: &Watch,
+    ) -> (StepStats, bool) {
+        if self.f.len() != bodies.len() {
+            self.init(bodies);
+        }
+        step_blocks_watched(bodies, watch, |bodies, range| {
+            self.step_range(bodies, range, gravity)
+        })
     }
 }
 

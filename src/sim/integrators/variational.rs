@@ -84,7 +84,7 @@
 //! (1.8 MB) stays in L2: far below the bandwidth available.
 
 use super::translation::{Potential, step_translation};
-use super::{Integrator, StepStats};
+use super::{BLOCK_BODIES, Integrator, StepStats};
 use crate::sim::Bodies;
 use crate::sim::guard::Watch;
 use crate::sim::so3::{self, Coefficients, Real, SERIES_THETA_SQ};
@@ -1078,10 +1078,7 @@ impl Variational {
     }
 }
 
-/// Bodies stepped, then tested by the guard, at a time ([`Variational::step_range_watched`]):
-/// 64 bodies' state and `ξ` (about 11 KB) stay in a core's 64 KB L1 data cache between the
-/// step and the test. A multiple of [`LANES`].
-const BLOCK_BODIES: usize = 64;
+// The blocks start in multiples of the lanes, so the lanes are those of one pass.
 const _: () = assert!(BLOCK_BODIES.is_multiple_of(LANES));
 
 /// The rotation step of the bodies `block` (batch indices; `xi` is theirs), in lanes of
