@@ -17,11 +17,9 @@
 //!
 //! Both are of order 1. [`StepStats`] is always the default (no iterations).
 
-use super::{Integrator, StepStats, step_blocks_watched};
+use super::{Integrator, StepStats};
 use crate::sim::Bodies;
-use crate::sim::guard::Watch;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
-use std::ops::Range;
 
 /// Explicit (forward) Euler on `(q, M, c, v)`, quaternion renormalised after each step. Order 1.
 #[derive(Debug, Clone)]
@@ -32,27 +30,6 @@ pub struct ExplicitEuler {
 impl ExplicitEuler {
     pub fn new(dt_secs: f64) -> Self {
         Self { dt_secs }
-    }
-
-    /// One step of the bodies `range` of the batch.
-    fn step_range(&self, bodies: &mut Bodies, range: Range<usize>, gravity: &Vector3<f64>) {
-        let h = self.dt_secs;
-        for i in range.clone() {
-            let m = bodies.angmom_body[i];
-            let omega = bodies.angvel_body(i);
-            let q = bodies.world_from_body[i].into_inner();
-            let dq = q * Quaternion::from_imag(omega) * (0.5 * h);
-            bodies.world_from_body[i] = UnitQuaternion::new_normalize(q + dq);
-            bodies.angmom_body[i] = m + m.cross(&omega) * h;
-        }
-        let dv = gravity * h;
-        for (c, v) in bodies.com_world[range.clone()]
-            .iter_mut()
-            .zip(bodies.linvel_world[range].iter_mut())
-        {
-            *c += *v * h;
-            *v += dv;
-        }
     }
 }
 
@@ -68,20 +45,25 @@ impl Integrator for ExplicitEuler {
     fn init(&mut self, _bodies: &Bodies) {}
 
     fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
-        self.step_range(bodies, 0..bodies.len(), gravity);
+        let h = self.dt_secs;
+        for i in 0..bodies.len() {
+            let m = bodies.angmom_body[i];
+            let omega = bodies.angvel_body(i);
+            let q = bodies.world_from_body[i].into_inner();
+            let dq = q * Quaternion::from_imag(omega) * (0.5 * h);
+            bodies.world_from_body[i] = UnitQuaternion::new_normalize(q + dq);
+            bodies.angmom_body[i] = m + m.cross(&omega) * h;
+        }
+        let dv = gravity * h;
+        for (c, v) in bodies
+            .com_world
+            .iter_mut()
+            .zip(bodies.linvel_world.iter_mut())
+        {
+            *c += *v * h;
+            *v += dv;
+        }
         StepStats::default()
-    }
-
-    fn step_watched(
-        &mut self,
-        bodies: &mut Bodies,
-        gravity: &Vector3<f64>,
-        watch: &Watch,
-    ) -> (StepStats, bool) {
-        step_blocks_watched(bodies, watch, |bodies, range| {
-            self.step_range(bodies, range, gravity);
-            StepStats::default()
-        })
     }
 }
 
@@ -94,28 +76,6 @@ pub struct SemiImplicitEuler {
 impl SemiImplicitEuler {
     pub fn new(dt_secs: f64) -> Self {
         Self { dt_secs }
-    }
-
-    /// One step of the bodies `range` of the batch.
-    fn step_range(&self, bodies: &mut Bodies, range: Range<usize>, gravity: &Vector3<f64>) {
-        let h = self.dt_secs;
-        for i in range.clone() {
-            let m = bodies.angmom_body[i];
-            let omega = bodies.angvel_body(i);
-            bodies.angmom_body[i] = m + m.cross(&omega) * h;
-            let omega_new = bodies.angvel_body(i);
-            let q = &mut bodies.world_from_body[i];
-            *q *= UnitQuaternion::from_scaled_axis(omega_new * h);
-            q.renormalize();
-        }
-        let dv = gravity * h;
-        for (c, v) in bodies.com_world[range.clone()]
-            .iter_mut()
-            .zip(bodies.linvel_world[range].iter_mut())
-        {
-            *v += dv;
-            *c += *v * h;
-        }
     }
 }
 
@@ -131,19 +91,25 @@ impl Integrator for SemiImplicitEuler {
     fn init(&mut self, _bodies: &Bodies) {}
 
     fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
-        self.step_range(bodies, 0..bodies.len(), gravity);
+        let h = self.dt_secs;
+        for i in 0..bodies.len() {
+            let m = bodies.angmom_body[i];
+            let omega = bodies.angvel_body(i);
+            bodies.angmom_body[i] = m + m.cross(&omega) * h;
+            let omega_new = bodies.angvel_body(i);
+            let q = &mut bodies.world_from_body[i];
+            *q *= UnitQuaternion::from_scaled_axis(omega_new * h);
+            q.renormalize();
+        }
+        let dv = gravity * h;
+        for (c, v) in bodies
+            .com_world
+            .iter_mut()
+            .zip(bodies.linvel_world.iter_mut())
+        {
+            *v += dv;
+            *c += *v * h;
+        }
         StepStats::default()
-    }
-
-    fn step_watched(
-        &mut self,
-        bodies: &mut Bodies,
-        gravity: &Vector3<f64>,
-        watch: &Watch,
-    ) -> (StepStats, bool) {
-        step_blocks_watched(bodies, watch, |bodies, range| {
-            self.step_range(bodies, range, gravity);
-            StepStats::default()
-        })
     }
 }

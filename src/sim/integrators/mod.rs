@@ -113,6 +113,11 @@ pub const BLOCK_BODIES: usize = 64;
 /// bits and the statistics are those of one `step_range` over the batch followed by the
 /// guard's pass ([`StepStats::merge`] adds counts and keeps maxima and the lowest failed body),
 /// and so is the answer.
+///
+/// Used where it pays: `moser-veselov`, whose guarded stepping of the 10 000-body swarm on one
+/// thread ran 1.3 % faster than the step and the pass (median of 6 paired rounds, -0.3 to
+/// 2.9 %). The explicit schemes ran 5 % (`euler`) and 8 % (`rk4`) slower blocked than in two
+/// passes over the batch (3 rounds each), so they keep the trait's default.
 pub fn step_blocks_watched(
     bodies: &mut Bodies,
     watch: &Watch,
@@ -248,8 +253,8 @@ mod tests {
         assert_eq!(IntegratorKind::from_name("rk5"), None);
     }
 
-    /// Every integrator's watched step (the blocked one of `euler`, `semi-implicit`, `rk4`,
-    /// `moser-veselov` and `variational`; the trait's step-then-pass of the compositions) flags
+    /// Every integrator's watched step (the blocked one of `variational` and `moser-veselov`,
+    /// the trait's step-then-pass of the others) flags
     /// exactly what a plain step followed by the guard's pass flags, over 3 steps of 150 bodies
     /// (blocks of 64: suspects at the first and last body of a block, in the last, partial
     /// block, and two at once), for each cause (energy, NaN position, infinite velocity, NaN

@@ -13,11 +13,9 @@
 //! that form. Neither energy nor momentum is conserved: both drift by O(h^4) per unit time.
 
 use super::translation::{Potential, step_translation};
-use super::{Integrator, StepStats, step_blocks_watched};
+use super::{Integrator, StepStats};
 use crate::sim::Bodies;
-use crate::sim::guard::Watch;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
-use std::ops::Range;
 
 /// The right-hand side of the rotational equations at `(q, M)`: `(dq/dt, dM/dt)`.
 #[inline]
@@ -66,29 +64,6 @@ impl Rk4 {
     pub fn new(dt_secs: f64) -> Self {
         Self { dt_secs }
     }
-
-    /// One step of the bodies `range` of the batch.
-    fn step_range(&self, bodies: &mut Bodies, range: Range<usize>, gravity: &Vector3<f64>) {
-        let h = self.dt_secs;
-        for i in range.clone() {
-            let (q, m) = rk4_rotation(
-                &bodies.inv_inertia_body[i],
-                bodies.world_from_body[i].quaternion(),
-                &bodies.angmom_body[i],
-                h,
-            );
-            bodies.world_from_body[i] = UnitQuaternion::new_normalize(q);
-            bodies.angmom_body[i] = m;
-        }
-        // RK4 on c'' = g is exactly c += h v + h^2 g/2, v += h g (see the module docs).
-        step_translation(
-            &mut bodies.com_world[range.clone()],
-            &mut bodies.linvel_world[range],
-            h,
-            gravity,
-            Potential::Symmetric,
-        );
-    }
 }
 
 impl Integrator for Rk4 {
@@ -103,19 +78,25 @@ impl Integrator for Rk4 {
     fn init(&mut self, _bodies: &Bodies) {}
 
     fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
-        self.step_range(bodies, 0..bodies.len(), gravity);
+        let h = self.dt_secs;
+        for i in 0..bodies.len() {
+            let (q, m) = rk4_rotation(
+                &bodies.inv_inertia_body[i],
+                bodies.world_from_body[i].quaternion(),
+                &bodies.angmom_body[i],
+                h,
+            );
+            bodies.world_from_body[i] = UnitQuaternion::new_normalize(q);
+            bodies.angmom_body[i] = m;
+        }
+        // RK4 on c'' = g is exactly c += h v + h^2 g/2, v += h g (see the module docs).
+        step_translation(
+            &mut bodies.com_world,
+            &mut bodies.linvel_world,
+            h,
+            gravity,
+            Potential::Symmetric,
+        );
         StepStats::default()
-    }
-
-    fn step_watched(
-        &mut self,
-        bodies: &mut Bodies,
-        gravity: &Vector3<f64>,
-        watch: &Watch,
-    ) -> (StepStats, bool) {
-        step_blocks_watched(bodies, watch, |bodies, range| {
-            self.step_range(bodies, range, gravity);
-            StepStats::default()
-        })
     }
 }
