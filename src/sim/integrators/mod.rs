@@ -254,18 +254,30 @@ mod tests {
     }
 
     /// Every integrator's watched step (the blocked one of `variational` and `moser-veselov`,
-    /// the trait's step-then-pass of the others) flags
-    /// exactly what a plain step followed by the guard's pass flags, over 3 steps of 150 bodies
-    /// (blocks of 64: suspects at the first and last body of a block, in the last, partial
-    /// block, and two at once), for each cause (energy, NaN position, infinite velocity, NaN
-    /// momentum); the guard then names the lowest suspect; and the state and the statistics
+    /// the trait's step-then-pass of the others) flags exactly what a plain step followed by
+    /// the guard's pass flags, over 3 steps of 150 bodies: a suspect body at the start, inside
+    /// and at the end of a 64-body block, in the last, partial block, in `variational`'s 4-body
+    /// lanes and in the 2 bodies left after them (150 = 37 x 4 + 2), two suspects in two
+    /// blocks; for each cause (energy grown 121-fold, NaN position, infinite velocity, NaN
+    /// momentum). The guard then names the lowest suspect, and the state and the statistics
     /// are the same bits.
     #[test]
     fn every_watched_step_flags_what_the_guard_pass_flags() {
         use crate::sim::guard::Guard;
         let g = Vector3::new(0.0, 0.0, -9.81);
         let inits = crate::sim::workload::free_body_batch(150);
-        let cases: [&[usize]; 7] = [&[], &[0], &[63], &[64], &[128], &[149], &[5, 70]];
+        let cases: [&[usize]; 10] = [
+            &[],
+            &[0],
+            &[5],
+            &[63],
+            &[64],
+            &[128],
+            &[130],
+            &[148],
+            &[149],
+            &[5, 70],
+        ];
         let bits = |b: &Bodies, i: usize| {
             let q = b.world_from_body[i].coords.map(f64::to_bits);
             let m = b.angmom_body[i].map(f64::to_bits);
