@@ -105,11 +105,6 @@ impl WritebackFile {
         self.sync_requests
     }
 
-    /// The file, for syncing.
-    pub fn get_ref(&self) -> &File {
-        &self.file
-    }
-
     /// Writeback requests made so far.
     pub fn requests(&self) -> u64 {
         self.requests
