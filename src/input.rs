@@ -27,7 +27,7 @@ pub const URDF_MAX_BYTES: u64 = 256 << 20;
 pub const MESH_MAX_BYTES: u64 = 512 << 20;
 
 /// What `file_type` is, in words ("a FIFO (named pipe)", "a directory", ...).
-fn describe(file_type: &std::fs::FileType) -> &'static str {
+pub fn describe(file_type: &std::fs::FileType) -> &'static str {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;

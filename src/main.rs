@@ -3,7 +3,9 @@
 //! truncated file, `diff` runs that differ beyond the tolerance),
 //! 2 an error (bad input, unreadable or unwritable files); clap's usage errors also exit 2;
 //! 3 a simulation stopped by the divergence guard (its recordings are finished and readable);
-//! 130 / 143 work stopped by SIGINT / SIGTERM at a clean boundary (its files finished).
+//! 130 / 143 / 129 work stopped by SIGINT / SIGTERM / SIGHUP (at a clean boundary with its files
+//! finished while stepping; at once, with no file published, before or outside it:
+//! `tumble::interrupt`).
 
 use clap::Parser;
 use std::process::ExitCode;
@@ -13,6 +15,9 @@ use tumble::commands;
 fn main() -> ExitCode {
     let cli = Cli::parse();
     if let Err(e) = tumble::interrupt::restore_sigpipe() {
+        eprintln!("warning: {e:#}");
+    }
+    if let Err(e) = tumble::interrupt::watch() {
         eprintln!("warning: {e:#}");
     }
     let result = match &cli.command {
@@ -30,7 +35,7 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {e:#}{}", tumble::fsutil::file_size_limit_note(&e));
             if let Some(stop) = e.downcast_ref::<tumble::interrupt::Interrupted>() {
                 ExitCode::from(stop.exit_code())
             } else if e.downcast_ref::<tumble::run::Diverged>().is_some() {

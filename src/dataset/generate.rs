@@ -167,7 +167,7 @@ pub fn generate(spec: &DatasetSpec, opts: &Options) -> anyhow::Result<Summary> {
         threads,
         ..Default::default()
     };
-    let mut manifest = prepare(dir, fresh, opts, &mut summary)?;
+    let (mut manifest, _folder) = prepare(dir, fresh, opts, &mut summary)?;
     let layouts: Vec<_> = cache.worlds.iter().map(|w| &w.layout).collect();
     manifest.bodies = write_file(
         dir,
@@ -353,13 +353,20 @@ fn new_manifest(spec: &DatasetSpec, shard: Option<Shard>) -> anyhow::Result<Mani
 }
 
 /// Checks the output folder against `--resume` / `--force` and returns the manifest to continue
-/// from: `fresh`, or the existing one with its checked chunks.
+/// from: `fresh`, or the existing one with its checked chunks; and the folder's lock, held for
+/// the run ([`crate::fsutil::lock_folder`]: a second run on the folder is refused before it
+/// removes or writes anything).
 fn prepare(
     dir: &Path,
     fresh: Manifest,
     opts: &Options,
     summary: &mut Summary,
-) -> anyhow::Result<Manifest> {
+) -> anyhow::Result<(Manifest, crate::fsutil::FolderLock)> {
+    let lock = if dir.is_dir() {
+        Some(crate::fsutil::lock_folder(dir)?)
+    } else {
+        None
+    };
     let existing = Manifest::load(dir)?;
     if opts.force {
         remove_outputs(dir)?;
@@ -394,9 +401,13 @@ fn prepare(
         );
     }
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let lock = match lock {
+        Some(lock) => lock,
+        None => crate::fsutil::lock_folder(dir)?,
+    };
     remove_unfinished(dir)?;
     let Some(mut manifest) = existing.filter(|_| !opts.force) else {
-        return Ok(fresh);
+        return Ok((fresh, lock));
     };
     let listed = std::mem::take(&mut manifest.chunks_done);
     for record in listed {
@@ -408,7 +419,7 @@ fn prepare(
             }
         }
     }
-    Ok(manifest)
+    Ok((manifest, lock))
 }
 
 /// Deletes the hidden `.part` files an abrupt end (second signal, kill -9, power loss) left.

@@ -135,10 +135,12 @@ pub fn merge(inputs: &[PathBuf], out: &Path, force: bool) -> anyhow::Result<Merg
             out.display()
         );
     }
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    // Held while merging: a second run into `out` is refused before it removes anything.
+    let _folder = crate::fsutil::lock_folder(out)?;
     if force {
         super::generate::remove_outputs(out)?;
     }
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let mut merged = first.clone();
     merged.shard = None;
     merged.chunks_done.clear();
@@ -181,10 +183,13 @@ fn place(from: &Path, to: &Path, file: &FileInfo) -> anyhow::Result<()> {
         return Ok(());
     }
     let part = hidden_part_path(&dst);
-    std::fs::copy(&src, &part)
-        .and_then(|_| std::fs::rename(&part, &dst))
-        .with_context(|| format!("cannot copy {} to {}", src.display(), dst.display()))
-        .inspect_err(|_| {
-            std::fs::remove_file(&part).ok();
+    crate::fsutil::create_part_named(&dst, &part)
+        .and_then(|mut out| {
+            let mut input = std::fs::File::open(&src)?;
+            std::io::copy(&mut input, &mut out)?;
+            Ok(())
         })
+        .with_context(|| format!("cannot copy {} to {}", src.display(), dst.display()))
+        .and_then(|()| crate::fsutil::publish(&[&dst]))
+        .inspect_err(|_| crate::fsutil::discard(&[&dst]))
 }

@@ -110,8 +110,7 @@ impl PartWriter {
                 .with_context(|| format!("cannot create {}", parent.display()))?;
         }
         let part = hidden_part_path(&path);
-        let file =
-            File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
+        let file = crate::fsutil::create_part_named(&path, &part)?;
         let sink = HashingWriter {
             inner: BufWriter::with_capacity(1 << 20, file),
             hasher: Sha256::new(),
@@ -156,13 +155,7 @@ impl PartWriter {
         // `--resume` checks (a file lost to a crash or power cut is recomputed). An fsync per part
         // file would serialize the workers on the file system.
         drop(file);
-        std::fs::rename(&self.part, &self.path).with_context(|| {
-            format!(
-                "cannot rename {} to {}",
-                self.part.display(),
-                self.path.display()
-            )
-        })?;
+        crate::fsutil::publish(&[&self.path])?;
         Ok(FileInfo {
             name: self.name.clone(),
             rows: self.rows,
@@ -176,7 +169,7 @@ impl Drop for PartWriter {
     /// An unfinished file (error, interruption) leaves nothing behind.
     fn drop(&mut self) {
         if self.writer.take().is_some() {
-            std::fs::remove_file(&self.part).ok();
+            crate::fsutil::discard(&[&self.path]);
         }
     }
 }

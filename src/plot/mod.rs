@@ -7,7 +7,7 @@
 
 pub mod accuracy;
 
-use anyhow::{Context, anyhow};
+use anyhow::anyhow;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -65,7 +65,9 @@ pub fn draw_err<E: std::error::Error + Send + Sync + 'static>(
     anyhow!("drawing failed: {e}")
 }
 
-/// Draws into `<path>.part` with `draw`, then renames onto `path`.
+/// Draws into `<path>.part.<ext>` with `draw`, then publishes it onto `path`
+/// ([`crate::fsutil`]: the part file is this run's own, created before the drawing library
+/// opens it, never through a link).
 pub fn atomically(
     path: &Path,
     draw: impl FnOnce(&Path) -> anyhow::Result<()>,
@@ -76,12 +78,14 @@ pub fn atomically(
         "part.{}",
         path.extension().and_then(|e| e.to_str()).unwrap_or("png")
     ));
-    let result = draw(&tmp).and_then(|()| {
-        std::fs::rename(&tmp, path)
-            .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))
-    });
+    let result = crate::fsutil::create_part_named(path, &tmp)
+        .and_then(|file| {
+            drop(file);
+            draw(&tmp)
+        })
+        .and_then(|()| crate::fsutil::publish(&[path]));
     if result.is_err() {
-        std::fs::remove_file(&tmp).ok();
+        crate::fsutil::discard(&[path]);
     }
     result
 }

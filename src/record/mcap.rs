@@ -34,7 +34,6 @@ use foxglove::Encode;
 use foxglove::messages::{FrameTransforms, SceneUpdate, Timestamp};
 use prost::Message;
 use std::collections::BTreeMap;
-use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
@@ -367,8 +366,7 @@ impl McapSink {
         options: &McapOptions,
     ) -> anyhow::Result<Self> {
         let part = part_path(path);
-        let file =
-            File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
+        let file = crate::fsutil::create_part(path)?;
         let codec = match options.compression {
             ChunkCompression::Zstd | ChunkCompression::Auto => Codec::Zstd,
             ChunkCompression::Lz4 => Codec::Lz4,
@@ -613,8 +611,7 @@ impl Sink for McapSink {
             writer, part, path, ..
         } = *self;
         complete_own_file(writer, &part)?;
-        std::fs::rename(&part, &path)
-            .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))
+        crate::fsutil::publish(&[&path])
     }
 
     fn path(&self) -> Option<PathBuf> {
@@ -661,9 +658,8 @@ pub fn complete_file(mut writer: McapFileWriter, part: &Path) -> anyhow::Result<
     sync_file(writer.into_inner(), part)
 }
 
-/// [`complete_file`], then renames `part` onto `path`.
+/// [`complete_file`], then publishes `part` onto `path` ([`crate::fsutil::publish`]).
 pub fn finish_file(writer: McapFileWriter, part: &Path, path: &Path) -> anyhow::Result<()> {
     complete_file(writer, part)?;
-    std::fs::rename(part, path)
-        .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))
+    crate::fsutil::publish(&[path])
 }

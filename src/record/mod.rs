@@ -248,20 +248,14 @@ pub fn finish_all<T>(
     result: anyhow::Result<T>,
     outputs: &[&std::path::Path],
 ) -> anyhow::Result<T> {
-    let discard = |completed: &[std::path::PathBuf]| {
-        let paths = outputs
-            .iter()
-            .copied()
-            .chain(completed.iter().map(|p| p.as_path()));
-        for path in paths {
-            std::fs::remove_file(crate::fsutil::part_path(path)).ok();
-        }
-    };
+    // Only this run's own `.part` files are removed ([`crate::fsutil::discard`]): a `.part`
+    // another run holds is never touched.
+    let discard = || crate::fsutil::discard(outputs);
     let value = match result {
         Ok(value) => value,
         Err(e) => {
             drop(sinks);
-            discard(&[]);
+            discard();
             return Err(e);
         }
     };
@@ -278,20 +272,12 @@ pub fn finish_all<T>(
             None => sink.finish(),
         };
         if let Err(e) = outcome {
-            discard(&completed);
+            discard();
             return Err(e);
         }
     }
-    for path in &completed {
-        let part = crate::fsutil::part_path(path);
-        std::fs::rename(&part, path).map_err(|e| {
-            anyhow::anyhow!(
-                "cannot rename {} to {}: {e}",
-                part.display(),
-                path.display()
-            )
-        })?;
-    }
+    let completed: Vec<&std::path::Path> = completed.iter().map(|p| p.as_path()).collect();
+    crate::fsutil::publish(&completed)?;
     Ok(value)
 }
 

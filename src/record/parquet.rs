@@ -24,11 +24,9 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
-/// Renames `<path>.part` onto `path`.
+/// Publishes `<path>.part` onto `path` ([`crate::fsutil::publish`]).
 fn publish(path: &Path) -> anyhow::Result<()> {
-    let part = part_path(path);
-    std::fs::rename(&part, path)
-        .with_context(|| format!("cannot rename {} to {}", part.display(), path.display()))
+    crate::fsutil::publish(&[path])
 }
 
 /// Writes `STEM.trajectories.parquet`.
@@ -45,8 +43,7 @@ impl TrajectorySink {
     /// Creates `<path>.part`.
     pub fn create(path: &Path, layout: &RecordingLayout) -> anyhow::Result<Self> {
         let part = part_path(path);
-        let file =
-            File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
+        let file = crate::fsutil::create_part(path)?;
         let writer = ArrowWriter::try_new(
             BufWriter::with_capacity(1 << 20, WritebackFile::new(file)),
             trajectories_schema(),
@@ -124,15 +121,18 @@ impl Sink for TrajectorySink {
 impl Drop for TrajectorySink {
     fn drop(&mut self) {
         if self.writer.take().is_some() {
-            std::fs::remove_file(part_path(&self.path)).ok();
+            crate::fsutil::discard(&[&self.path]);
         }
     }
 }
 
-/// Writes `STEM.bodies.parquet` when the run completes (its rows do not change).
+/// Writes `STEM.bodies.parquet` when the run completes (its rows do not change). Its `.part`
+/// file is this run's from the start ([`crate::fsutil::create_part`]), like every output's.
 pub struct BodiesSink {
     path: PathBuf,
     batch: arrow_array::RecordBatch,
+    /// The `.part` file, until it is written.
+    file: Option<File>,
 }
 
 impl BodiesSink {
@@ -142,10 +142,20 @@ impl BodiesSink {
             let frame = &layout.frames[b.frame];
             (frame.model.clone(), i, b, frame.frame_id.clone())
         }))?;
+        let file = crate::fsutil::create_part(path)?;
         Ok(Self {
             path: path.to_path_buf(),
             batch,
+            file: Some(file),
         })
+    }
+}
+
+impl Drop for BodiesSink {
+    fn drop(&mut self) {
+        if self.file.take().is_some() {
+            crate::fsutil::discard(&[&self.path]);
+        }
     }
 }
 
@@ -164,10 +174,9 @@ impl Sink for BodiesSink {
         Some(self.path.clone())
     }
 
-    fn complete(self: Box<Self>) -> anyhow::Result<()> {
+    fn complete(mut self: Box<Self>) -> anyhow::Result<()> {
         let part = part_path(&self.path);
-        let file =
-            File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
+        let file = self.file.take().context("the file is closed")?;
         let mut writer = ArrowWriter::try_new(
             BufWriter::new(file),
             crate::dataset::tables::bodies_schema(),

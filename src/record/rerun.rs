@@ -106,7 +106,6 @@ use rerun::{
     SerializedComponentBatch, SerializedComponentColumn, TimeColumn, TimePoint,
 };
 use std::collections::BTreeSet;
-use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
@@ -629,8 +628,7 @@ impl RerunSink {
 /// Opens `<path>.part` and writes the static layout. See the module doc for what is written.
 pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> Result<RerunSink> {
     let part_path = part_path(path);
-    let file = File::create(&part_path)
-        .with_context(|| format!("cannot create {}", part_path.display()))?;
+    let file = crate::fsutil::create_part(path)?;
     let (footer_writer, footer_hold) = FooterWriter::new(file);
     let encoder = Encoder::new_eager(
         CrateVersion::LOCAL,
@@ -1257,16 +1255,11 @@ impl RerunSink {
         Ok(())
     }
 
-    /// [`Self::close`], then renames `<path>.part` onto `<path>`.
+    /// [`Self::close`], then publishes `<path>.part` onto `<path>`
+    /// ([`crate::fsutil::publish`]).
     fn close_and_rename(&mut self) -> Result<()> {
         self.close()?;
-        std::fs::rename(&self.part_path, &self.final_path).with_context(|| {
-            format!(
-                "renaming {} to {}",
-                self.part_path.display(),
-                self.final_path.display()
-            )
-        })
+        crate::fsutil::publish(&[&self.final_path])
     }
 }
 
@@ -1378,7 +1371,7 @@ impl Drop for RerunSink {
             // Unfinished (error or early return): stop Rerun's threads, then remove the part file.
             drop(self.rec.take());
             lock(&self.state).encoder = None;
-            let _ = std::fs::remove_file(&self.part_path);
+            crate::fsutil::discard(&[&self.final_path]);
         }
     }
 }

@@ -40,7 +40,6 @@ use super::{Frame, RecordingLayout, Sink, TopicGroup};
 use crate::fsutil::part_path;
 use anyhow::Context;
 use std::collections::BTreeMap;
-use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
@@ -161,8 +160,7 @@ impl Ros2Sink {
             })
             .collect::<anyhow::Result<_>>()?;
         let part = part_path(path);
-        let file =
-            File::create(&part).with_context(|| format!("cannot create {}", part.display()))?;
+        let file = crate::fsutil::create_part(path)?;
         let mut writer = mcap::WriteOptions::new()
             .profile("ros2")
             .library(format!("tumble {}", crate::VERSION))

@@ -67,14 +67,35 @@ pub struct McapStream<R: Read> {
     end: StreamEnd,
 }
 
+/// Opens `path` for reading if it is a regular file (links followed), without blocking on a
+/// FIFO or a device: "`path` is not a regular file but a FIFO (named pipe)".
+pub fn open_regular(path: &Path) -> anyhow::Result<File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    let nonblock = rustix::fs::OFlags::NONBLOCK.bits() as i32;
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(nonblock)
+        .open(path)
+        .with_context(|| format!("cannot open {}", path.display()))?;
+    let meta = file
+        .metadata()
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    if !meta.is_file() {
+        anyhow::bail!(
+            "{} is not a regular file but {} (only regular files are read)",
+            path.display(),
+            crate::input::describe(&meta.file_type())
+        );
+    }
+    Ok(file)
+}
+
 impl McapStream<BufReader<File>> {
     /// Opens `path` for streaming.
     pub fn open(path: &Path) -> anyhow::Result<Self> {
-        let mut file =
-            File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
-        if !file.metadata().map(|m| m.is_file()).unwrap_or(false) {
-            anyhow::bail!("{} is not a regular file", path.display());
-        }
+        // Opened without blocking (a FIFO would wait for a writer for ever) and judged by what
+        // was opened: anything but a regular file is refused before a byte is read.
+        let mut file = open_regular(path)?;
         let mut magic = [0u8; 8];
         let n = read_up_to(&mut file, &mut magic)
             .with_context(|| format!("cannot read {}", path.display()))?;
