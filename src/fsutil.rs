@@ -272,10 +272,7 @@ fn back_up(final_path: &Path) -> anyhow::Result<Option<PathBuf>> {
         Err(e) => return Err(e).with_context(|| format!("cannot read {}", final_path.display())),
     };
     if meta.is_dir() {
-        bail!(
-            "cannot replace {}: it is a directory",
-            final_path.display()
-        );
+        bail!("cannot replace {}: it is a directory", final_path.display());
     }
     let backup = backup_path(final_path);
     std::fs::remove_file(&backup).ok();
@@ -338,9 +335,7 @@ pub fn publish(finals: &[&Path]) -> anyhow::Result<()> {
             }
         }
         discard(finals);
-        return Err(e.context(
-            "no output was published: the previous files, if any, are unchanged",
-        ));
+        return Err(e.context("no output was published: the previous files, if any, are unchanged"));
     }
     for r in &replaced {
         if let Some(backup) = &r.backup {
@@ -442,7 +437,11 @@ pub fn file_size_limit_note(e: &anyhow::Error) -> String {
 pub fn file_size_limit_bytes() -> Option<u64> {
     let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
     let line = limits.lines().find(|l| l.starts_with("Max file size"))?;
-    line["Max file size".len()..].split_whitespace().next()?.parse().ok()
+    line["Max file size".len()..]
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
 }
 
 /// A folder a run writes many files into (a dataset), held for the run: see [`lock_folder`].
@@ -531,7 +530,12 @@ mod tests {
         // A dangling link is refused the same way, and nothing is created at its target.
         let out2 = dir.path().join("b.rrd");
         std::os::unix::fs::symlink(dir.path().join("new"), part_path(&out2)).unwrap();
-        assert!(create_part(&out2).unwrap_err().to_string().contains("symbolic link"));
+        assert!(
+            create_part(&out2)
+                .unwrap_err()
+                .to_string()
+                .contains("symbolic link")
+        );
         assert!(!dir.path().join("new").exists());
     }
 
@@ -567,7 +571,11 @@ mod tests {
         assert_eq!(read(&part_path(&out)), "other run");
         drop(other);
         let mut file = create_part(&out).unwrap();
-        assert_eq!(file.metadata().unwrap().len(), 0, "a stale .part is emptied");
+        assert_eq!(
+            file.metadata().unwrap().len(),
+            0,
+            "a stale .part is emptied"
+        );
         file.write_all(b"new").unwrap();
         publish(&[&out]).unwrap();
         assert_eq!(read(&out), "new");

@@ -152,7 +152,14 @@ fn a_link_planted_at_a_part_name_is_never_followed() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let made = tumble(
-        &["simulate", &scene("box.toml"), "--out", "a", "--duration", "0.2"],
+        &[
+            "simulate",
+            &scene("box.toml"),
+            "--out",
+            "a",
+            "--duration",
+            "0.2",
+        ],
         d,
     );
     assert!(made.status.success(), "{}", text(&made.stderr));
@@ -288,7 +295,10 @@ fn the_file_size_limit_is_a_clear_error() {
         .unwrap();
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(err.contains(".part") && err.contains("File too large"), "{err}");
+    assert!(
+        err.contains(".part") && err.contains("File too large"),
+        "{err}"
+    );
     assert!(
         err.contains("the file-size limit, ulimit -f, is 65536 bytes"),
         "{err}"
@@ -302,7 +312,10 @@ fn the_file_size_limit_is_a_clear_error() {
 fn a_fifo_given_as_a_recording_is_refused_without_blocking() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let made = Command::new("mkfifo").arg(d.join("pipe.mcap")).status().unwrap();
+    let made = Command::new("mkfifo")
+        .arg(d.join("pipe.mcap"))
+        .status()
+        .unwrap();
     assert!(made.success());
     for args in [
         vec!["info", "pipe.mcap"],

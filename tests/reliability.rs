@@ -226,7 +226,10 @@ fn a_full_disk_leaves_nothing_under_the_final_names() {
         err.contains("File too large") && err.contains("run.rrd.part"),
         "{err}"
     );
-    let limit = format!("the file-size limit, ulimit -f, is {} bytes", limit_kib * 1024);
+    let limit = format!(
+        "the file-size limit, ulimit -f, is {} bytes",
+        limit_kib * 1024
+    );
     assert!(err.contains(&limit), "{err}");
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(listing(d), Vec::<String>::new(), "{err}");
