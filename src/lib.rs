@@ -11,6 +11,7 @@ pub mod dataset;
 pub mod fsutil;
 pub mod input;
 pub mod interrupt;
+pub mod message;
 pub mod model;
 pub mod placement;
 pub mod plot;

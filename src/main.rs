@@ -35,7 +35,11 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
-            eprintln!("error: {e:#}{}", tumble::fsutil::file_size_limit_note(&e));
+            eprintln!(
+                "error: {}{}",
+                tumble::message::error_text(&e),
+                tumble::fsutil::file_size_limit_note(&e)
+            );
             if let Some(stop) = e.downcast_ref::<tumble::interrupt::Interrupted>() {
                 ExitCode::from(stop.exit_code())
             } else if e.downcast_ref::<tumble::run::Diverged>().is_some() {

@@ -306,6 +306,41 @@ fn the_file_size_limit_is_a_clear_error() {
     assert_eq!(listing(d), Vec::<String>::new(), "{err}");
 }
 
+/// Issue 28, item 9: `convert` printed its cause twice ("writing x.rrd.part: Failed to write:
+/// File too large (os error 27): File too large (os error 27)": Rerun's error already holds its
+/// source). Now each cause is said once; the message still names the file and the limit.
+#[test]
+fn convert_says_its_cause_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let made = tumble(
+        &[
+            "simulate",
+            &scene("box.toml"),
+            "--out",
+            "b",
+            "--duration",
+            "0.5",
+            "--format",
+            "mcap",
+        ],
+        d,
+    );
+    assert!(made.status.success(), "{}", text(&made.stderr));
+    let script = format!("ulimit -f 10; exec '{}' convert b.mcap --rrd x.rrd", exe());
+    let out = Command::new("bash")
+        .args(["-c", &script])
+        .current_dir(d)
+        .output()
+        .unwrap();
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("x.rrd.part"), "{err}");
+    assert_eq!(err.matches("File too large").count(), 1, "{err}");
+    assert!(err.contains("ulimit -f, is 10240 bytes"), "{err}");
+    assert_eq!(listing(d), ["b.mcap"]);
+}
+
 /// Issue 28, item 7: `info`, `convert` and `diff` given a FIFO blocked for ever in `open()`.
 /// Now each refuses it at once, naming it.
 #[test]
