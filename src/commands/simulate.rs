@@ -770,13 +770,14 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     for note in &world.notes {
         eprintln!("warning: {note}");
     }
-    Estimate::run(
+    let estimate = Estimate::run(
         world.bodies.len() as f64,
         world.layout.frames.len() as f64,
         scene.steps() as f64,
         Some(scene.sim.log_every as f64),
     )
-    .check(args.allow_huge)?;
+    .with_population(&world.population());
+    estimate.check(args.allow_huge)?;
     if let Some(warning) = step_warning(&scene, &world) {
         eprintln!("{warning}");
     }
@@ -858,7 +859,11 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         print_accuracy(report, &world, &accuracy_json, args.verbose)?;
     }
     if let Some(peak) = peak_memory_bytes() {
-        println!("peak memory (VmHWM) {}", human_bytes(peak as f64));
+        println!(
+            "peak memory (VmHWM) {} (estimated {})",
+            human_bytes(peak as f64),
+            human_bytes(estimate.memory_bytes)
+        );
     }
     println!("wrote {} frames to", s.frames_recorded);
     for path in &out.written {
