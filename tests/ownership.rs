@@ -557,3 +557,50 @@ fn a_signal_during_convert_leaves_nothing() {
     );
     assert_eq!(listing(d), ["big.mcap"]);
 }
+
+/// Issue 28, item 1, for datasets: a second `tumble dataset` on a folder another one is
+/// writing is refused at once, naming the process, instead of removing (with `--force`) or
+/// resuming the first one's files; the first completes untouched.
+#[test]
+fn two_datasets_on_one_folder_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let spec = scene("dataset.toml");
+    let first = Command::new(exe())
+        .args(["dataset", &spec, "--out", "ds", "-q"])
+        .current_dir(d)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while !d.join("ds").join(".tumble.lock").exists() {
+        assert!(started.elapsed() < Duration::from_secs(60));
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let pid = first.id();
+    for extra in [None, Some("--force"), Some("--resume")] {
+        let mut args = vec!["dataset", spec.as_str(), "--out", "ds", "-q"];
+        args.extend(extra);
+        let second = tumble(&args, d);
+        let err = text(&second.stderr);
+        assert_eq!(second.status.code(), Some(2), "{extra:?}: {err}");
+        assert!(
+            err.contains(&format!(
+                "another tumble run (process {pid}) is writing into ds"
+            )),
+            "{extra:?}: {err}"
+        );
+    }
+    let out = first.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // The first run's dataset is whole: its manifest lists every chunk, and `--resume` finds
+    // nothing to redo.
+    let resumed = tumble(&["dataset", &spec, "--out", "ds", "-q", "--resume"], d);
+    assert!(resumed.status.success(), "{}", text(&resumed.stderr));
+    let said = text(&resumed.stdout) + &text(&resumed.stderr);
+    assert!(
+        said.contains("1000 runs (10 chunks) were complete and checked; 0 chunks recomputed"),
+        "{said}"
+    );
+}
