@@ -24,6 +24,7 @@
 //! linvel = [0.0, 0.0, 0.0]      # initial velocity of every body's centre of mass, world, m/s (default 0)
 //! angvel = [0.0, 5.0, 0.1]      # initial angular velocity of every body, world, rad/s (default 0)
 //! package_paths = ["../share"]  # optional extra package:// search folders, relative to the scene
+//! allow_mesh_paths = ["../cad"] # optional extra folders mesh files may be read from, relative to the scene (crate::model::confine)
 //! allow_non_physical_inertia = false  # accept inertia breaking the triangle inequality (default false)
 //! bodies = "links"              # "links": one free body per link | "rigid": the whole model as one body
 //! joints = { elbow = 0.5 }      # joint positions (rad or m) the model is placed (and locked) at (default 0)
@@ -137,6 +138,11 @@ pub struct ModelEntry {
     #[serde(default)]
     pub package_paths: Vec<PathBuf>,
     /// Accept links whose principal moments break the triangle inequality `I1 + I2 >= I3`
+    /// Folders mesh files may be read from besides the URDF's folder and package, the package
+    /// paths, `ROS_PACKAGE_PATH` and the scene's folder ([`crate::model::confine`]); relative
+    /// to the scene's folder. `--allow-mesh-path` adds to it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub allow_mesh_paths: Vec<PathBuf>,
     /// (no mass distribution has them, e.g. Hairer, Lubich & Wanner's test body (2, 1, 2/3));
     /// refused by default. Every other inertia rule still applies.
     #[serde(default)]
@@ -232,6 +238,7 @@ impl ModelEntry {
             angvel: [0.0; 3],
             package_paths: Vec::new(),
             allow_non_physical_inertia: false,
+            allow_mesh_paths: Vec::new(),
             bodies: BodiesMode::Links,
             joints: BTreeMap::new(),
             base: None,
@@ -433,6 +440,39 @@ impl Scene {
     }
 
     /// Checks every value; errors name the file and the key.
+    /// `--allow-mesh-path DIR...`: adds `dirs` to every model's `allow_mesh_paths`, made
+    /// absolute against the working directory (not the scene's folder).
+    pub fn allow_mesh_paths(&mut self, dirs: &[PathBuf]) -> anyhow::Result<()> {
+        let dirs: Vec<PathBuf> = dirs
+            .iter()
+            .map(|d| {
+                std::path::absolute(d).with_context(|| format!("--allow-mesh-path {}", d.display()))
+            })
+            .collect::<anyhow::Result<_>>()?;
+        for model in &mut self.models {
+            model.allow_mesh_paths.extend(dirs.iter().cloned());
+        }
+        Ok(())
+    }
+
+    /// Where mesh files of `entry` may be read from besides the URDF's own folders and the
+    /// package paths ([`crate::model::confine`]): the scene's folder (none for a URDF given
+    /// directly) and `allow_mesh_paths`, relative to it.
+    pub fn mesh_access(&self, entry: &ModelEntry) -> crate::model::confine::MeshAccess {
+        let from_urdf = self
+            .source
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("urdf"));
+        crate::model::confine::MeshAccess {
+            allowed: entry
+                .allow_mesh_paths
+                .iter()
+                .map(|p| self.base_dir.join(p))
+                .collect(),
+            scene_folder: (!from_urdf).then(|| self.base_dir.clone()),
+        }
+    }
+
     pub fn validate(&self) -> anyhow::Result<()> {
         let file = self.source.display();
         let s = &self.sim;
@@ -728,15 +768,17 @@ impl Scene {
                     &entry.joints,
                     entry.strict,
                     &mass_settings,
+            let mesh_access = self.mesh_access(entry);
                     entry.bodies,
                     entry.allow_non_physical_inertia
                 )
             );
             let model = match loaded.get(&load_key) {
+                    &mesh_access,
                 Some(model) => model.clone(),
                 None => {
                     let joints: HashMap<String, f64> = entry.joints.clone().into_iter().collect();
-                    let mut model = urdf::load_with(
+                    let mut model = urdf::load_with_access(
                         &urdf_path,
                         &package_paths,
                         &joints,
@@ -749,8 +791,11 @@ impl Scene {
                         }
                     }
                     policy::apply(&mut model, &mass_settings).with_context(context)?;
+                        &mesh_access,
                     match entry.bodies {
                         BodiesMode::Links => {
+                    // A mesh outside the folders meshes are read from stops everything.
+                    model.check_meshes().with_context(context)?;
                             model.check_simulable(entry.allow_non_physical_inertia)
                         }
                         BodiesMode::Rigid | BodiesMode::Articulated => check_rigid_parts(&model),

@@ -83,6 +83,9 @@ pub struct FileReport {
     pub repaired: usize,
     /// Links with a non-zero mass still invalid under `auto`.
     pub still_invalid: usize,
+    /// One line per mesh refused because it is outside the folders meshes are read from
+    /// (`FILE: link `L`: ELEMENT: mesh `URI`: WHY`; [`crate::model::confine`]).
+    pub refused_meshes: Vec<String>,
 }
 
 /// Totals over the files under one root.
@@ -132,16 +135,23 @@ pub fn urdf_files(root: &Path) -> Vec<PathBuf> {
 
 /// Loads one file (leniently) and classifies its links.
 pub fn survey_file(path: &Path, package_paths: &[PathBuf]) -> FileReport {
-    survey_file_with(path, package_paths, urdf::Strictness::Lenient)
+    survey_file_with(
+        path,
+        package_paths,
+        urdf::Strictness::Lenient,
+        &Default::default(),
+    )
 }
 
-/// [`survey_file`], choosing whether oddities load with warnings or fail the file.
+/// [`survey_file`], choosing whether oddities load with warnings or fail the file, and where
+/// else meshes may be read from ([`crate::model::confine`]).
 pub fn survey_file_with(
     path: &Path,
     package_paths: &[PathBuf],
     strictness: urdf::Strictness,
+    access: &crate::model::confine::MeshAccess,
 ) -> FileReport {
-    match urdf::load_with(path, package_paths, &Default::default(), strictness) {
+    match urdf::load_with_access(path, package_paths, &Default::default(), strictness, access) {
         Ok(model) => classify(path, &model),
         Err(e) => FileReport {
             path: path.to_path_buf(),
@@ -151,6 +161,7 @@ pub fn survey_file_with(
             triangle_violations: 0,
             repaired: 0,
             still_invalid: 0,
+            refused_meshes: Vec::new(),
         },
     }
 }
@@ -200,6 +211,19 @@ fn classify(path: &Path, model: &Model) -> FileReport {
         triangle_violations,
         repaired,
         still_invalid,
+        refused_meshes: model
+            .meshes
+            .iter()
+            .filter(|m| m.refusal().is_some())
+            .map(|m| {
+                crate::model::confine::MeshRefused {
+                    file: path.to_path_buf(),
+                    mesh: m.clone(),
+                    more: 0,
+                }
+                .to_string()
+            })
+            .collect(),
     }
 }
 

@@ -163,7 +163,16 @@ fn check_case(case: &Case) -> Result<(), String> {
     }
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("out/rec");
-    let holder = mesh_urdf(tmp.path(), &file);
+    // The holder sits beside a copy of a mesh case: meshes are read only inside the URDF's
+    // folder (src/model/confine.rs; tests/mesh_paths.rs).
+    let mesh = if case.file.starts_with("mesh/") {
+        let beside = tmp.path().join(file.file_name().unwrap());
+        std::fs::copy(&file, &beside).unwrap();
+        beside
+    } else {
+        file.clone()
+    };
+    let holder = mesh_urdf(tmp.path(), &mesh);
     let template: Vec<String> = match &case.run {
         Some(run) => run.clone(),
         None => default_run(&case.file)
@@ -503,7 +512,9 @@ fn files_over_the_size_caps_are_refused_unread() {
     );
 }
 
-/// A symbolic link named like a mesh but pointing at a device is judged by its target.
+/// A symbolic link named like a mesh but pointing at a device is judged by its target: outside
+/// the URDF's folder it is refused (src/model/confine.rs), and where reading it is allowed it is
+/// still no regular file.
 #[cfg(unix)]
 #[test]
 fn a_symlink_to_a_device_is_not_a_mesh() {
@@ -518,6 +529,26 @@ fn a_symlink_to_a_device_is_not_a_mesh() {
     );
     let holder = mesh_urdf(tmp.path(), &tmp.path().join("zero.stl"));
     let model = tumble::model::urdf::load(&holder, &[]).unwrap();
+    let problems = &model.links[0].problems;
+    assert!(
+        problems
+            .iter()
+            .any(|p| p.contains("real path /dev/zero") && p.contains("refused")),
+        "{problems:?}"
+    );
+    assert!(model.check_meshes().is_err());
+    let allowed = tumble::model::confine::MeshAccess {
+        allowed: vec![PathBuf::from("/dev")],
+        scene_folder: None,
+    };
+    let model = tumble::model::urdf::load_with_access(
+        &holder,
+        &[],
+        &Default::default(),
+        tumble::model::urdf::Strictness::Lenient,
+        &allowed,
+    )
+    .unwrap();
     let problems = &model.links[0].problems;
     assert!(
         problems.iter().any(|p| p.contains("character device")),

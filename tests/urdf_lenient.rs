@@ -329,8 +329,10 @@ fn identical_repeated_axes_use_the_first() {
 #[test]
 fn a_uniform_four_number_mesh_scale_is_read_as_three() {
     let dir = tempfile::tempdir().unwrap();
-    // The unit cube [0, 1]^3 (12 triangles).
-    let cube = common::root().join("tests/hostile/mesh/cube.stl");
+    // The unit cube [0, 1]^3 (12 triangles), beside the URDF (meshes are read only inside
+    // the URDF's folder: src/model/confine.rs).
+    let cube = dir.path().join("cube.stl");
+    std::fs::copy(common::root().join("tests/hostile/mesh/cube.stl"), &cube).unwrap();
     let text = format!(
         r#"<robot name="r"><link name="chassis">{INERTIAL}
   <collision><geometry><mesh filename="{}" scale="2 2 2 2"/></geometry></collision>

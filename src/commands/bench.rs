@@ -42,6 +42,12 @@ pub struct BenchArgs {
     /// Time this scene's step instead of the synthetic batch.
     #[arg(long, value_name = "SCENE.toml")]
     pub scene: Option<PathBuf>,
+    /// With --scene: also read mesh files from DIR (repeatable). By default a mesh is read only when its real
+    /// path (links resolved) is inside the URDF's folder (or the ROS package holding it), a
+    /// package path, ROS_PACKAGE_PATH or the scene's folder; any other is refused (exit 2).
+    /// Adds to every [[model]]'s allow_mesh_paths.
+    #[arg(long = "allow-mesh-path", value_name = "DIR", requires = "scene")]
+    pub allow_mesh_paths: Vec<PathBuf>,
     /// Steps per timed run.
     #[arg(long, default_value_t = 1000)]
     pub steps: u64,
@@ -259,6 +265,7 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
 
 fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
     let mut scene = Scene::load(path)?;
+    scene.allow_mesh_paths(&args.allow_mesh_paths)?;
     scene.apply(&crate::scene::SimOverrides {
         integrator: args.integrator.clone(),
         dt: args.dt,

@@ -57,6 +57,12 @@ pub struct DatasetArgs {
     /// strict = true on the template's [[scene.model]] (docs/urdf.md).
     #[arg(long)]
     pub strict: bool,
+    /// Also read mesh files from DIR (repeatable). By default a mesh is read only when its real
+    /// path (links resolved) is inside the URDF's folder (or the ROS package holding it), a
+    /// package path, ROS_PACKAGE_PATH or the scene's folder; any other is refused (exit 2).
+    /// Adds to the template's [[scene.model]] allow_mesh_paths.
+    #[arg(long = "allow-mesh-path", value_name = "DIR")]
+    pub allow_mesh_paths: Vec<PathBuf>,
 }
 
 #[derive(Subcommand, Debug, Clone)]
@@ -100,6 +106,7 @@ pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
     if args.strict {
         spec.template.set_strict();
     }
+    spec.template.allow_mesh_paths(&args.allow_mesh_paths)?;
     // Ctrl-C / SIGTERM: finish the chunks in flight, write the manifest, exit 130 / 143.
     crate::interrupt::install()?;
     let opts = Options {

@@ -58,14 +58,32 @@
 //!   "total_mass": 4.8,                    // sum over links with positive mass (0 if none)
 //!   "com": [x, y, z] | null,              // model frame; null when total_mass is 0
 //!   "inertia_about_com": [[..],[..],[..]] | null,   // about "com", model axes
-//!   "principal_moments": [a, b, c] | null
+//!   "principal_moments": [a, b, c] | null,
+//!   "meshes": [                           // every <mesh>, visual and collision, file order
+//!     {
+//!       "link": "forearm",
+//!       "element": "visual #0",           // as in the link's problems
+//!       "uri": "package://arm/meshes/forearm.stl",   // as the URDF writes it
+//!       "path": "/ws/arm/meshes/forearm.stl" | null, // the file it resolved to, as found
+//!       "real_path": "/ws/arm/meshes/forearm.stl" | null,  // links resolved
+//!       "status": "allowed" | "refused" | "unresolved",
+//!       "detail": "..."                   // allowed: the folder allowing it ("the URDF's
+//!                                         //   folder /ws/arm/urdf"); refused, unresolved: why
+//!     }
+//!   ]
 //! }
 //! ```
+//!
+//! Meshes are read only inside the URDF's folder (or the ROS package holding it), the
+//! `--package-path` folders, `ROS_PACKAGE_PATH` and `--allow-mesh-path` folders, links resolved
+//! ([`crate::model::confine`]). A mesh elsewhere is refused: a problem of its link (exit 1),
+//! listed under "meshes" with its resolved and real paths.
 //!
 //! Non-finite numbers (a NaN mass in the URDF) are written as `null`, as JSON has no NaN.
 
 pub mod compare;
 
+use crate::model::confine::{MeshAccess, MeshStatus, MeshUse};
 use crate::model::geometry::GeometryUsed;
 use crate::model::policy::{self, GeometrySource, InertiaPolicy, ModelMassSettings};
 use crate::model::{InertiaSource, Link, MassProperties, Model, urdf};
@@ -86,6 +104,11 @@ pub struct InspectArgs {
     /// URDF's parent folders.
     #[arg(long = "package-path")]
     pub package_paths: Vec<PathBuf>,
+    /// Also read mesh files from DIR (repeatable). By default a mesh is read only when its real
+    /// path (links resolved) is inside the URDF's folder (or the ROS package holding it), a
+    /// package path or ROS_PACKAGE_PATH; any other is refused (a problem of its link).
+    #[arg(long = "allow-mesh-path", value_name = "DIR")]
+    pub allow_mesh_paths: Vec<PathBuf>,
     /// --inertia, --density, --geometry: the inertia policy applied before reporting.
     #[command(flatten)]
     pub mass: super::MassArgs,
@@ -114,11 +137,20 @@ pub struct ReportOptions {
 /// the URDF cannot be loaded.
 pub fn run(args: &InspectArgs) -> anyhow::Result<bool> {
     // ModelError and PolicyError already name the file (and link, rule): no extra context.
-    let mut model = urdf::load_with(
+    let access = MeshAccess {
+        allowed: args
+            .allow_mesh_paths
+            .iter()
+            .map(std::path::absolute)
+            .collect::<std::io::Result<_>>()?,
+        scene_folder: None,
+    };
+    let mut model = urdf::load_with_access(
         &args.model,
         &args.package_paths,
         &Default::default(),
         urdf::Strictness::from_strict(args.strict),
+        &access,
     )?;
     for warning in &model.warnings {
         eprintln!("warning: {warning}");
@@ -130,7 +162,13 @@ pub fn run(args: &InspectArgs) -> anyhow::Result<bool> {
         },
         compare: args.compare,
     };
-    policy::apply(&mut model, &options.settings)?;
+    if let Err(e) = policy::apply(&mut model, &options.settings) {
+        // A refused mesh reads as not found to the policy: say why.
+        return Err(match model.check_meshes() {
+            Err(refused) => anyhow::Error::new(e).context(refused.to_string()),
+            Ok(()) => e.into(),
+        });
+    }
     if args.json {
         let text = serde_json::to_string_pretty(&report_with(&model, &options))?;
         println!("{text}");
@@ -304,7 +342,61 @@ pub fn report_with(model: &Model, options: &ReportOptions) -> Value {
         "com": total.map(|t| vec3(&t.com)),
         "inertia_about_com": total.map(|t| mat3(&t.inertia)),
         "principal_moments": total.map(|t| vec3(&t.principal_moments())),
+        "meshes": model.meshes.iter().map(mesh_json).collect::<Vec<_>>(),
     })
+}
+
+/// A mesh's status as the JSON's `status` and `detail`.
+fn mesh_status(mesh: &MeshUse) -> (&'static str, String) {
+    match &mesh.status {
+        MeshStatus::Allowed { root } => ("allowed", format!("inside {root}")),
+        MeshStatus::Refused(why) => ("refused", why.reason()),
+        MeshStatus::Unresolved(why) => ("unresolved", why.clone()),
+    }
+}
+
+fn mesh_json(mesh: &MeshUse) -> Value {
+    let (status, detail) = mesh_status(mesh);
+    json!({
+        "link": mesh.link,
+        "element": mesh.element,
+        "uri": mesh.uri,
+        "path": mesh.path.as_ref().map(|p| p.display().to_string()),
+        "real_path": mesh.real_path.as_ref().map(|p| p.display().to_string()),
+        "status": status,
+        "detail": detail,
+    })
+}
+
+/// The "meshes" section of the text report: one line per `<mesh>`, with the file it resolved
+/// to, its real path when links make it another, and whether it is read.
+fn render_meshes(out: &mut String, meshes: &[MeshUse]) {
+    if meshes.is_empty() {
+        return;
+    }
+    let refused = meshes.iter().filter(|m| m.refusal().is_some()).count();
+    let _ = writeln!(out);
+    let _ = writeln!(out, "meshes ({}, {refused} refused)", meshes.len());
+    for m in meshes {
+        let (status, detail) = mesh_status(m);
+        let path = match (&m.path, &m.real_path) {
+            (Some(p), Some(real)) if p != real => {
+                format!(" -> {} (real path {})", p.display(), real.display())
+            }
+            (Some(p), _) => format!(" -> {}", p.display()),
+            (None, _) => String::new(),
+        };
+        let detail = match m.status {
+            MeshStatus::Refused(_) => format!("REFUSED: {detail}"),
+            _ if detail.is_empty() => status.to_string(),
+            _ => format!("{status}, {detail}"),
+        };
+        let _ = writeln!(
+            out,
+            "  link `{}` {} `{}`{path}: {detail}",
+            m.link, m.element, m.uri
+        );
+    }
 }
 
 /// A number with 6 significant digits, fixed notation for ordinary magnitudes, scientific
@@ -531,6 +623,7 @@ pub fn render_text_with(model: &Model, options: &ReportOptions) -> String {
             render_comparison(&mut out, &Comparison::of(link, &settings));
         }
     }
+    render_meshes(&mut out, &model.meshes);
     let _ = writeln!(out);
     match model.total_mass_properties() {
         Some(total) => {

@@ -83,6 +83,12 @@ pub struct SimulateArgs {
     /// With a URDF input: extra folders searched for package:// meshes.
     #[arg(long = "package-path")]
     pub package_paths: Vec<PathBuf>,
+    /// Also read mesh files from DIR (repeatable). By default a mesh is read only when its real
+    /// path (links resolved) is inside the URDF's folder (or the ROS package holding it), a
+    /// package path, ROS_PACKAGE_PATH or the scene's folder; any other is refused (exit 2).
+    /// Adds to every [[model]]'s allow_mesh_paths.
+    #[arg(long = "allow-mesh-path", value_name = "DIR")]
+    pub allow_mesh_paths: Vec<PathBuf>,
     /// Also write STEM.ros2.mcap, a ROS 2 recording (`ros2 bag play`, RViz2): /tf,
     /// /robot_description, /bodies in CDR (docs/ros2.md).
     #[arg(long)]
@@ -275,6 +281,7 @@ pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
     if args.strict {
         scene.set_strict();
     }
+    scene.allow_mesh_paths(&args.allow_mesh_paths)?;
     scene.apply(&SimOverrides {
         dt: args.dt,
         duration: args.duration,

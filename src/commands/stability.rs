@@ -40,6 +40,12 @@ pub struct StabilityArgs {
     /// With --scene: the horizon of each run, s (default: the scene's duration).
     #[arg(long, requires = "scene")]
     pub duration: Option<f64>,
+    /// With --scene: also read mesh files from DIR (repeatable). By default a mesh is read only when its real
+    /// path (links resolved) is inside the URDF's folder (or the ROS package holding it), a
+    /// package path, ROS_PACKAGE_PATH or the scene's folder; any other is refused (exit 2).
+    /// Adds to every [[model]]'s allow_mesh_paths.
+    #[arg(long = "allow-mesh-path", value_name = "DIR", requires = "scene")]
+    pub allow_mesh_paths: Vec<PathBuf>,
 }
 
 fn run_scene(args: &StabilityArgs, path: &std::path::Path) -> anyhow::Result<()> {
@@ -47,7 +53,8 @@ fn run_scene(args: &StabilityArgs, path: &std::path::Path) -> anyhow::Result<()>
     if args.quick {
         anyhow::bail!("--quick is for the free-body map; with --scene choose the steps with --dt");
     }
-    let scene = crate::scene::Scene::load(path)?;
+    let mut scene = crate::scene::Scene::load(path)?;
+    scene.allow_mesh_paths(&args.allow_mesh_paths)?;
     let dts: Vec<f64> = if args.dts.is_empty() {
         stability::scene::DT_FACTORS
             .iter()

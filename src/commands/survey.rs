@@ -2,7 +2,10 @@
 //! how many links have missing, zero, invalid, light or valid inertial data ([`crate::survey`]).
 //! Exit 0 when the survey ran (files that fail are part of the report), 2 when a root does not
 //! exist. Each oddity a file loaded with (docs/urdf.md) is a `warning:` line on stderr and an
-//! entry of that file's `warnings` in the JSON; `--strict` makes such files fail instead.
+//! entry of that file's `warnings` in the JSON; `--strict` makes such files fail instead. Each mesh
+//! refused because it is outside the folders meshes are read from ([`crate::model::confine`];
+//! `--allow-mesh-path` widens them) is a `warning:` line too, and an entry of the file's
+//! `refused_meshes`.
 
 use crate::survey::{self, FileReport, LinkClass, Summary};
 use anyhow::bail;
@@ -17,6 +20,12 @@ pub struct SurveyArgs {
     /// Folder searched first for `package://` meshes (repeatable).
     #[arg(long = "package-path")]
     pub package_paths: Vec<PathBuf>,
+    /// Also read mesh files from DIR (repeatable). By default a mesh is read only when its real
+    /// path (links resolved) is inside the URDF's folder (or the ROS package holding it), a
+    /// package path or ROS_PACKAGE_PATH; any other is refused (listed on stderr and in the
+    /// file's `refused_meshes`).
+    #[arg(long = "allow-mesh-path", value_name = "DIR")]
+    pub allow_mesh_paths: Vec<PathBuf>,
     /// Print `{"summaries": [...], "files": [...]}` as JSON instead of tables.
     #[arg(long)]
     pub json: bool,
@@ -46,6 +55,14 @@ fn print_survey(args: &SurveyArgs) -> anyhow::Result<()> {
     let mut out = std::io::stdout().lock();
     let mut summaries = Vec::new();
     let mut all_files: Vec<FileReport> = Vec::new();
+    let access = crate::model::confine::MeshAccess {
+        allowed: args
+            .allow_mesh_paths
+            .iter()
+            .map(std::path::absolute)
+            .collect::<std::io::Result<_>>()?,
+        scene_folder: None,
+    };
     for root in &args.roots {
         if !root.exists() {
             bail!("{}: no such file or folder", root.display());
@@ -57,10 +74,14 @@ fn print_survey(args: &SurveyArgs) -> anyhow::Result<()> {
                     p,
                     &args.package_paths,
                     crate::model::urdf::Strictness::from_strict(args.strict),
+                    &access,
                 )
             })
             .collect();
-        for warning in files.iter().flat_map(|f| &f.warnings) {
+        for warning in files
+            .iter()
+            .flat_map(|f| f.warnings.iter().chain(&f.refused_meshes))
+        {
             eprintln!("warning: {warning}");
         }
         summaries.push(survey::summarize(root, &files));

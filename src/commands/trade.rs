@@ -52,6 +52,12 @@ pub struct TradeArgs {
     /// strict = true on every [[model]] (docs/urdf.md).
     #[arg(long)]
     pub strict: bool,
+    /// Also read mesh files from DIR (repeatable). By default a mesh is read only when its real
+    /// path (links resolved) is inside the URDF's folder (or the ROS package holding it), a
+    /// package path, ROS_PACKAGE_PATH or the scene's folder; any other is refused (exit 2).
+    /// Adds to every [[model]]'s allow_mesh_paths.
+    #[arg(long = "allow-mesh-path", value_name = "DIR")]
+    pub allow_mesh_paths: Vec<PathBuf>,
 }
 
 /// `path` if present, else its copy in the source tree the binary was built from.
@@ -80,6 +86,7 @@ pub fn settings_from_args(args: &TradeArgs) -> anyhow::Result<(Scene, TradeSetti
     if args.strict {
         scene.set_strict();
     }
+    scene.allow_mesh_paths(&args.allow_mesh_paths)?;
     let integrators = super::parse_integrators(&args.integrators)?;
     let dts = if args.dts.is_empty() {
         DEFAULT_DTS.to_vec()

@@ -2,6 +2,7 @@
 //! geometry.
 
 pub mod articulation;
+pub mod confine;
 pub mod description;
 pub mod geometry;
 pub mod kinematics;
@@ -32,6 +33,10 @@ pub struct Model {
     /// element starts on; see
     /// [`urdf::Strictness`]); empty for a file URDF defines fully.
     pub warnings: Vec<urdf::LoadWarning>,
+    /// Every `<mesh>` (visual and collision), in file order: the file it resolved to, its real
+    /// path and whether it is read ([`confine`]: meshes outside the allowed folders are
+    /// refused; [`Model::check_meshes`]).
+    pub meshes: Vec<confine::MeshUse>,
 }
 
 /// Where a link's mass properties came from.
@@ -128,7 +133,8 @@ pub enum Geometry {
         length: f64,
     },
     /// A mesh file. `path` is the resolved file (`None` when `package://`/relative resolution
-    /// found no file; `uri` keeps what the URDF said). A file that exists but is not a regular
+    /// found no file, or when the file is outside the folders meshes are read from:
+    /// [`confine`]; `uri` keeps what the URDF said). A file that exists but is not a regular
     /// file of at most [`crate::input::MESH_MAX_BYTES`] is kept here with a problem on the
     /// link; every reader refuses it through [`crate::input`], saying why.
     Mesh {

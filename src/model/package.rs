@@ -21,9 +21,11 @@
 //! - The path inside a package is normalised lexically (`.` and empty segments dropped, `..`
 //!   removes the segment before it); a `..` that would climb above the package root is refused
 //!   ([`Unresolved::EscapesPackage`]), as is a package named `.` or `..`.
-//! - Relative and absolute paths and `file://` URIs may name any file: URDFs in `urdf/` folders
-//!   legitimately reach `../meshes/...`, and the file is the URDF author's choice as in every
-//!   URDF tool. What is opened is still bounded: only a regular file of at most
+//! - Relative and absolute paths and `file://` URIs may name any file here: URDFs in `urdf/`
+//!   folders legitimately reach `../meshes/...`. Which files are then read is decided after
+//!   resolution, on the file's real path ([`super::confine`]: the URDF's folder or ROS package,
+//!   the package paths, `ROS_PACKAGE_PATH`, the scene's folder, the allowed folders; anything
+//!   else is refused). What is opened is bounded too: only a regular file of at most
 //!   [`crate::input::MESH_MAX_BYTES`] resolves ([`Unresolved::NotReadable`] otherwise: `/dev/zero`,
 //!   `file:///dev/urandom`, a FIFO or a directory never resolve; judged from metadata, never
 //!   opened).

@@ -35,6 +35,7 @@ mod lenient;
 
 pub use lenient::{LoadWarning, Oddity, Strictness};
 
+use super::confine::{MeshAccess, MeshRoots, MeshStatus, MeshUse, Refusal};
 use super::kinematics::{self, Joint, JointKind, KinematicsError, Mimic};
 use super::package;
 use super::{Collision, Geometry, InertiaSource, Link, MassProperties, Model, Visual};
@@ -150,13 +151,38 @@ pub fn load_with(
     joint_positions: &HashMap<String, f64>,
     strictness: Strictness,
 ) -> Result<Model, ModelError> {
+    load_with_access(
+        path,
+        package_paths,
+        joint_positions,
+        strictness,
+        &MeshAccess::default(),
+    )
+}
+
+/// [`load_with`], with mesh files also read from the folders of `access` (`--allow-mesh-path`,
+/// the scene's folder and `allow_mesh_paths`; [`super::confine`]).
+pub fn load_with_access(
+    path: &Path,
+    package_paths: &[PathBuf],
+    joint_positions: &HashMap<String, f64>,
+    strictness: Strictness,
+    access: &MeshAccess,
+) -> Result<Model, ModelError> {
     let xml = crate::input::read_text(path, crate::input::URDF_MAX_BYTES).map_err(|error| {
         ModelError::Read {
             path: path.to_path_buf(),
             error,
         }
     })?;
-    load_str_with(&xml, path, package_paths, joint_positions, strictness)
+    load_str_with_access(
+        &xml,
+        path,
+        package_paths,
+        joint_positions,
+        strictness,
+        access,
+    )
 }
 
 /// [`load_str`] at a joint configuration.
@@ -182,6 +208,25 @@ pub fn load_str_with(
     package_paths: &[PathBuf],
     joint_positions: &HashMap<String, f64>,
     strictness: Strictness,
+) -> Result<Model, ModelError> {
+    load_str_with_access(
+        xml,
+        path,
+        package_paths,
+        joint_positions,
+        strictness,
+        &MeshAccess::default(),
+    )
+}
+
+/// [`load_with_access`] from text already read.
+pub fn load_str_with_access(
+    xml: &str,
+    path: &Path,
+    package_paths: &[PathBuf],
+    joint_positions: &HashMap<String, f64>,
+    strictness: Strictness,
+    access: &MeshAccess,
 ) -> Result<Model, ModelError> {
     let file = || path.to_path_buf();
     let lenient = strictness == Strictness::Lenient;
@@ -355,12 +400,23 @@ pub fn load_str_with(
         .filter_map(|m| Some((m.name.as_str(), rgba(m.color.as_ref()?))))
         .collect();
 
+    let ros_paths = package::ros_package_path();
+    let mut meshes = Meshes {
+        urdf_path: path,
+        package_paths,
+        roots: MeshRoots::new(path, package_paths, &ros_paths, access),
+        ros_paths,
+        link: "",
+        uses: Vec::new(),
+    };
     let links = robot
         .links
         .iter()
         .zip(poses)
         .map(|(l, model_from_link)| {
             let mut problems = Vec::new();
+            meshes.link = &l.name;
+            let first_mesh = meshes.uses.len();
             let (inertial, source) = if links_with_inertial.contains(l.name.as_str()) {
                 let mp = mass_properties_from_urdf(&l.inertial);
                 problems.extend(mp.validate());
@@ -375,14 +431,19 @@ pub fn load_str_with(
                 .visual
                 .iter()
                 .enumerate()
-                .map(|(k, v)| visual(v, k, path, package_paths, &materials, &mut problems))
+                .map(|(k, v)| visual(v, k, &mut meshes, &materials, &mut problems))
                 .collect();
             let collisions = l
                 .collision
                 .iter()
                 .enumerate()
-                .map(|(k, c)| collision(c, k, path, package_paths))
+                .map(|(k, c)| collision(c, k, &mut meshes))
                 .collect();
+            // A refused mesh, visual or collision, is a problem of its link.
+            problems.extend(meshes.uses[first_mesh..].iter().filter_map(|m| {
+                let why = m.refusal()?;
+                Some(format!("{}: mesh `{}`: {why}", m.element, m.uri))
+            }));
             Link {
                 name: l.name.clone(),
                 model_from_link,
@@ -405,6 +466,7 @@ pub fn load_str_with(
         root: root_index,
         joints,
         warnings,
+        meshes: meshes.uses,
     })
 }
 
@@ -444,11 +506,22 @@ fn rgba(color: &urdf_rs::Color) -> [f32; 4] {
     color.rgba.0.map(|c| c as f32)
 }
 
+/// How a load resolves and confines mesh URIs, and what it found (one [`MeshUse`] per
+/// `<mesh>`, in file order).
+struct Meshes<'a> {
+    urdf_path: &'a Path,
+    package_paths: &'a [PathBuf],
+    ros_paths: Vec<PathBuf>,
+    roots: MeshRoots,
+    /// The link being read.
+    link: &'a str,
+    uses: Vec<MeshUse>,
+}
+
 fn visual(
     v: &urdf_rs::Visual,
     k: usize,
-    urdf_path: &Path,
-    package_paths: &[PathBuf],
+    meshes: &mut Meshes,
     materials: &HashMap<&str, [f32; 4]>,
     problems: &mut Vec<String>,
 ) -> Visual {
@@ -456,7 +529,7 @@ fn visual(
         Some(name) => format!("visual `{name}`"),
         None => format!("visual #{k}"),
     };
-    let geometry = geometry(&v.geometry, &label, urdf_path, package_paths, problems);
+    let geometry = geometry(&v.geometry, &label, meshes, problems);
     let rgba = v.material.as_ref().and_then(|m| match &m.color {
         Some(c) => Some(rgba(c)),
         None => materials.get(m.name.as_str()).copied(),
@@ -471,13 +544,9 @@ fn visual(
 
 /// A `<collision>` element. Its geometry is only used for mass properties (inertia policy
 /// `geometry` or `auto`, `inspect --compare`), so what is wrong with it (an unresolved mesh, a
-/// zero size) is reported when it is used, not as a problem of the link at load time.
-fn collision(
-    c: &urdf_rs::Collision,
-    k: usize,
-    urdf_path: &Path,
-    package_paths: &[PathBuf],
-) -> Collision {
+/// zero size) is reported when it is used, not as a problem of the link at load time; a mesh
+/// refused by [`super::confine`] is a problem of the link all the same.
+fn collision(c: &urdf_rs::Collision, k: usize, meshes: &mut Meshes) -> Collision {
     let label = match &c.name {
         Some(name) => format!("collision `{name}`"),
         None => format!("collision #{k}"),
@@ -486,17 +555,17 @@ fn collision(
     Collision {
         name: c.name.clone(),
         link_from_collision: kinematics::isometry_from_pose(&c.origin),
-        geometry: geometry(&c.geometry, &label, urdf_path, package_paths, &mut unused),
+        geometry: geometry(&c.geometry, &label, meshes, &mut unused),
     }
 }
 
-/// A URDF geometry in SI units, with `package://` and relative mesh paths resolved; what is
-/// wrong with it goes to `problems`, prefixed by `label`.
+/// A URDF geometry in SI units, with `package://` and relative mesh paths resolved and
+/// confined ([`super::confine`]: a refused mesh gets no path); what is wrong with it goes to
+/// `problems`, prefixed by `label` (refusals go to `meshes.uses` only).
 fn geometry(
     g: &urdf_rs::Geometry,
     label: &str,
-    urdf_path: &Path,
-    package_paths: &[PathBuf],
+    meshes: &mut Meshes,
     problems: &mut Vec<String>,
 ) -> Geometry {
     let positive = |values: &[f64]| values.iter().all(|x| x.is_finite() && *x > 0.0);
@@ -550,30 +619,65 @@ fn geometry(
                     scale.x, scale.y, scale.z
                 ));
             }
-            let resolved = package::resolve_detailed(
+            let (found, unresolved) = match package::resolve_detailed(
                 filename,
-                urdf_path,
-                package_paths,
-                &package::ros_package_path(),
-            )
-            .or_else(|why| {
-                let sep = if why == package::Unresolved::NotFound {
-                    " "
-                } else {
-                    ": "
-                };
-                problems.push(format!("{label}: mesh `{filename}`{sep}{why}"));
+                meshes.urdf_path,
+                meshes.package_paths,
+                &meshes.ros_paths,
+            ) {
+                Ok(path) => (Some(path), None),
                 // A file that exists but must not be read (a device, a FIFO, over the size
-                // cap) is kept, so that whoever reads it says why it cannot (`crate::input`).
-                match why {
-                    package::Unresolved::NotReadable { path, .. } => Ok(path),
-                    _ => Err(()),
+                // cap) is kept, so that whoever reads it says why it cannot (`crate::input`),
+                // unless it is outside the folders meshes are read from.
+                Err(package::Unresolved::NotReadable { path, reason }) => (
+                    Some(path.clone()),
+                    Some(package::Unresolved::NotReadable { path, reason }),
+                ),
+                Err(why) => (None, Some(why)),
+            };
+            let mut unresolved_problem = || {
+                unresolved.as_ref().map(|why| {
+                    let sep = if *why == package::Unresolved::NotFound {
+                        " "
+                    } else {
+                        ": "
+                    };
+                    problems.push(format!("{label}: mesh `{filename}`{sep}{why}"));
+                    MeshStatus::Unresolved(why.to_string())
+                })
+            };
+            let (path, real_path, status) = match found.as_ref().map(|p| meshes.roots.check(p)) {
+                Some(Ok((real, root))) => {
+                    let allowed = MeshStatus::Allowed {
+                        root: root.to_string(),
+                    };
+                    let status = unresolved_problem().unwrap_or(allowed);
+                    (found.clone(), Some(real), status)
                 }
-            })
-            .ok();
+                Some(Err(refusal)) => {
+                    let real = match &refusal {
+                        Refusal::Outside { real_path, .. } => Some(real_path.clone()),
+                        Refusal::NoRealPath { .. } => None,
+                    };
+                    (None, real, MeshStatus::Refused(refusal))
+                }
+                None => {
+                    let status = unresolved_problem()
+                        .unwrap_or_else(|| MeshStatus::Unresolved(String::new()));
+                    (None, None, status)
+                }
+            };
+            meshes.uses.push(MeshUse {
+                link: meshes.link.to_string(),
+                element: label.to_string(),
+                uri: filename.clone(),
+                path: found,
+                real_path,
+                status,
+            });
             Geometry::Mesh {
                 uri: filename.clone(),
-                path: resolved,
+                path,
                 scale,
             }
         }

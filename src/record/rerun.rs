@@ -28,7 +28,7 @@
 //! | `/__properties`                               | `RecordingInfo` (name only, no start time)    | static   |
 //! | `/__properties/metadata`                      | one text field per [`RecordingLayout::metadata`] entry | static |
 //! | `/metadata`                                   | `TextDocument` (Markdown list of the metadata) | static  |
-//! | `/<model>/visual_geometries/<link>/<visual>`  | `CoordinateFrame(frame_id)`, `InstancePoses3D` (visual origin, mesh scale), and one of `Boxes3D`, `Ellipsoids3D` (sphere), `Cylinders3D`, `Capsules3D`, `Asset3D` (stl, obj, glb, gltf) | static |
+//! | `/<model>/visual_geometries/<link>/<visual>`  | `CoordinateFrame(frame_id)`, `InstancePoses3D` (visual origin, mesh scale), and one of `Boxes3D`, `Ellipsoids3D` (sphere), `Cylinders3D`, `Capsules3D`, `Asset3D` (stl, obj), `Mesh3D` (dae) | static |
 //! | `/<model>/inertia/<link>`                     | `CoordinateFrame(frame_id)`, `InstancePoses3D` (principal frame), `Ellipsoids3D` (equivalent uniform ellipsoid, wireframe) | static |
 //! | `/<model>/world_from_link/<link>`             | `Transform3D` (translation, quaternion xyzw, `parent_frame = "world"`, `child_frame = frame_id`), f32 | both timelines |
 //! | `/plots/energy/<body>`                        | `Scalars` [kinetic, potential, total] (J), `SeriesLines` names (static) | both timelines |
@@ -49,8 +49,12 @@
 //! dropped into the viewer lines up with the recording. Differences from the importer: URDF
 //! capsules are centred on their origin (the importer leaves `Capsules3D`'s one end at the
 //! origin); DAE meshes (which Rerun cannot read) are read by tumble and sent as `Mesh3D`
-//! (unit and node transforms applied, up axis ignored, as for mass properties); meshes whose file was not found are skipped with a warning (see
-//! [`RerunSink::warnings`]); a glTF file is embedded alone (external buffers are not).
+//! (unit and node transforms applied, up axis ignored, as for mass properties); STL and OBJ files
+//! are embedded as `Asset3D` only when tumble's own reader accepts them as meshes with triangles,
+//! and then the very bytes it read ([`MeshCache::get_file`]: a text file named `.obj` is never
+//! embedded); glTF/GLB files, which tumble does not read, are left out; meshes whose file was not
+//! found or was refused ([`crate::model::confine`]) are skipped with a warning (see
+//! [`RerunSink::warnings`]).
 //! Colours come from the URDF material (linear RGBA), white when there is none, as in the importer.
 //!
 //! Inertia ellipsoids ([`BodyLayout::inertia_ellipsoid_radii`]) are on their own entities so they
@@ -526,7 +530,8 @@ pub struct RerunSink {
     footer_hold: FooterHold,
     /// Entities of [`RerunSink::write_series`] whose series names were sent.
     series_named: BTreeSet<EntityPath>,
-    /// Collada meshes read so far (each file once).
+    /// Meshes read so far (each file once): Collada triangles, and the accepted bytes of STL
+    /// and OBJ files.
     meshes: MeshCache,
     /// The recording's store, from which the blueprint store's id derives.
     store_info: rerun::external::re_log_types::StoreInfo,
@@ -998,7 +1003,7 @@ impl RerunSink {
             Geometry::Mesh { uri, path, scale } => {
                 let Some(path) = path else {
                     self.warn(format!(
-                        "{entity}: mesh {uri:?} was not found or is not a readable regular file (`tumble inspect` says which), left out of the Rerun recording"
+                        "{entity}: mesh {uri:?} was not found, is not a readable regular file or is outside the folders meshes are read from (`tumble inspect` says which), left out of the Rerun recording"
                     ));
                     return Ok(None);
                 };
@@ -1029,29 +1034,25 @@ impl RerunSink {
                         .with_albedo_factor(color(visual.rgba))
                         .as_serialized_batches()
                 } else {
-                    if !matches!(ext.as_str(), "stl" | "obj" | "glb" | "gltf") {
+                    if !matches!(ext.as_str(), "stl" | "obj") {
                         self.warn(format!(
-                            "{entity}: mesh {uri:?} has a format Rerun cannot show (.{ext}), left out of the Rerun recording"
+                            "{entity}: mesh {uri:?} has a format tumble does not read (.{ext}; \
+                             STL, OBJ and DAE are read), left out of the Rerun recording"
                         ));
                         return Ok(None);
                     }
-                    // Bounded, regular files only (`crate::input`), then as `from_file_path` would.
-                    let read =
-                        crate::input::read_bytes(path, crate::input::MESH_MAX_BYTES).map(|b| {
-                            rerun::Asset3D::from_file_contents(
-                                b,
-                                rerun::components::MediaType::guess_from_path(path),
-                            )
-                        });
-                    match read {
-                        Ok(asset) => asset
-                            .with_albedo_factor(color(visual.rgba))
-                            .as_serialized_batches(),
+                    // The file itself, as `from_file_path` would send it, but only bytes
+                    // tumble's own reader accepted as a mesh, read once: a file that is no
+                    // mesh (a text file named `.obj`) is never embedded.
+                    match self.meshes.get_file(path) {
+                        Ok(bytes) => rerun::Asset3D::from_file_contents(
+                            bytes.as_ref().clone(),
+                            rerun::components::MediaType::guess_from_path(path),
+                        )
+                        .with_albedo_factor(color(visual.rgba))
+                        .as_serialized_batches(),
                         Err(err) => {
-                            self.warn(format!(
-                                "{entity}: cannot read mesh {}: {err}, left out of the Rerun recording",
-                                path.display()
-                            ));
+                            self.warn(format!("{entity}: {err}, left out of the Rerun recording"));
                             return Ok(None);
                         }
                     }

@@ -23,7 +23,7 @@
 
 use super::{BodyLayout, FrameLayout};
 use crate::model::geometry::mesh::TriangleMesh;
-use crate::model::geometry::mesh_io::load_mesh;
+use crate::model::geometry::mesh_io::{load_mesh, load_mesh_file};
 use crate::model::{Geometry, Visual};
 use foxglove::messages::{
     Color, CubePrimitive, CylinderPrimitive, Point3, Pose, Quaternion, SceneEntity, SceneUpdate,
@@ -44,6 +44,7 @@ pub const INERTIA_COLOR: [f64; 4] = [1.0, 0.55, 0.1, 0.35];
 #[derive(Default)]
 pub struct MeshCache {
     meshes: HashMap<PathBuf, Result<Arc<TriangleMesh>, String>>,
+    files: HashMap<PathBuf, Result<Arc<Vec<u8>>, String>>,
 }
 
 impl MeshCache {
@@ -52,6 +53,22 @@ impl MeshCache {
         self.meshes
             .entry(path.to_path_buf())
             .or_insert_with(|| load_mesh(path).map(Arc::new).map_err(|e| e.to_string()))
+            .clone()
+    }
+
+    /// The bytes of the mesh file at `path`, to embed as the file itself (Rerun's `Asset3D`),
+    /// read on first use: read once, and given only when tumble's own reader accepts those very
+    /// bytes as a mesh with triangles ([`load_mesh_file`]). A file that is not a mesh tumble
+    /// reads (a text file named `.obj`, an empty mesh, a format tumble does not read) is an
+    /// error, never embedded.
+    pub fn get_file(&mut self, path: &Path) -> Result<Arc<Vec<u8>>, String> {
+        self.files
+            .entry(path.to_path_buf())
+            .or_insert_with(|| {
+                load_mesh_file(path)
+                    .map(|(bytes, _)| Arc::new(bytes))
+                    .map_err(|e| e.to_string())
+            })
             .clone()
     }
 }

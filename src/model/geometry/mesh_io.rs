@@ -61,6 +61,12 @@ impl MeshFormat {
 /// Reads an STL (binary or ASCII), OBJ or Collada DAE file, in metres (DAE `<unit>` applied;
 /// STL and OBJ carry no unit and are taken as metres, as URDF tools do), welded, not checked.
 pub fn load_mesh(path: &Path) -> Result<TriangleMesh, MeshError> {
+    load_mesh_file(path).map(|(_, mesh)| mesh)
+}
+
+/// [`load_mesh`], also returning the bytes read: the very bytes the mesh was read from (what a
+/// recording may embed as the file: only bytes this reader accepted, read once).
+pub fn load_mesh_file(path: &Path) -> Result<(Vec<u8>, TriangleMesh), MeshError> {
     // What the file is (regular, under the size cap) before what its name says.
     crate::input::check(path, crate::input::MESH_MAX_BYTES).map_err(|e| MeshError::Read {
         path: path.to_path_buf(),
@@ -88,7 +94,7 @@ pub fn load_mesh(path: &Path) -> Result<TriangleMesh, MeshError> {
     if mesh.triangles.is_empty() {
         return Err(MeshError::Empty.in_file(path));
     }
-    Ok(mesh)
+    Ok((bytes, mesh))
 }
 
 /// Vertices closer than `WELD_RELATIVE_TOLERANCE · D` (per coordinate; `D` the diagonal of the
