@@ -115,13 +115,41 @@ impl Population {
     }
 }
 
-/// A count as written by people: `700000`, `1.2e9` past a billion.
+/// A count as written by people: `700000`, `1.2e9` past a billion ([`readable`] for
+/// fractions).
 pub fn human_number(n: f64) -> String {
     if n.is_finite() && n.abs() < 1e9 && n.fract() == 0.0 {
         format!("{n}")
+    } else if n.abs() >= 1e9 && n.is_finite() {
+        format!("{n:e}")
     } else {
-        format!("{n:.3e}")
+        readable(n)
     }
+}
+
+/// A number for a message, as short as it can be written and still read back exactly (what
+/// the user typed: `0.001`, `1e-12`, `1e300`), with an exponent outside `[1e-4, 1e15)` so that
+/// no value prints as hundreds of digits (`format!("{}", 1e300)` writes 301 of them); `NaN`,
+/// `inf` and `-inf` as such.
+pub fn readable(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e15).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// A whole count with thousands separators: `2,000,000` (counts of triangles, bytes).
+pub fn grouped(n: u64) -> String {
+    let digits = n.to_string();
+    let mut out = String::with_capacity(digits.len() + digits.len() / 3);
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
 }
 
 /// `value <= limit`, false for NaN.
@@ -186,29 +214,32 @@ impl Estimate {
         let memory_limit = physical_memory_bytes() / 2.0;
         let mut over = Vec::new();
         if !within(self.steps, MAX_STEPS) {
-            over.push(format!("{:.3e} steps (at most {MAX_STEPS:e})", self.steps));
+            over.push(format!(
+                "{} steps (at most {MAX_STEPS:e})",
+                human_number(self.steps)
+            ));
         }
         if !within(self.memory_bytes, memory_limit) {
             over.push(format!(
-                "{} of memory for {:.3e} bodies (limit: half of this machine's {})",
+                "{} of memory for {} bodies (limit: half of this machine's {})",
                 human_bytes(self.memory_bytes),
-                self.bodies,
+                human_number(self.bodies),
                 human_bytes(memory_limit * 2.0)
             ));
         }
         if !allow_huge && !within(self.output_bytes, MAX_OUTPUT_BYTES) {
             over.push(format!(
-                "{} of recordings ({:.3e} recorded steps; limit {})",
+                "{} of recordings ({} recorded steps; limit {})",
                 human_bytes(self.output_bytes),
-                self.recorded_steps,
+                human_number(self.recorded_steps),
                 human_bytes(MAX_OUTPUT_BYTES)
             ));
         }
         if !allow_huge && !within(self.compute_secs, MAX_COMPUTE_SECS) {
             over.push(format!(
-                "{} of computing ({:.3e} body-steps; limit {})",
+                "{} of computing ({} body-steps; limit {})",
                 human_secs(self.compute_secs),
-                self.compute_secs / (NS_PER_BODY_STEP * 1e-9),
+                human_number(self.compute_secs / (NS_PER_BODY_STEP * 1e-9)),
                 human_secs(MAX_COMPUTE_SECS)
             ));
         }
@@ -216,11 +247,11 @@ impl Estimate {
             return Ok(());
         }
         anyhow::bail!(
-            "refusing a run of {:.3e} steps x {:.3e} bodies before starting: it would need {}. \
+            "refusing a run of {} steps x {} bodies before starting: it would need {}. \
              Estimated: recordings {}, memory {}, computing {}. Shorten the duration, raise the step \
              size or log_every, or pass --allow-huge to lift the size and time limits",
-            self.steps,
-            self.bodies,
+            human_number(self.steps),
+            human_number(self.bodies),
             over.join(", "),
             human_bytes(self.output_bytes),
             human_bytes(self.memory_bytes),
@@ -368,7 +399,7 @@ mod tests {
         let err = huge.check_memory("100 copies").unwrap_err().to_string();
         assert!(err.starts_with("100 copies would need about "), "{err}");
         assert!(err.contains("refused before building it"), "{err}");
-        assert!(err.contains("7.000e9 bodies"), "{err}");
+        assert!(err.contains("7e9 bodies"), "{err}");
         assert!(
             Population::default()
                 .plus(&huge, 1e-9)
@@ -376,7 +407,39 @@ mod tests {
                 .is_ok()
         );
         assert_eq!(human_number(700000.0), "700000");
-        assert_eq!(human_number(1.5), "1.500e0");
+        assert_eq!(human_number(1.5), "1.5");
+        assert_eq!(human_number(2.5e9), "2.5e9");
+    }
+
+    /// What the user typed reads back as typed; huge and tiny magnitudes take an exponent.
+    #[test]
+    fn readable_numbers() {
+        for (x, text) in [
+            (0.0, "0"),
+            (0.001, "0.001"),
+            (1e-4, "0.0001"),
+            (9.99e-5, "9.99e-5"),
+            (1e-12, "1e-12"),
+            (-2.5, "-2.5"),
+            (100.0, "100"),
+            (999_999_999_999_999.0, "999999999999999"),
+            (1e15, "1e15"),
+            (-1e300, "-1e300"),
+            (f64::MAX, "1.7976931348623157e308"),
+            (f64::NAN, "NaN"),
+            (f64::INFINITY, "inf"),
+            (f64::NEG_INFINITY, "-inf"),
+        ] {
+            assert_eq!(readable(x), text, "{x:e}");
+            // Never more than the 17 significant digits of an f64 plus sign, point, exponent.
+            assert!(readable(x).len() <= 24, "{}", readable(x));
+        }
+        assert_eq!(grouped(0), "0");
+        assert_eq!(grouped(999), "999");
+        assert_eq!(grouped(1000), "1,000");
+        assert_eq!(grouped(2_000_000), "2,000,000");
+        assert_eq!(grouped(12_345_678), "12,345,678");
+        assert_eq!(grouped(u64::MAX), "18,446,744,073,709,551,615");
     }
 
     #[test]

@@ -124,7 +124,10 @@ fn unit_quaternion(key: &str, items: &[toml::Value]) -> anyhow::Result<[f64; 4]>
         .with_context(|| format!("{key}: expected [x, y, z, w], four finite numbers"))?;
     let norm = q.iter().map(|x| x * x).sum::<f64>().sqrt();
     if (norm - 1.0).abs() > 1e-6 {
-        bail!("{key}: the quaternion [x, y, z, w] must have norm 1 (got {norm})");
+        bail!(
+            "{key}: the quaternion [x, y, z, w] must have norm 1 (got {})",
+            crate::budget::readable(norm)
+        );
     }
     Ok([q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm])
 }

@@ -1,5 +1,6 @@
 //! The simulation loop: steps a [`World`]'s bodies and hands decimated frames to the sinks.
 
+use crate::budget::readable;
 use crate::record::{BodyState, Frame, FramePool, JointState, MechanismState, OwnedFrame, Sink};
 use crate::scene::World;
 use crate::sim::guard::Divergence;
@@ -59,6 +60,16 @@ pub fn time_ns(step: u64, dt_secs: f64) -> i64 {
         step as i64 * dt_ns.round() as i64
     } else {
         (step as f64 * dt_ns).round() as i64
+    }
+}
+
+/// A joint position for a warning: six decimals, or [`readable`] when that would be more
+/// than a few dozen digits.
+fn position_text(p: f64) -> String {
+    if p.abs() < 1e15 {
+        format!("{p:.6}")
+    } else {
+        readable(p)
     }
 }
 
@@ -239,9 +250,13 @@ impl FrameBuilder {
                 if !self.warned_range[j] && !(lo..=hi).contains(&p) {
                     self.warned_range[j] = true;
                     eprintln!(
-                        "warning: joint {:?} left its URDF range [{lo}, {hi}] at t = {time_secs} s \
-                         (position {p:.6}); joint limits are not modelled (docs/mechanisms.md)",
-                        self.joint_names[j]
+                        "warning: joint {:?} left its URDF range [{}, {}] at t = {} s \
+                         (position {}); joint limits are not modelled (docs/mechanisms.md)",
+                        self.joint_names[j],
+                        readable(lo),
+                        readable(hi),
+                        readable(time_secs),
+                        position_text(p)
                     );
                 }
             }

@@ -48,6 +48,7 @@
 //! (zero joint configuration). Links without mass are not simulated and not recorded.
 //! Unknown keys and bad values are errors naming the key.
 
+use crate::budget::readable;
 use crate::model::policy::{self, GeometrySource, InertiaPolicy, MassSettings, ModelMassSettings};
 use crate::model::{MassProperties, Model, urdf};
 use crate::placement;
@@ -137,12 +138,12 @@ pub struct ModelEntry {
     pub angvel: [f64; 3],
     #[serde(default)]
     pub package_paths: Vec<PathBuf>,
-    /// Accept links whose principal moments break the triangle inequality `I1 + I2 >= I3`
     /// Folders mesh files may be read from besides the URDF's folder and package, the package
     /// paths, `ROS_PACKAGE_PATH` and the scene's folder ([`crate::model::confine`]); relative
     /// to the scene's folder. `--allow-mesh-path` adds to it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub allow_mesh_paths: Vec<PathBuf>,
+    /// Accept links whose principal moments break the triangle inequality `I1 + I2 >= I3`
     /// (no mass distribution has them, e.g. Hairer, Lubich & Wanner's test body (2, 1, 2/3));
     /// refused by default. Every other inertia rule still applies.
     #[serde(default)]
@@ -237,8 +238,8 @@ impl ModelEntry {
             linvel: [0.0; 3],
             angvel: [0.0; 3],
             package_paths: Vec::new(),
-            allow_non_physical_inertia: false,
             allow_mesh_paths: Vec::new(),
+            allow_non_physical_inertia: false,
             bodies: BodiesMode::Links,
             joints: BTreeMap::new(),
             base: None,
@@ -439,7 +440,6 @@ impl Scene {
         }
     }
 
-    /// Checks every value; errors name the file and the key.
     /// `--allow-mesh-path DIR...`: adds `dirs` to every model's `allow_mesh_paths`, made
     /// absolute against the working directory (not the scene's folder).
     pub fn allow_mesh_paths(&mut self, dirs: &[PathBuf]) -> anyhow::Result<()> {
@@ -473,12 +473,16 @@ impl Scene {
         }
     }
 
+    /// Checks every value; errors name the file and the key.
     pub fn validate(&self) -> anyhow::Result<()> {
         let file = self.source.display();
         let s = &self.sim;
         let positive = |key: &str, v: f64| -> anyhow::Result<()> {
             if !(v.is_finite() && v > 0.0) {
-                bail!("{file}: sim.{key} must be a positive finite number (got {v})");
+                bail!(
+                    "{file}: sim.{key} must be a positive finite number (got {})",
+                    readable(v)
+                );
             }
             Ok(())
         };
@@ -487,7 +491,7 @@ impl Scene {
         if !(s.duration.is_finite() && s.duration >= 0.0) {
             bail!(
                 "{file}: sim.duration must be a finite number >= 0 (got {})",
-                s.duration
+                readable(s.duration)
             );
         }
         if s.log_every == 0 {
@@ -505,14 +509,15 @@ impl Scene {
         if !(s.divergence_energy_ratio.is_finite() && s.divergence_energy_ratio > 1.0) {
             bail!(
                 "{file}: sim.divergence_energy_ratio must be a finite number > 1 (got {})",
-                s.divergence_energy_ratio
+                readable(s.divergence_energy_ratio)
             );
         }
         if let Some(tol) = s.accuracy
             && !(tol.is_finite() && (1e-12..=1.0).contains(&tol))
         {
             bail!(
-                "{file}: sim.accuracy must be a tolerance in radians between 1e-12 and 1 (got {tol})"
+                "{file}: sim.accuracy must be a tolerance in radians between 1e-12 and 1 (got {})",
+                readable(tol)
             );
         }
         finite3(&format!("{file}: sim.gravity"), &s.gravity)?;
@@ -552,7 +557,10 @@ impl Scene {
         let density = |key: &str, v: Option<f64>| -> anyhow::Result<()> {
             match v {
                 Some(v) if !(v.is_finite() && v > 0.0) => {
-                    bail!("{key} must be a positive finite number of kg/m^3 (got {v})")
+                    bail!(
+                        "{key} must be a positive finite number of kg/m^3 (got {})",
+                        readable(v)
+                    )
                 }
                 _ => Ok(()),
             }
@@ -760,21 +768,21 @@ impl Scene {
                 .collect();
             let context = || format!("{}: model[{i}]", self.source.display());
             let mass_settings = self.mass_settings(entry);
+            let mesh_access = self.mesh_access(entry);
             let load_key = format!(
                 "{:?}",
                 (
                     &urdf_path,
                     &package_paths,
+                    &mesh_access,
                     &entry.joints,
                     entry.strict,
                     &mass_settings,
-            let mesh_access = self.mesh_access(entry);
                     entry.bodies,
                     entry.allow_non_physical_inertia
                 )
             );
             let model = match loaded.get(&load_key) {
-                    &mesh_access,
                 Some(model) => model.clone(),
                 None => {
                     let joints: HashMap<String, f64> = entry.joints.clone().into_iter().collect();
@@ -783,19 +791,19 @@ impl Scene {
                         &package_paths,
                         &joints,
                         urdf::Strictness::from_strict(entry.strict),
+                        &mesh_access,
                     )
                     .with_context(context)?;
+                    // A mesh outside the folders meshes are read from stops everything.
+                    model.check_meshes().with_context(context)?;
                     for warning in model.warnings.drain(..) {
                         if seen_warnings.insert(warning.to_string()) {
                             world.warnings.push(warning);
                         }
                     }
                     policy::apply(&mut model, &mass_settings).with_context(context)?;
-                        &mesh_access,
                     match entry.bodies {
                         BodiesMode::Links => {
-                    // A mesh outside the folders meshes are read from stops everything.
-                    model.check_meshes().with_context(context)?;
                             model.check_simulable(entry.allow_non_physical_inertia)
                         }
                         BodiesMode::Rigid | BodiesMode::Articulated => check_rigid_parts(&model),

@@ -306,3 +306,34 @@ fn a_huge_but_finite_translation_is_not_a_divergence() {
     bodies.linvel_world[1] = Vector3::new(0.0, 1e200, 0.0);
     assert_eq!(guard.check(&bodies, &no_failure(), 1), None);
 }
+
+/// Issue 28 item 9: a body whose values are all finite but whose position and velocity
+/// components sum past the largest f64 (`linvel = [1e308, 1e308, 0]`) was reported as an
+/// energy growth of "1.000e0 times (limit 100)". It is named as out of range, and a huge limit
+/// reads as `1e300`, not as 301 digits.
+#[test]
+fn finite_values_too_large_to_add_are_out_of_range_not_an_energy_growth() {
+    let (mut bodies, guard) = batch(2);
+    bodies.linvel_world[1] = Vector3::new(1e308, 1e308, 0.0);
+    let stop = guard.check(&bodies, &no_failure(), 1).unwrap();
+    assert_eq!(stop.body, 1);
+    assert_eq!(
+        stop.cause,
+        Cause::OutOfRange {
+            what: "position or linear velocity"
+        }
+    );
+    let text = stop.cause.to_string();
+    assert!(text.contains("went out of range"), "{text}");
+    assert!(!text.contains("grew"), "{text}");
+    let cause = Cause::EnergyGrowth {
+        ratio: 2e300,
+        limit: 1e300,
+    };
+    assert!(
+        cause.to_string().contains(
+            "grew to 2.000e300 times the initial value (limit sim.divergence_energy_ratio = 1e300)"
+        ),
+        "{cause}"
+    );
+}

@@ -435,12 +435,16 @@ pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
     };
     Some(format!(
         "warning: dt = {} s is too large for body {:?}{others}: it turns at up to |Ω| = {:.4e} rad/s, \
-         h|Ω| = {:.3} rad per step, over the {} limit of {} rad for its inertia ratio {:.3e} (docs/limits.md; {}). \
+         h|Ω| = {} rad per step, over the {} limit of {} rad for its inertia ratio {:.3e} (docs/limits.md; {}). \
          Largest safe step: dt <= {:.3e} s",
-        scene.sim.dt,
+        crate::budget::readable(scene.sim.dt),
         world.layout.bodies[w.body].name,
         w.spin_rate_max,
-        w.h_omega,
+        if w.h_omega < 1e6 {
+            format!("{:.3}", w.h_omega)
+        } else {
+            format!("{:.3e}", w.h_omega)
+        },
         scene.sim.integrator,
         w.limit,
         w.inertia_ratio,
@@ -852,7 +856,9 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         eprintln!(
             "warning: {} body-steps did not converge at dt = {} s and were split into up to {} substeps \
              (sim.substep; the recording keeps dt); a smaller dt avoids it",
-            s.stats.substepped, scene.sim.dt, s.stats.substep_factor_max
+            s.stats.substepped,
+            crate::budget::readable(scene.sim.dt),
+            s.stats.substep_factor_max
         );
     }
     if s.stats.newton_failures > 0 {

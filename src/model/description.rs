@@ -28,6 +28,8 @@ pub fn for_frame_ids(
     package_paths: &[PathBuf],
     prefix: Option<&str>,
 ) -> Result<String, String> {
+    // The text is read again from the file: check it again before parsing.
+    crate::input::check_xml(xml)?;
     let options = roxmltree::ParsingOptions {
         allow_dtd: true,
         ..Default::default()

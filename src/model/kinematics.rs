@@ -15,6 +15,7 @@
 //! Mimic joints follow URDF: `q = multiplier · q_mimicked + offset` (multiplier 1, offset 0 by
 //! default), so a mimic offset moves the joint even at the "zero" configuration.
 
+use crate::budget::readable;
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use std::collections::HashMap;
 
@@ -107,13 +108,17 @@ pub enum KinematicsError {
     NotSingleDof { joint: String, kind: &'static str },
     #[error("joint `{joint}`: position {value} is not finite")]
     NotFinite { joint: String, value: f64 },
-    #[error("joint `{joint}`: axis [{}, {}, {}] has no direction", .axis[0], .axis[1], .axis[2])]
+    #[error(
+        "joint `{joint}`: axis [{}, {}, {}] has no direction",
+        readable(.axis[0]), readable(.axis[1]), readable(.axis[2])
+    )]
     ZeroAxis { joint: String, axis: [f64; 3] },
     #[error("joint `{joint}` mimics `{mimicked}`, which does not exist")]
     UnknownMimic { joint: String, mimicked: String },
     #[error(
-        "joint `{joint}` mimics `{mimicked}` with multiplier {multiplier} and offset {offset}: \
-         its position {value} is not finite"
+        "joint `{joint}` mimics `{mimicked}` with multiplier {} and offset {}: \
+         its position {value} is not finite",
+        readable(*.multiplier), readable(*.offset)
     )]
     MimicNotFinite {
         joint: String,

@@ -56,6 +56,10 @@ pub enum ModelError {
     },
     #[error("{}: not well-formed XML: {message}", .path.display())]
     Xml { path: PathBuf, message: String },
+    /// Well-formed or not, XML whose parsing would take work out of proportion to its size
+    /// (element nesting, entity expansion, text joining: [`crate::input::check_xml`]).
+    #[error("{}: XML refused before parsing: {message}", .path.display())]
+    XmlRefused { path: PathBuf, message: String },
     #[error(
         "{}: cannot parse URDF{}: {message}",
         .path.display(),
@@ -237,7 +241,7 @@ pub fn load_str_with_access(
         xml.into()
     };
     let xml = xml.as_ref();
-    crate::input::check_xml_depth(xml).map_err(|message| ModelError::Xml {
+    crate::input::check_xml(xml).map_err(|message| ModelError::XmlRefused {
         path: file(),
         message,
     })?;

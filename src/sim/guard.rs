@@ -21,6 +21,10 @@ pub enum Cause {
     NewtonFailed { max_substeps: u32 },
     /// A state variable became NaN or infinite.
     NonFinite { what: &'static str },
+    /// Every state variable is finite but they are too large to compute with: the sum the
+    /// per-body test takes of the position and velocity components overflows (components
+    /// near the largest `f64`, 1.8e308). Not an energy growth.
+    OutOfRange { what: &'static str },
     /// The rotational kinetic energy grew to `ratio` times its initial value (> the limit).
     EnergyGrowth { ratio: f64, limit: f64 },
     /// An articulated model's kinetic energy (relative to its centre of mass with a floating
@@ -37,16 +41,23 @@ impl fmt::Display for Cause {
                 "the implicit step's Newton solve did not converge, not even split into {max_substeps} substeps"
             ),
             Cause::NonFinite { what } => write!(f, "its {what} is not finite (NaN or infinite)"),
+            Cause::OutOfRange { what } => write!(
+                f,
+                "its {what} went out of range: the values are finite but too large to add up \
+                 in f64 arithmetic (near 1.8e308); a value out of range reached the integrator"
+            ),
             Cause::EnergyGrowth { ratio, limit } => write!(
                 f,
                 "its rotational kinetic energy grew to {ratio:.3e} times the initial value \
-                 (limit sim.divergence_energy_ratio = {limit}): the integrator is unstable at this step size"
+                 (limit sim.divergence_energy_ratio = {}): the integrator is unstable at this step size",
+                crate::budget::readable(*limit)
             ),
             Cause::MechanismEnergyGrowth { ratio, limit } => write!(
                 f,
                 "its articulated model's kinetic energy grew to {ratio:.3e} times its initial value \
                  plus the potential energy it can release (limit sim.divergence_energy_ratio = \
-                 {limit}): the step is unstable at this step size"
+                 {}): the step is unstable at this step size",
+                crate::budget::readable(*limit)
             ),
         }
     }
@@ -242,13 +253,20 @@ impl Guard {
                 }
                 let t = mechanism_kinetic_energy(bodies, w.bodies.clone(), w.relative);
                 let ratio = t / w.reference;
+                let cause = if !t.is_finite() {
+                    Cause::NonFinite {
+                        what: "articulated model's kinetic energy",
+                    }
+                } else {
+                    Cause::MechanismEnergyGrowth {
+                        ratio,
+                        limit: self.energy_ratio,
+                    }
+                };
                 (ratio > self.energy_ratio || ratio.is_nan()).then_some(Divergence {
                     body: w.bodies.start,
                     step,
-                    cause: Cause::MechanismEnergyGrowth {
-                        ratio,
-                        limit: self.energy_ratio,
-                    },
+                    cause,
                 })
             })
         });
@@ -282,6 +300,15 @@ impl Guard {
         if !t.is_finite() {
             return Cause::NonFinite {
                 what: "rotational kinetic energy",
+            };
+        }
+        // Every value is finite; the per-body test may still have flagged the body because its
+        // sum of the position and velocity components overflowed (not an energy growth).
+        let q = bodies.world_from_body[i].coords;
+        let sum = q.x + q.y + q.z + q.w + bodies.com_world[i].sum() + bodies.linvel_world[i].sum();
+        if !sum.is_finite() {
+            return Cause::OutOfRange {
+                what: "position or linear velocity",
             };
         }
         Cause::EnergyGrowth {

@@ -58,6 +58,7 @@ pub fn run_cell(kind: IntegratorKind, cell: Cell) -> Row {
                 // The unconverged step's state is not a result: keep the error so far.
                 Cause::NewtonFailed { .. } => Status::NewtonFailed,
                 Cause::NonFinite { .. }
+                | Cause::OutOfRange { .. }
                 | Cause::EnergyGrowth { .. }
                 | Cause::MechanismEnergyGrowth { .. } => {
                     let t = bodies.rotational_energy(0);

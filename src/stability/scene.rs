@@ -162,7 +162,7 @@ pub fn run_row(
             row.energy_err_max = relative(de_max, kinetic_max);
             row.status = match stop.cause {
                 Cause::NewtonFailed { .. } => Status::NewtonFailed,
-                Cause::NonFinite { .. } => {
+                Cause::NonFinite { .. } | Cause::OutOfRange { .. } => {
                     row.energy_err_max = f64::INFINITY;
                     Status::Diverged
                 }

@@ -82,7 +82,7 @@ const MAX_PLACED_TRIANGLES: usize = 40_000_000;
 pub fn read_dae(bytes: &[u8], options: &DaeOptions) -> Result<TriangleMesh, String> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let text = String::from_utf8_lossy(bytes);
-    crate::input::check_xml_depth(&text).map_err(|e| format!("XML: {e}"))?;
+    crate::input::check_xml(&text).map_err(|e| format!("XML refused before parsing: {e}"))?;
     let parsing = roxmltree::ParsingOptions {
         allow_dtd: true,
         ..roxmltree::ParsingOptions::default()
