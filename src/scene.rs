@@ -58,6 +58,7 @@ use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSe
 use crate::sim::mechanism::{Articulated, Mechanism};
 
 mod articulated;
+pub mod triangles;
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Translation3, Vector3};
 use serde::Deserialize;
@@ -747,6 +748,9 @@ impl Scene {
     /// and checked once, however many tables and copies use it; each copy then only places the
     /// loaded links ([`placement`]).
     pub fn build(&self) -> anyhow::Result<World> {
+        // Every mesh read for the models' mass properties counts against one per-scene cap
+        // (a file used by many links counts per use).
+        let _triangles = crate::model::geometry::mesh_io::TriangleBudget::open();
         let mut world = World::default();
         let total: u64 = self.models.iter().map(ModelEntry::copy_count).sum();
         let capacity = usize::try_from(total).unwrap_or(usize::MAX).min(1 << 24);

@@ -189,3 +189,156 @@ fn many_pieces_of_text_in_one_run_are_refused() {
         tmp.path(),
     );
 }
+
+// ------------------------------------------------------------------------------ meshes
+
+/// A URDF with one link whose visual and collision geometry is `mesh` (a file in the same
+/// folder).
+fn mesh_urdf(dir: &Path, name: &str, mesh: &str) {
+    write(
+        &dir.join(name),
+        format!(
+            r#"<robot name="holder"><link name="holder">{INERTIAL}
+                 <visual><geometry><mesh filename="{mesh}"/></geometry></visual>
+                 <collision><geometry><mesh filename="{mesh}"/></geometry></collision>
+               </link></robot>"#
+        ),
+    );
+}
+
+/// A sparse binary STL whose header counts `n` triangles and whose size matches (`84 + 50 n`
+/// bytes, all zero past the header: nothing on disk).
+fn sparse_binary_stl(path: &Path, n: u32) {
+    let mut header = vec![0u8; 84];
+    header[80..84].copy_from_slice(&n.to_le_bytes());
+    write(path, header);
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(path)
+        .unwrap()
+        .set_len(84 + 50 * u64::from(n))
+        .unwrap();
+}
+
+/// Before: a binary STL of 10^7 triangles (500 MB, under the 512 MiB size cap) as a visual
+/// took 125 s and 5.6 GiB to simulate 10 steps (issue 28 measured 110 s without reaching step
+/// 1). Now refused from its 84-byte header, for the recording (simulate) as for the mass
+/// properties (inspect --inertia geometry). The file here is sparse: were it read, it would be
+/// 500 MB of zeros.
+#[test]
+fn a_binary_stl_over_the_cap_is_refused_from_its_header() {
+    let tmp = tempfile::tempdir().unwrap();
+    sparse_binary_stl(&tmp.path().join("big.stl"), 10_000_000);
+    mesh_urdf(tmp.path(), "holder.urdf", "big.stl");
+    let needles = [
+        "big.stl: STL mesh with 10,000,000 triangles (binary STL header, file not read)",
+        "over the cap of 2,000,000 triangles per mesh",
+        "simplify it",
+    ];
+    let r = run(
+        &[
+            "simulate",
+            "holder.urdf",
+            "--duration",
+            "0.01",
+            "--out",
+            "out/r",
+        ],
+        tmp.path(),
+    );
+    assert_refused(&r, &needles, tmp.path());
+    let r = run(
+        &["inspect", "holder.urdf", "--inertia", "geometry"],
+        tmp.path(),
+    );
+    assert_refused(&r, &needles, tmp.path());
+
+    // A header claiming 10^7 triangles in a file of 134 bytes is no binary STL of 10^7
+    // triangles: refused as what it is, at once.
+    let mut small = vec![0u8; 134];
+    small[80..84].copy_from_slice(&10_000_000u32.to_le_bytes());
+    write(&tmp.path().join("liar.stl"), small);
+    mesh_urdf(tmp.path(), "liar.urdf", "liar.stl");
+    let r = run(
+        &["inspect", "liar.urdf", "--inertia", "geometry"],
+        tmp.path(),
+    );
+    assert_refused(
+        &r,
+        &[
+            "liar.stl",
+            "binary STL header says 10000000 triangles",
+            "the file has 134 bytes",
+        ],
+        tmp.path(),
+    );
+}
+
+/// ASCII STL (18 MB of `endfacet` lines) and OBJ (16 MB of faces) over the cap are refused
+/// from a count made before parsing; the message names the file, the count and the cap.
+#[test]
+fn text_meshes_over_the_cap_are_refused_before_parsing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let over = 2_000_001;
+    write(
+        &tmp.path().join("big_ascii.stl"),
+        format!("solid a\n{}endsolid a\n", "endfacet\n".repeat(over)),
+    );
+    write(
+        &tmp.path().join("big.obj"),
+        format!("v 0 0 0\n{}", "f 1 1 1\n".repeat(over)),
+    );
+    for (mesh, how) in [
+        ("big_ascii.stl", "ASCII STL facets counted"),
+        ("big.obj", "OBJ faces counted"),
+    ] {
+        mesh_urdf(tmp.path(), "holder.urdf", mesh);
+        for args in [
+            vec!["inspect", "holder.urdf", "--inertia", "geometry"],
+            vec![
+                "simulate",
+                "holder.urdf",
+                "--duration",
+                "0.01",
+                "--out",
+                "out/r",
+            ],
+        ] {
+            let r = run(&args, tmp.path());
+            assert_refused(
+                &r,
+                &[
+                    mesh,
+                    "more than 2,000,000 triangles",
+                    how,
+                    "over the cap of 2,000,000 triangles per mesh",
+                ],
+                tmp.path(),
+            );
+        }
+    }
+}
+
+/// The recordings draw every copy's visuals: 11 copies of a model whose visual mesh has
+/// 10^6 triangles are 1.1e7 to draw, over the 10^7 per scene. Refused before any file (the
+/// mesh's header is all that is read: the file is sparse).
+#[test]
+fn the_triangles_a_scene_draws_are_capped() {
+    let tmp = tempfile::tempdir().unwrap();
+    sparse_binary_stl(&tmp.path().join("million.stl"), 1_000_000);
+    mesh_urdf(tmp.path(), "holder.urdf", "million.stl");
+    write(
+        &tmp.path().join("many.toml"),
+        "[sim]\nduration = 0.01\n[[model]]\nurdf = \"holder.urdf\"\ncopies = 11\n",
+    );
+    let r = run(&["simulate", "many.toml", "--out", "out/r"], tmp.path());
+    assert_refused(
+        &r,
+        &[
+            "many.toml: the recordings would draw 11,000,000 mesh triangles, over the cap of 10,000,000 per scene",
+            "million.stl, 1,000,000 triangles drawn 11 times",
+            "--format parquet",
+        ],
+        tmp.path(),
+    );
+}

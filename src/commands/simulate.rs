@@ -488,11 +488,15 @@ pub fn simulate_world(
         )?),
         None => None,
     };
+    let formats = options.formats;
+    if formats.mcap || formats.rrd {
+        // Both draw every recorded link's visual meshes: bounded per scene before any file.
+        crate::scene::triangles::check_recorded(world, &scene.source)?;
+    }
     if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create the output folder {}", dir.display()))?;
     }
-    let formats = options.formats;
     let mcap = with_extension(stem, "mcap");
     let rrd = with_extension(stem, "rrd");
     let ros2 = formats

@@ -171,6 +171,9 @@ fn list_names(names: &[String]) -> String {
 /// Errors: a `links` key naming no link of the model; a density that is not a positive finite
 /// number where geometry is used; under `geometry`, unusable geometry.
 pub fn apply(model: &mut Model, settings: &ModelMassSettings) -> Result<(), PolicyError> {
+    // The meshes read for one model's mass properties count against one cap (or the scene's,
+    // when a scene is being built): a URDF naming one big file on many links reads it per link.
+    let _triangles = super::geometry::mesh_io::TriangleBudget::open();
     for name in settings.links.keys() {
         if model.link_index(name).is_none() {
             return Err(PolicyError::UnknownLink {

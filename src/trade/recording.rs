@@ -90,6 +90,7 @@ pub fn record(
     mcap: &Path,
 ) -> anyhow::Result<Option<(IntegratorKind, Divergence, String)>> {
     let world = scene.build()?;
+    crate::scene::triangles::check_recorded(&world, &scene.source)?;
     let layout = layout(&world, kinds, dt);
     let gravity = scene.gravity();
     let steps = super::measure::steps_in(duration_secs, dt);

@@ -68,6 +68,41 @@ pub enum MeshError {
         format: &'static str,
         message: String,
     },
+    /// The file holds more triangles than one mesh may ([`super::mesh_io::MAX_MESH_TRIANGLES`]):
+    /// refused before it is read in full (binary STL: from its header) or parsed.
+    #[error(
+        "{}: {} mesh with {count}, over the cap of {} triangles per mesh (reading takes \
+         about 560 bytes of memory per triangle): simplify it, e.g. \
+         with MeshLab's \"Quadric Edge Collapse Decimation\" or Blender's Decimate modifier \
+         (for inertia = \"geometry\" a coarse collision mesh gives the same mass properties)",
+        path.display(),
+        format,
+        crate::budget::grouped(super::mesh_io::MAX_MESH_TRIANGLES)
+    )]
+    TooManyTriangles {
+        path: PathBuf,
+        format: &'static str,
+        /// The count in words: `10,000,000 triangles (binary STL header)`, or `more than
+        /// 2,000,000 triangles (...)` when counting stopped at the cap.
+        count: String,
+    },
+    /// Reading this mesh would pass the triangles allowed for all the meshes one scene (or
+    /// one model's mass properties) reads ([`super::mesh_io::MAX_SCENE_TRIANGLES`]).
+    #[error(
+        "{}: its {} triangles would bring the meshes read for this scene to {} triangles, \
+         over the cap of {} per scene (every mesh load counts, a file used by many links once \
+         per use): use fewer or simpler meshes, or inertia = \"urdf\" for links whose \
+         <inertial> is right",
+        path.display(),
+        crate::budget::grouped(*count),
+        crate::budget::grouped(*total),
+        crate::budget::grouped(super::mesh_io::MAX_SCENE_TRIANGLES)
+    )]
+    SceneTriangles {
+        path: PathBuf,
+        count: u64,
+        total: u64,
+    },
     /// A geometry error found in the mesh read from `path`.
     #[error("{}: {error}", path.display())]
     InFile {
@@ -129,6 +164,8 @@ impl MeshError {
             MeshError::Read { .. }
             | MeshError::UnknownFormat { .. }
             | MeshError::Parse { .. }
+            | MeshError::TooManyTriangles { .. }
+            | MeshError::SceneTriangles { .. }
             | MeshError::InFile { .. } => self,
             error => MeshError::InFile {
                 path: path.to_path_buf(),

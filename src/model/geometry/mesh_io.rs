@@ -58,6 +58,109 @@ impl MeshFormat {
     }
 }
 
+/// Most triangles one mesh file may hold: 2 million. The largest mesh of example-robot-data
+/// 6.0.0 is a 29 MB DAE; reading costs about 560 bytes of memory per triangle at its peak (a
+/// binary STL of 10 million triangles, 500 MB and under the size cap, took 5.6 GiB and 125 s
+/// to simulate before this cap: issue 28), so a mesh at the cap takes about 1.1 GiB. Binary
+/// STL is judged from its header before the rest of the file is read; ASCII STL and OBJ are
+/// counted before parsing, DAE while its geometry is placed, each refused once past the cap
+/// ([`MeshError::TooManyTriangles`]).
+pub const MAX_MESH_TRIANGLES: u64 = 2_000_000;
+
+/// Most triangles all the meshes read for one scene may hold together: 10 million (five
+/// meshes at [`MAX_MESH_TRIANGLES`]), every load counted (a file used by many links counts
+/// once per use). Counted while a [`TriangleBudget`] is open: for the mass properties of the
+/// models of one scene (`crate::scene::Scene::build`) or of one model (`inspect`); the
+/// triangles a recording draws, every copy counted, are bounded by the same figure
+/// (`crate::scene::triangles`).
+pub const MAX_SCENE_TRIANGLES: u64 = 10_000_000;
+
+/// What the mesh readers return when a mesh passes [`MAX_MESH_TRIANGLES`] (the message after
+/// this prefix is the count in words); [`load_mesh_file`] turns it into
+/// [`MeshError::TooManyTriangles`].
+pub(crate) const TOO_MANY_TRIANGLES: &str = "too many triangles: ";
+
+/// The reader error for a mesh of `count` (in words) triangles, over the cap.
+pub(crate) fn too_many_triangles(count: String) -> String {
+    format!("{TOO_MANY_TRIANGLES}{count}")
+}
+
+/// `Err` (a [`too_many_triangles`] message) when `count` passes [`MAX_MESH_TRIANGLES`]; `exact`
+/// says whether `count` is the whole count or where counting stopped, `how` how it was found.
+pub(crate) fn check_triangle_count(count: u64, exact: bool, how: &str) -> Result<(), String> {
+    if count <= MAX_MESH_TRIANGLES {
+        return Ok(());
+    }
+    Err(too_many_triangles(if exact {
+        format!("{} triangles ({how})", crate::budget::grouped(count))
+    } else {
+        format!(
+            "more than {} triangles ({how})",
+            crate::budget::grouped(count.saturating_sub(1))
+        )
+    }))
+}
+
+thread_local! {
+    /// The open [`TriangleBudget`] of this thread: triangles read so far.
+    static BUDGET: std::cell::Cell<Option<u64>> = const { std::cell::Cell::new(None) };
+}
+
+/// While one is alive, every mesh this thread reads counts against [`MAX_SCENE_TRIANGLES`];
+/// past it, the load fails with [`MeshError::SceneTriangles`]. Opening one inside another
+/// keeps counting in the outer one (a scene's budget covers its models').
+#[must_use = "the budget closes when dropped"]
+pub struct TriangleBudget {
+    outermost: bool,
+}
+
+impl TriangleBudget {
+    /// Opens a budget for this thread (or joins the one already open).
+    pub fn open() -> Self {
+        let outermost = BUDGET.with(|b| {
+            if b.get().is_none() {
+                b.set(Some(0));
+                true
+            } else {
+                false
+            }
+        });
+        TriangleBudget { outermost }
+    }
+
+    /// Triangles read so far under the open budget (`None`: none is open).
+    pub fn used() -> Option<u64> {
+        BUDGET.with(std::cell::Cell::get)
+    }
+}
+
+impl Drop for TriangleBudget {
+    fn drop(&mut self) {
+        if self.outermost {
+            BUDGET.with(|b| b.set(None));
+        }
+    }
+}
+
+/// Counts `count` triangles of `path` against the open budget, if any.
+fn charge(path: &Path, count: u64) -> Result<(), MeshError> {
+    BUDGET.with(|b| {
+        let Some(used) = b.get() else {
+            return Ok(());
+        };
+        let total = used.saturating_add(count);
+        if total > MAX_SCENE_TRIANGLES {
+            return Err(MeshError::SceneTriangles {
+                path: path.to_path_buf(),
+                count,
+                total,
+            });
+        }
+        b.set(Some(total));
+        Ok(())
+    })
+}
+
 /// Reads an STL (binary or ASCII), OBJ or Collada DAE file, in metres (DAE `<unit>` applied;
 /// STL and OBJ carry no unit and are taken as metres, as URDF tools do), welded, not checked.
 pub fn load_mesh(path: &Path) -> Result<TriangleMesh, MeshError> {
@@ -75,6 +178,22 @@ pub fn load_mesh_file(path: &Path) -> Result<(Vec<u8>, TriangleMesh), MeshError>
     let format = MeshFormat::from_path(path).ok_or_else(|| MeshError::UnknownFormat {
         path: path.to_path_buf(),
     })?;
+    let parse_error = |message: String| match message.strip_prefix(TOO_MANY_TRIANGLES) {
+        Some(count) => MeshError::TooManyTriangles {
+            path: path.to_path_buf(),
+            format: format.name(),
+            count: count.to_string(),
+        },
+        None => MeshError::Parse {
+            path: path.to_path_buf(),
+            format: format.name(),
+            message,
+        },
+    };
+    if format == MeshFormat::Stl {
+        // A binary STL over the cap is refused from its header, before its body is read.
+        stl::check_header(path).map_err(parse_error)?;
+    }
     let bytes = crate::input::read_bytes(path, crate::input::MESH_MAX_BYTES).map_err(|e| {
         MeshError::Read {
             path: path.to_path_buf(),
@@ -86,15 +205,55 @@ pub fn load_mesh_file(path: &Path) -> Result<(Vec<u8>, TriangleMesh), MeshError>
         MeshFormat::Obj => obj::read_obj(&bytes),
         MeshFormat::Dae => dae::read_dae(&bytes, &DaeOptions::default()),
     }
-    .map_err(|message| MeshError::Parse {
-        path: path.to_path_buf(),
-        format: format.name(),
-        message,
-    })?;
+    .map_err(parse_error)?;
     if mesh.triangles.is_empty() {
         return Err(MeshError::Empty.in_file(path));
     }
+    charge(path, mesh.triangles.len() as u64)?;
     Ok((bytes, mesh))
+}
+
+/// The triangles `path` holds, without building the mesh where the format allows: a binary
+/// STL's header (84 bytes read), an ASCII STL's `endfacet`s and an OBJ's faces counted in one
+/// pass over the file (64 KiB at a time); a DAE is read ([`load_mesh`], its node transforms
+/// may instance geometry). Errors as [`load_mesh`]'s, [`MeshError::TooManyTriangles`] past
+/// [`MAX_MESH_TRIANGLES`]; not counted against a [`TriangleBudget`].
+pub fn count_triangles(path: &Path) -> Result<u64, MeshError> {
+    crate::input::check(path, crate::input::MESH_MAX_BYTES).map_err(|e| MeshError::Read {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let format = MeshFormat::from_path(path).ok_or_else(|| MeshError::UnknownFormat {
+        path: path.to_path_buf(),
+    })?;
+    let read_error = |e: std::io::Error| MeshError::Read {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let over = |count: String| MeshError::TooManyTriangles {
+        path: path.to_path_buf(),
+        format: format.name(),
+        count,
+    };
+    let counted = match format {
+        MeshFormat::Stl => stl::count_triangles(path).map_err(read_error)?,
+        MeshFormat::Obj => obj::count_triangles(path).map_err(read_error)?,
+        MeshFormat::Dae => {
+            let budget = BUDGET.with(|b| b.replace(None));
+            let mesh = load_mesh(path);
+            BUDGET.with(|b| b.set(budget));
+            return Ok(mesh?.triangles.len() as u64);
+        }
+    };
+    match check_triangle_count(counted.0, counted.1, counted.2) {
+        Ok(()) => Ok(counted.0),
+        Err(message) => Err(over(
+            message
+                .strip_prefix(TOO_MANY_TRIANGLES)
+                .unwrap_or(&message)
+                .to_string(),
+        )),
+    }
 }
 
 /// Vertices closer than `WELD_RELATIVE_TOLERANCE · D` (per coordinate; `D` the diagonal of the
@@ -212,4 +371,193 @@ fn neighbour_cells(cell: Vector3<i64>) -> impl Iterator<Item = [i64; 3]> {
 /// Vertex count as a `u32` index, or a message when a file holds more than `u32::MAX`.
 pub(crate) fn index_u32(n: usize) -> Result<u32, String> {
     u32::try_from(n).map_err(|_| format!("more than {} vertices", u32::MAX))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A binary STL of `n` triangles as written by [`stl`]'s layout: 84-byte header with the
+    /// count, then `n` zeroed 50-byte records (the content does not matter to the caps).
+    fn binary_stl_header(n: u32) -> Vec<u8> {
+        let mut bytes = vec![0u8; 84];
+        bytes[80..84].copy_from_slice(&n.to_le_bytes());
+        bytes
+    }
+
+    /// The cap is inclusive, and the message gives the count as counted.
+    #[test]
+    fn triangle_count_check() {
+        assert_eq!(check_triangle_count(MAX_MESH_TRIANGLES, true, "x"), Ok(()));
+        assert_eq!(
+            check_triangle_count(MAX_MESH_TRIANGLES + 1, true, "header"),
+            Err("too many triangles: 2,000,001 triangles (header)".into())
+        );
+        assert_eq!(
+            check_triangle_count(MAX_MESH_TRIANGLES + 1, false, "counted"),
+            Err("too many triangles: more than 2,000,000 triangles (counted)".into())
+        );
+    }
+
+    /// A binary STL is judged from its header alone, at the size that header implies: a
+    /// sparse file of 10^7 records (500 MB, nothing on disk) is refused without being read; at
+    /// the cap (100 MB) it passes; a header count that does not match the size is not judged
+    /// here (the reader says what is wrong with such a file).
+    #[test]
+    fn binary_stl_headers() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("big.stl");
+        let sized = |n: u32, len: u64| {
+            std::fs::write(&path, binary_stl_header(n)).unwrap();
+            std::fs::OpenOptions::new()
+                .write(true)
+                .open(&path)
+                .unwrap()
+                .set_len(len)
+                .unwrap();
+        };
+        sized(10_000_000, 84 + 50 * 10_000_000);
+        let started = std::time::Instant::now();
+        let e = stl::check_header(&path).unwrap_err();
+        assert!(started.elapsed().as_secs_f64() < 1.0);
+        assert_eq!(
+            e,
+            "too many triangles: 10,000,000 triangles (binary STL header, file not read)"
+        );
+        let e = load_mesh(&path).unwrap_err();
+        assert!(
+            matches!(&e, MeshError::TooManyTriangles { format: "STL", .. }),
+            "{e}"
+        );
+        assert!(e.to_string().contains("big.stl: STL mesh with 10,000,000 triangles (binary STL header, file not read), over the cap of 2,000,000 triangles per mesh"), "{e}");
+        assert_eq!(
+            stl::count_triangles(&path).unwrap(),
+            (10_000_000, true, "binary STL header, file not read")
+        );
+        assert!(matches!(
+            count_triangles(&path),
+            Err(MeshError::TooManyTriangles { .. })
+        ));
+        sized(2_000_000, 84 + 50 * 2_000_000);
+        assert_eq!(stl::check_header(&path), Ok(()));
+        assert_eq!(count_triangles(&path).unwrap(), 2_000_000);
+        // The header claims 10^7 but the file is 84 + 50 bytes: not a binary STL of 10^7.
+        sized(10_000_000, 134);
+        assert_eq!(stl::check_header(&path), Ok(()));
+        assert_eq!(stl::count_triangles(&path).unwrap().0, 0);
+    }
+
+    /// ASCII STL facets and OBJ faces are counted before parsing; counting stops past the cap.
+    #[test]
+    fn text_formats_are_counted_before_parsing() {
+        let over = (MAX_MESH_TRIANGLES + 1) as usize;
+        let ascii = format!("solid a\n{}endsolid a\n", "  EndFacet\n".repeat(over));
+        let e = stl::read_stl(ascii.as_bytes()).unwrap_err();
+        assert_eq!(
+            e,
+            "too many triangles: more than 2,000,000 triangles (ASCII STL facets counted before parsing)"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.stl");
+        std::fs::write(&path, &ascii).unwrap();
+        assert_eq!(
+            stl::count_triangles(&path).unwrap(),
+            (
+                MAX_MESH_TRIANGLES + 1,
+                false,
+                "ASCII STL facets counted without parsing"
+            )
+        );
+        // A token split across the 64 KiB chunks of the count is still counted: 10 000
+        // facets of 11 bytes span several chunks.
+        let small = format!("solid a\n{}endsolid a\n", "  endfacet\n".repeat(10_000));
+        std::fs::write(&path, &small).unwrap();
+        assert_eq!(stl::count_triangles(&path).unwrap().0, 10_000);
+
+        // OBJ: triangles and a fan, `f` lines only (not `vf`, `# f`).
+        let path = dir.path().join("a.obj");
+        std::fs::write(
+            &path,
+            "v 0 0 0\nf 1 2 3\nf 1 2 3 4 5\n# f 1 2 3\nvf 1 2 3\nf 1 2\n",
+        )
+        .unwrap();
+        assert_eq!(obj::count_triangles(&path).unwrap().0, 4);
+        let faces = format!("v 0 0 0\n{}", "f 1 1 1\n".repeat(over));
+        let e = obj::read_obj(faces.as_bytes()).unwrap_err();
+        assert_eq!(
+            e,
+            "too many triangles: more than 2,000,000 triangles (OBJ faces counted before parsing)"
+        );
+        // One polygon of 2 000 003 corners is a fan of 2 000 001 triangles.
+        let corners: String = (0..MAX_MESH_TRIANGLES + 3).map(|_| " 1").collect();
+        let fan = format!("v 0 0 0\nf{corners}\n");
+        assert!(
+            obj::read_obj(fan.as_bytes())
+                .unwrap_err()
+                .starts_with(TOO_MANY_TRIANGLES)
+        );
+        std::fs::write(&path, &fan).unwrap();
+        assert_eq!(
+            obj::count_triangles(&path).unwrap(),
+            (
+                MAX_MESH_TRIANGLES + 1,
+                false,
+                "OBJ faces counted without parsing"
+            )
+        );
+    }
+
+    /// A Collada `<triangles>` whose indices are more than the cap's worth is refused before
+    /// they are parsed.
+    #[test]
+    fn dae_indices_are_counted_before_parsing() {
+        let n = MAX_MESH_TRIANGLES as usize + 1;
+        let dae = format!(
+            r##"<COLLADA version="1.4.1"><library_geometries><geometry id="g"><mesh>
+<source id="p"><float_array id="a" count="9">0 0 0 1 0 0 0 1 0</float_array>
+<technique_common><accessor source="#a" count="3" stride="3"/></technique_common></source>
+<vertices id="v"><input semantic="POSITION" source="#p"/></vertices>
+<triangles count="{n}"><input semantic="VERTEX" source="#v" offset="0"/><p>{}</p></triangles>
+</mesh></geometry></library_geometries></COLLADA>"##,
+            "0 1 2 ".repeat(n)
+        );
+        let e = dae::read_dae(dae.as_bytes(), &DaeOptions::default()).unwrap_err();
+        assert_eq!(
+            e,
+            "too many triangles: more than 2,000,000 triangles (placed by its visual scene, counted from its <p> indices before parsing them)"
+        );
+    }
+
+    /// Loads under an open budget add up; past the cap the load fails naming the total; a
+    /// budget opened inside another keeps counting in it; none is open after the outermost
+    /// closes.
+    #[test]
+    fn the_budget_adds_up_every_load() {
+        let path = Path::new("m.stl");
+        assert_eq!(TriangleBudget::used(), None);
+        assert_eq!(charge(path, u64::MAX), Ok(()));
+        {
+            let _outer = TriangleBudget::open();
+            assert_eq!(charge(path, 6_000_000), Ok(()));
+            {
+                let _inner = TriangleBudget::open();
+                assert_eq!(charge(path, 4_000_000), Ok(()));
+                assert_eq!(TriangleBudget::used(), Some(MAX_SCENE_TRIANGLES));
+            }
+            assert_eq!(TriangleBudget::used(), Some(MAX_SCENE_TRIANGLES));
+            let e = charge(path, 1).unwrap_err();
+            assert_eq!(
+                e,
+                MeshError::SceneTriangles {
+                    path: path.to_path_buf(),
+                    count: 1,
+                    total: MAX_SCENE_TRIANGLES + 1
+                }
+            );
+            assert!(e.to_string().contains("m.stl: its 1 triangles would bring the meshes read for this scene to 10,000,001 triangles, over the cap of 10,000,000 per scene"), "{e}");
+            // A refused load is not counted.
+            assert_eq!(TriangleBudget::used(), Some(MAX_SCENE_TRIANGLES));
+        }
+        assert_eq!(TriangleBudget::used(), None);
+    }
 }

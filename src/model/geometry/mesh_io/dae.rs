@@ -40,7 +40,7 @@
 //!   `Y_UP` maps (x, y, z) to (x, −z, y) and `X_UP` maps (x, y, z) to (−y, −z, x) (the spec's
 //!   right/up/in axes), both proper rotations.
 
-use super::{index_u32, weld};
+use super::{MAX_MESH_TRIANGLES, check_triangle_count, index_u32, weld};
 use crate::model::geometry::mesh::TriangleMesh;
 use nalgebra::{Matrix3, Matrix4, Rotation3, Unit, Vector3};
 use roxmltree::{Document, Node};
@@ -71,12 +71,9 @@ const MAX_NODE_DEPTH: usize = 64;
 /// a second. Real robot meshes have orders of magnitude fewer nodes.
 const MAX_NODE_VISITS: usize = 1_000_000;
 
-/// Most vertices placed in all (a bound on memory: 20 million vertices are 480 MB, far beyond
-/// real robot meshes; the largest mesh file of example-robot-data 6.0.0 is a 29 MB DAE).
-const MAX_PLACED_VERTICES: usize = 20_000_000;
-
-/// Most triangles placed in all (a bound on memory and time, as [`MAX_PLACED_VERTICES`]).
-const MAX_PLACED_TRIANGLES: usize = 40_000_000;
+/// Most vertices placed in all: three per triangle of a mesh at [`MAX_MESH_TRIANGLES`] (a
+/// bound on memory, 144 MB; a geometry instanced many times places its positions each time).
+const MAX_PLACED_VERTICES: usize = 3 * MAX_MESH_TRIANGLES as usize;
 
 /// Parses a DAE file's bytes (see the module documentation), welded.
 pub fn read_dae(bytes: &[u8], options: &DaeOptions) -> Result<TriangleMesh, String> {
@@ -367,15 +364,24 @@ impl<'a, 'i> Reader<'a, 'i> {
             self.vertices
                 .extend(positions.iter().map(|p| linear * p + translation));
             index_u32(self.vertices.len())?;
+            // Every triangle has three corners at least: refused from the indices' count
+            // before they are parsed into polygons.
+            let indices: u64 = children(primitive, "p")
+                .map(|p| p.text().unwrap_or("").split_ascii_whitespace().count() as u64)
+                .sum();
+            check_triangle_count(
+                self.triangles.len() as u64 + indices / stride as u64 / 3,
+                false,
+                "placed by its visual scene, counted from its <p> indices before parsing them",
+            )?;
             let polygons =
                 corner_lists(primitive, kind, stride, position_offset).map_err(context)?;
             for (polygon, strip) in polygons {
-                if self.triangles.len().saturating_add(polygon.len()) > MAX_PLACED_TRIANGLES {
-                    return Err(context(format!(
-                        "more than {MAX_PLACED_TRIANGLES} triangles placed in all (too many \
-                         instances of too large geometry)"
-                    )));
-                }
+                check_triangle_count(
+                    (self.triangles.len() + polygon.len().saturating_sub(2)) as u64,
+                    false,
+                    "placed by its visual scene, counted while reading",
+                )?;
                 if let Some(&bad) = polygon.iter().find(|&&i| i >= count) {
                     return Err(context(format!(
                         "<{kind}> index {bad} past the {count} positions"

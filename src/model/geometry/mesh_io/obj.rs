@@ -7,12 +7,66 @@
 //! one mesh and welded, so faces of different groups that share a position are connected.
 //! Material libraries (`mtllib`) are not opened.
 
-use super::{index_u32, weld};
+use super::{MAX_MESH_TRIANGLES, check_triangle_count, index_u32, weld};
 use crate::model::geometry::mesh::TriangleMesh;
 use nalgebra::Vector3;
+use std::io::BufRead;
+use std::path::Path;
 
-/// Parses an OBJ file's bytes, all objects and groups merged, welded.
+/// The triangles one OBJ line makes: a face `f v1 v2 ... vk` (the first word `f`, as `tobj`
+/// splits lines on whitespace) is a fan of `k - 2`; any other line none.
+fn line_triangles(line: &[u8]) -> u64 {
+    let mut words = line
+        .split(|c| c.is_ascii_whitespace())
+        .filter(|w| !w.is_empty());
+    if words.next() != Some(b"f".as_slice()) {
+        return 0;
+    }
+    (words.count() as u64).saturating_sub(2)
+}
+
+/// The triangles of OBJ text, counted line by line until `limit` is passed.
+fn count_in(bytes: &[u8], limit: u64) -> u64 {
+    let mut count = 0u64;
+    for line in bytes.split(|&c| c == b'\n') {
+        count = count.saturating_add(line_triangles(line));
+        if count > limit {
+            break;
+        }
+    }
+    count
+}
+
+/// The triangles of the OBJ at `path` and whether that is the whole count: faces counted in
+/// one pass over the file, line by line, stopping past [`MAX_MESH_TRIANGLES`].
+pub fn count_triangles(path: &Path) -> std::io::Result<(u64, bool, &'static str)> {
+    const HOW: &str = "OBJ faces counted without parsing";
+    let file = std::fs::File::open(path)?;
+    let len = file.metadata()?.len();
+    let mut reader = std::io::BufReader::with_capacity(1 << 16, std::io::Read::take(file, len));
+    let mut line = Vec::new();
+    let mut count = 0u64;
+    loop {
+        line.clear();
+        if reader.read_until(b'\n', &mut line)? == 0 {
+            return Ok((count, true, HOW));
+        }
+        count = count.saturating_add(line_triangles(&line));
+        if count > MAX_MESH_TRIANGLES {
+            return Ok((count, false, HOW));
+        }
+    }
+}
+
+/// Parses an OBJ file's bytes, all objects and groups merged, welded. More than
+/// [`MAX_MESH_TRIANGLES`] (faces counted first) is refused before parsing.
 pub fn read_obj(bytes: &[u8]) -> Result<TriangleMesh, String> {
+    let faces = count_in(bytes, MAX_MESH_TRIANGLES);
+    check_triangle_count(
+        faces,
+        faces <= MAX_MESH_TRIANGLES,
+        "OBJ faces counted before parsing",
+    )?;
     // `..Default::default()` fills the fields behind tobj's optional `merging` and
     // `reordering` features (off here, but features are unified across a build).
     #[allow(clippy::needless_update)]
