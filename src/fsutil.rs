@@ -762,6 +762,14 @@ mod tests {
         assert!(e.contains("another tumble run") && e.contains(&me), "{e}");
         drop(first);
         assert!(lock_folder(dir.path()).is_ok());
+        // A link planted at the lock's name is not followed: its target is neither created nor
+        // opened.
+        let other = tempfile::tempdir().unwrap();
+        let victim = dir.path().join("victim");
+        std::os::unix::fs::symlink(&victim, other.path().join(FOLDER_LOCK)).unwrap();
+        let e = lock_folder(other.path()).unwrap_err();
+        assert!(format!("{e:#}").contains("cannot lock the folder"), "{e:#}");
+        assert!(!victim.exists());
     }
 
     #[test]
