@@ -110,7 +110,9 @@ fn two_runs_on_one_output_never_mix() {
             if *code != Some(0) {
                 assert_eq!(*code, Some(2), "run {which}: {err}");
                 assert!(
-                    err.contains("another tumble run (process ")
+                    // "(process N)", or "(another process)" when the holder let go between
+                    // the refused lock and the look at /proc/locks (seen once in a loaded run).
+                    err.contains("another tumble run (")
                         || err.contains("exists; pass --force"),
                     "run {which}: {err}"
                 );
