@@ -74,8 +74,8 @@
 //! }
 //! ```
 //!
-//! Meshes are read only inside the URDF's folder (or the ROS package holding it), the
-//! `--package-path` folders, `ROS_PACKAGE_PATH` and `--allow-mesh-path` folders, links resolved
+//! Meshes are read only inside the URDF's folder (its parent for a folder named `urdf`, or the
+//! ROS package holding it), the `--package-path` folders, `ROS_PACKAGE_PATH` and `--allow-mesh-path` folders, links resolved
 //! ([`crate::model::confine`]). A mesh elsewhere is refused: a problem of its link (exit 1),
 //! listed under "meshes" with its resolved and real paths.
 //!
@@ -105,8 +105,9 @@ pub struct InspectArgs {
     #[arg(long = "package-path")]
     pub package_paths: Vec<PathBuf>,
     /// Also read mesh files from DIR (repeatable). By default a mesh is read only when its real
-    /// path (links resolved) is inside the URDF's folder (or the ROS package holding it), a
-    /// package path or ROS_PACKAGE_PATH; any other is refused (a problem of its link).
+    /// path (links resolved) is inside the URDF's folder (its parent for a folder named urdf, or
+    /// the ROS package holding it), a package path or ROS_PACKAGE_PATH; any other is refused (a
+    /// problem of its link).
     #[arg(long = "allow-mesh-path", value_name = "DIR")]
     pub allow_mesh_paths: Vec<PathBuf>,
     /// --inertia, --density, --geometry: the inertia policy applied before reporting.

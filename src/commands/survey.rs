@@ -21,9 +21,9 @@ pub struct SurveyArgs {
     #[arg(long = "package-path")]
     pub package_paths: Vec<PathBuf>,
     /// Also read mesh files from DIR (repeatable). By default a mesh is read only when its real
-    /// path (links resolved) is inside the URDF's folder (or the ROS package holding it), a
-    /// package path or ROS_PACKAGE_PATH; any other is refused (listed on stderr and in the
-    /// file's `refused_meshes`).
+    /// path (links resolved) is inside the URDF's folder (its parent for a folder named urdf, or
+    /// the ROS package holding it), a package path or ROS_PACKAGE_PATH; any other is refused
+    /// (listed on stderr and in the file's `refused_meshes`).
     #[arg(long = "allow-mesh-path", value_name = "DIR")]
     pub allow_mesh_paths: Vec<PathBuf>,
     /// Print `{"summaries": [...], "files": [...]}` as JSON instead of tables.

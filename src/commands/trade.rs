@@ -53,9 +53,9 @@ pub struct TradeArgs {
     #[arg(long)]
     pub strict: bool,
     /// Also read mesh files from DIR (repeatable). By default a mesh is read only when its real
-    /// path (links resolved) is inside the URDF's folder (or the ROS package holding it), a
-    /// package path, ROS_PACKAGE_PATH or the scene's folder; any other is refused (exit 2).
-    /// Adds to every [[model]]'s allow_mesh_paths.
+    /// path (links resolved) is inside the URDF's folder (its parent for a folder named urdf, or
+    /// the ROS package holding it), a package path, ROS_PACKAGE_PATH or the scene's folder; any
+    /// other is refused (exit 2). Adds to every [[model]]'s allow_mesh_paths.
     #[arg(long = "allow-mesh-path", value_name = "DIR")]
     pub allow_mesh_paths: Vec<PathBuf>,
 }

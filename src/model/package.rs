@@ -23,9 +23,9 @@
 //!   ([`Unresolved::EscapesPackage`]), as is a package named `.` or `..`.
 //! - Relative and absolute paths and `file://` URIs may name any file here: URDFs in `urdf/`
 //!   folders legitimately reach `../meshes/...`. Which files are then read is decided after
-//!   resolution, on the file's real path ([`super::confine`]: the URDF's folder or ROS package,
-//!   the package paths, `ROS_PACKAGE_PATH`, the scene's folder, the allowed folders; anything
-//!   else is refused). What is opened is bounded too: only a regular file of at most
+//!   resolution, on the file's real path ([`super::confine`]: the URDF's folder, `urdf/`
+//!   layout or ROS package, the package paths, `ROS_PACKAGE_PATH`, the scene's folder, the
+//!   allowed folders; anything else is refused). What is opened is bounded too: only a regular file of at most
 //!   [`crate::input::MESH_MAX_BYTES`] resolves ([`Unresolved::NotReadable`] otherwise: `/dev/zero`,
 //!   `file:///dev/urandom`, a FIFO or a directory never resolve; judged from metadata, never
 //!   opened).
