@@ -112,8 +112,7 @@ fn two_runs_on_one_output_never_mix() {
                 assert!(
                     // "(process N)", or "(another process)" when the holder let go between
                     // the refused lock and the look at /proc/locks (seen once in a loaded run).
-                    err.contains("another tumble run (")
-                        || err.contains("exists; pass --force"),
+                    err.contains("another tumble run (") || err.contains("exists; pass --force"),
                     "run {which}: {err}"
                 );
             }
