@@ -243,10 +243,10 @@ fn is_ours(part: &Path, lock: &File) -> bool {
 /// of another run (or none) is left alone. Never fails: it runs on error paths.
 pub fn discard(finals: &[&Path]) {
     for final_path in finals {
-        if let Some((part, lock)) = release(final_path) {
-            if is_ours(&part, &lock) {
-                std::fs::remove_file(&part).ok();
-            }
+        if let Some((part, lock)) = release(final_path)
+            && is_ours(&part, &lock)
+        {
+            std::fs::remove_file(&part).ok();
         }
     }
 }
