@@ -58,6 +58,7 @@ use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSe
 use crate::sim::mechanism::{Articulated, Mechanism};
 
 mod articulated;
+pub mod bounds;
 pub mod triangles;
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Translation3, Vector3};
@@ -498,6 +499,13 @@ impl Scene {
         if s.log_every == 0 {
             bail!("{file}: sim.log_every must be at least 1");
         }
+        bounds::check_frame_times(
+            &file.to_string(),
+            s.dt,
+            s.duration,
+            s.log_every,
+            self.steps(),
+        )?;
         if s.newton_max_iters == 0 {
             bail!("{file}: sim.newton_max_iters must be at least 1");
         }
@@ -827,6 +835,7 @@ impl Scene {
                 );
             }
             let copies = entry.copy_count();
+            let first_body = world.bodies.len();
             let base = entry.name.clone().unwrap_or_else(|| model.name.clone());
             // What the table's articulated copies share (made by the first one).
             let mut template = None;
@@ -900,6 +909,8 @@ impl Scene {
                     }
                 }
             }
+            // Initial values the integrator cannot step (issue 28 item 8), named by table.
+            bounds::check_initial_states(self, &world, i, entry, first_body..world.bodies.len())?;
             // One description per table, whatever its copies: with copies, the first copy's
             // (its links named by copy 0's frame ids; docs/scale.md "ROS 2").
             let described = match entry.copies {
@@ -914,6 +925,7 @@ impl Scene {
                 &model,
             ));
         }
+        bounds::check_total_energy(self, &world)?;
         world.layout.name = self
             .source
             .file_stem()

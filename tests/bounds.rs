@@ -22,7 +22,6 @@ const HANG_LIMIT: Duration = Duration::from_secs(120);
 
 struct Run {
     status: Option<i32>,
-    stdout: String,
     stderr: String,
     elapsed: Duration,
 }
@@ -39,10 +38,10 @@ fn run(args: &[&str], cwd: &Path) -> Run {
         .expect("cannot run tumble");
     let mut out = child.stdout.take().unwrap();
     let mut err = child.stderr.take().unwrap();
+    // Drained (so that a chatty child cannot block on a full pipe), not kept.
     let out = std::thread::spawn(move || {
         let mut s = Vec::new();
         out.read_to_end(&mut s).ok();
-        s
     });
     let err = std::thread::spawn(move || {
         let mut s = Vec::new();
@@ -64,9 +63,9 @@ fn run(args: &[&str], cwd: &Path) -> Run {
         }
         std::thread::sleep(Duration::from_millis(5));
     };
+    out.join().unwrap();
     Run {
         status: status.code(),
-        stdout: common::text(&out.join().unwrap()),
         stderr: common::text(&err.join().unwrap()),
         elapsed: started.elapsed(),
     }
@@ -341,4 +340,332 @@ fn the_triangles_a_scene_draws_are_capped() {
         ],
         tmp.path(),
     );
+}
+
+// ------------------------------------------------------------------------------ values
+
+/// `models/<name>` with `from` replaced by `to` (once, checked), written to `dir/file`.
+fn edited_model(dir: &Path, name: &str, file: &str, edits: &[(&str, &str)]) {
+    let mut text = std::fs::read_to_string(common::root().join("models").join(name)).unwrap();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{name} lacks {from}");
+        text = text.replacen(from, to, 1);
+    }
+    write(&dir.join(file), text);
+}
+
+/// A scene `file` of one model table `model` (TOML lines) after `sim` (TOML lines).
+fn scene(dir: &Path, file: &str, sim: &str, model: &str) {
+    write(
+        &dir.join(file),
+        if sim.contains("duration") {
+            format!("[sim]\n{sim}\n[[model]]\n{model}\n")
+        } else {
+            format!("[sim]\nduration = 0.1\n{sim}\n[[model]]\n{model}\n")
+        },
+    );
+}
+
+/// Before: a kept joint whose axis is zero, NaN or infinite reached the solver, which failed
+/// at step 1 (exit 3: "the implicit step's Newton solve did not converge"). Now refused naming
+/// the file, the model, the joint and the axis; a huge but finite axis is a direction.
+#[test]
+fn joint_axes_without_a_direction_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (axis, shown) in [
+        ("0 0 0", "[0, 0, 0]"),
+        ("nan 0 0", "[NaN, 0, 0]"),
+        ("0 inf 0", "[0, inf, 0]"),
+        ("1e300 -inf 0", "[1e300, -inf, 0]"),
+    ] {
+        edited_model(
+            tmp.path(),
+            "cart_pole.urdf",
+            "axis.urdf",
+            &[("<axis xyz=\"0 1 0\"/>", &format!("<axis xyz=\"{axis}\"/>"))],
+        );
+        scene(
+            tmp.path(),
+            "axis.toml",
+            "",
+            "urdf = \"axis.urdf\"\nbodies = \"articulated\"\nbase = \"fixed\"",
+        );
+        let r = run(&["simulate", "axis.toml", "--out", "out/r"], tmp.path());
+        assert_refused(
+            &r,
+            &[
+                "axis.toml: model[0]: bodies = \"articulated\": model `cart_pole` (axis.urdf)",
+                &format!(
+                    "joint `hinge` moves about or along its axis {shown}, which has no direction"
+                ),
+                "locked_joints = [\"hinge\"]",
+            ],
+            tmp.path(),
+        );
+    }
+    // [1e200, 1e200, 0] is the direction (1, 1, 0) / √2 (its squared norm overflows).
+    edited_model(
+        tmp.path(),
+        "cart_pole.urdf",
+        "axis.urdf",
+        &[("<axis xyz=\"0 1 0\"/>", "<axis xyz=\"1e200 1e200 0\"/>")],
+    );
+    let r = run(&["simulate", "axis.toml", "--out", "ok/r"], tmp.path());
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+}
+
+/// Before: `joint_velocities = { slide = 1e300 }` (a prismatic joint) failed at step 1 with a
+/// NaN energy (exit 3), `linvel = -1e300` ran to the end recording an infinite energy (exit 0
+/// in links mode, 3 articulated), `linvel = [1e308, 1e308, 0]` stopped with "grew to 1.000e0
+/// times (limit 100)", `angvel = 1e308` failed at step 1 after a warning with `|Ω| = inf`.
+/// Now each is refused naming the file, the model, the body and the key that set it.
+#[test]
+fn absurd_velocities_are_refused_naming_the_key() {
+    let tmp = tempfile::tempdir().unwrap();
+    for file in ["box.urdf", "cart_pole.urdf", "chain3_free.urdf"] {
+        std::fs::copy(
+            common::root().join("models").join(file),
+            tmp.path().join(file),
+        )
+        .unwrap();
+    }
+    for (model, needles) in [
+        (
+            "urdf = \"cart_pole.urdf\"\nbodies = \"articulated\"\nbase = \"fixed\"\njoint_velocities = { slide = 1e300 }",
+            vec![
+                "body `cart` starts 0 m from the origin at 1e300 m/s",
+                "it would get 1e299 m away, beyond the 1e15 m",
+                "set by joint_velocities.slide = 1e300",
+            ],
+        ),
+        (
+            "urdf = \"box.urdf\"\nlinvel = [-1e300, 0, 0]",
+            vec![
+                "body `box` starts 0 m from the origin at 1e300 m/s",
+                "set by linvel = [-1e300, 0, 0]",
+            ],
+        ),
+        (
+            "urdf = \"chain3_free.urdf\"\nbodies = \"articulated\"\nlinvel = [-1e300, 0, 0]",
+            vec![
+                "body `link0`",
+                "at 1e300 m/s",
+                "set by linvel = [-1e300, 0, 0]",
+            ],
+        ),
+        (
+            "urdf = \"box.urdf\"\nlinvel = [1e308, 1e308, 0]",
+            vec![
+                "body `box` starts 0 m from the origin at 1.4142135623730951e308 m/s",
+                "set by linvel = [1e308, 1e308, 0]",
+            ],
+        ),
+        (
+            "urdf = \"box.urdf\"\nangvel = [1e308, 0, 0]",
+            vec![
+                "body `box` starts with a kinetic energy of inf J (6 kg at 0 m/s, turning at 1e308 rad/s)",
+                "divergence guard could not watch it",
+                "set by angvel = [1e308, 0, 0]",
+            ],
+        ),
+        (
+            "urdf = \"chain3_free.urdf\"\nbodies = \"articulated\"\njoint_velocities = { j2 = 1e200, j1 = 2 }",
+            vec![
+                "body `link2` starts 1.5 m from the origin at 3.0000000000000005e199 m/s",
+                "set by joint_velocities.j2 = 1e200, joint_velocities.j1 = 2",
+            ],
+        ),
+        (
+            "urdf = \"box.urdf\"\nposition = [2e15, 0, 0]",
+            vec![
+                "body `box` starts 2e15 m from the origin at 0 m/s",
+                "set by position = [2e15, 0, 0]",
+            ],
+        ),
+    ] {
+        scene(tmp.path(), "v.toml", "", model);
+        let r = run(&["simulate", "v.toml", "--out", "out/r"], tmp.path());
+        let mut all = vec![
+            "v.toml: model[0]: ",
+            "docs/limits.md, \"Bounds on initial values\"",
+        ];
+        all.extend(needles);
+        assert_refused(&r, &all, tmp.path());
+    }
+    // At the bound: 1e16 m/s for 0.1 s is 1e15 m, accepted (and run).
+    scene(
+        tmp.path(),
+        "v.toml",
+        "",
+        "urdf = \"box.urdf\"\nlinvel = [1e16, 0, 0]",
+    );
+    let r = run(&["simulate", "v.toml", "--out", "ok/r"], tmp.path());
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+}
+
+/// Before: a mimic joint mimicking itself, or two mimicking each other, failed at step 12 and
+/// 35 (exit 3, Newton). Now refused naming the cycle, of any length.
+#[test]
+fn mimic_cycles_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let j1 = "<axis xyz=\"0 0 1\"/>";
+    let j2 = "<axis xyz=\"0 1 0\"/>";
+    for (edits, cycle) in [
+        (
+            vec![(j1, "<axis xyz=\"0 0 1\"/><mimic joint=\"j1\"/>")],
+            "(`j1` mimics `j1`)",
+        ),
+        (
+            vec![
+                (j1, "<axis xyz=\"0 0 1\"/><mimic joint=\"j2\"/>"),
+                (
+                    j2,
+                    "<axis xyz=\"0 1 0\"/><mimic joint=\"j1\" multiplier=\"-1\"/>",
+                ),
+            ],
+            "(`j1` mimics `j2`, `j2` mimics `j1`)",
+        ),
+    ] {
+        edited_model(tmp.path(), "chain3_free.urdf", "m.urdf", &edits);
+        scene(
+            tmp.path(),
+            "m.toml",
+            "",
+            "urdf = \"m.urdf\"\nbodies = \"articulated\"\nangvel = [0, 0.3, 0.5]",
+        );
+        let r = run(&["simulate", "m.toml", "--out", "out/r"], tmp.path());
+        assert_refused(
+            &r,
+            &[
+                "m.toml: model[0]: bodies = \"articulated\": model `chain3_free` (m.urdf)",
+                &format!("the mimic joints form a cycle {cycle}"),
+                "remove the <mimic> of one of them",
+            ],
+            tmp.path(),
+        );
+    }
+}
+
+/// Before: `dt = 1e-12` with `log_every = 1` failed in the Rerun writer with "frame time 0 ns
+/// is not after 0 ns" (no key, no file). Now refused before the run naming both keys and the
+/// smallest log_every that works; and a run past the timestamps' 292 years is refused too.
+#[test]
+fn frames_closer_than_a_nanosecond_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::copy(
+        common::root().join("models/box.urdf"),
+        tmp.path().join("box.urdf"),
+    )
+    .unwrap();
+    scene(
+        tmp.path(),
+        "dt.toml",
+        "dt = 1e-12\nlog_every = 1",
+        "urdf = \"box.urdf\"",
+    );
+    let r = run(
+        &[
+            "simulate",
+            "dt.toml",
+            "--out",
+            "out/r",
+            "--duration",
+            "1e-10",
+        ],
+        tmp.path(),
+    );
+    assert_refused(
+        &r,
+        &[
+            "dt.toml: sim.dt = 1e-12 s with sim.log_every = 1 records a frame every 1e-12 s",
+            "recorded frames must be at least 1 ns apart (recording timestamps are whole nanoseconds)",
+            "raise sim.log_every to at least 1000",
+        ],
+        tmp.path(),
+    );
+    // 1000 steps of 1e-12 s per frame: 1 ns apart, accepted (the file's values are judged
+    // before command-line overrides, so the file says it).
+    scene(
+        tmp.path(),
+        "dt_ok.toml",
+        "dt = 1e-12\nlog_every = 1000",
+        "urdf = \"box.urdf\"",
+    );
+    let r = run(
+        &[
+            "simulate",
+            "dt_ok.toml",
+            "--out",
+            "ok/r",
+            "--duration",
+            "1e-8",
+        ],
+        tmp.path(),
+    );
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+    scene(
+        tmp.path(),
+        "long.toml",
+        "dt = 1e6\nduration = 1e10",
+        "urdf = \"box.urdf\"",
+    );
+    let r = run(&["simulate", "long.toml", "--out", "out/r"], tmp.path());
+    assert_refused(
+        &r,
+        &["long.toml: sim.duration = 10000000000 s", "292 years"],
+        tmp.path(),
+    );
+}
+
+/// No warning prints a number in full: before, `dt = 1e300` printed "dt = 1000…000 s" (301
+/// digits) in the step warning, and a URDF range of ±1e300 would have printed 301 digits in
+/// the joint-range warning.
+#[test]
+fn warnings_print_numbers_readably() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::copy(
+        common::root().join("models/box.urdf"),
+        tmp.path().join("box.urdf"),
+    )
+    .unwrap();
+    // 0 steps of 1e300 s (duration 0.1 s): the step warning names dt, the run writes step 0.
+    scene(
+        tmp.path(),
+        "big_dt.toml",
+        "dt = 1e300",
+        "urdf = \"box.urdf\"\nangvel = [0, 1, 0.1]",
+    );
+    let r = run(&["simulate", "big_dt.toml", "--out", "out/a"], tmp.path());
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("warning: dt = 1e300 s is too large"),
+        "{}",
+        r.stderr
+    );
+    assert!(longest_digit_run(&r.stderr) <= 20, "{}", r.stderr);
+    // A range of [-1e300, -1e299]: the slide starts outside it, at 0.
+    edited_model(
+        tmp.path(),
+        "cart_pole.urdf",
+        "wide.urdf",
+        &[(
+            "lower=\"-100\" upper=\"100\"",
+            "lower=\"-1e300\" upper=\"-1e299\"",
+        )],
+    );
+    scene(
+        tmp.path(),
+        "wide.toml",
+        "",
+        "urdf = \"wide.urdf\"\nbodies = \"articulated\"\nbase = \"fixed\"",
+    );
+    let r = run(&["simulate", "wide.toml", "--out", "out/b"], tmp.path());
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+    assert!(
+        r.stderr
+            .contains("left its URDF range [-1e300, -1e299] at t = 0 s (position 0.000000)"),
+        "{}",
+        r.stderr
+    );
+    assert!(longest_digit_run(&r.stderr) <= 20, "{}", r.stderr);
 }

@@ -793,6 +793,12 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     )
     .with_population(&world.population());
     estimate.check(args.allow_huge)?;
+    crate::scene::bounds::check_end_time(
+        &scene.source.display().to_string(),
+        scene.sim.dt,
+        scene.sim.duration,
+        scene.steps(),
+    )?;
     if let Some(warning) = step_warning(&scene, &world) {
         eprintln!("{warning}");
     }

@@ -24,8 +24,9 @@
 //! at ([`super::urdf::load_at`]); [`crate::scene`] turns the result into bodies and a
 //! [`crate::sim::mechanism::Mechanism`].
 
-use super::kinematics::{Joint, JointKind};
+use super::kinematics::{Joint, JointKind, axis_direction};
 use super::{MassProperties, Model};
+use crate::budget::readable;
 use std::collections::{BTreeSet, HashMap};
 
 /// A group of links moving as one body.
@@ -93,6 +94,82 @@ pub enum ArticulationError {
         leader: String,
         why: String,
     },
+    /// A kept joint whose axis is no direction (zero, NaN or infinite): its constraint rows
+    /// would be NaN from the first step.
+    #[error(
+        "joint `{joint}` moves about or along its axis [{}, {}, {}], which has no direction (it \
+         must be a non-zero vector of finite numbers): fix the URDF's <axis xyz>, or lock \
+         `{joint}` (locked_joints = [\"{joint}\"])",
+        readable(.axis[0]), readable(.axis[1]), readable(.axis[2])
+    )]
+    BadAxis { joint: String, axis: [f64; 3] },
+    /// Mimic joints whose leaders lead back to them: `joints[0]` mimics `joints[1]`, ..., the
+    /// last mimics `joints[0]` (one joint mimicking itself is a cycle of one). Their
+    /// constraints determine no position (the solver's matrix is singular).
+    #[error(
+        "the mimic joints form a cycle ({}): each follows the next, so none of them is set by a \
+         joint that moves freely; remove the <mimic> of one of them",
+        cycle_text(.joints)
+    )]
+    MimicCycle { joints: Vec<String> },
+}
+
+/// `a` mimics `b` mimics `a`, as `` `a` mimics `b`, `b` mimics `a` ``.
+fn cycle_text(joints: &[String]) -> String {
+    (0..joints.len())
+        .map(|k| {
+            format!(
+                "`{}` mimics `{}`",
+                joints[k],
+                joints[(k + 1) % joints.len()]
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The first cycle of mimic joints of `joints` (each joint follows at most one leader, named
+/// by `<mimic joint>`; a name that is no joint leads nowhere), in file order of its first
+/// joint: the joints from it following their leaders until it comes back.
+pub fn mimic_cycle(joints: &[Joint]) -> Option<Vec<String>> {
+    let by_name: HashMap<&str, usize> = joints
+        .iter()
+        .enumerate()
+        .map(|(i, j)| (j.name.as_str(), i))
+        .collect();
+    let leader = |i: usize| -> Option<usize> {
+        let m = joints[i].mimic.as_ref()?;
+        by_name.get(m.joint.as_str()).copied()
+    };
+    // 0: not seen, 1: on the current walk, 2: leads to no cycle (or to one already found).
+    let mut state = vec![0u8; joints.len()];
+    for start in 0..joints.len() {
+        let mut walk = Vec::new();
+        let mut at = Some(start);
+        while let Some(i) = at {
+            match state[i] {
+                0 => {
+                    state[i] = 1;
+                    walk.push(i);
+                    at = leader(i);
+                }
+                1 => {
+                    let first = walk.iter().position(|&w| w == i).expect("on the walk");
+                    return Some(
+                        walk[first..]
+                            .iter()
+                            .map(|&w| joints[w].name.clone())
+                            .collect(),
+                    );
+                }
+                _ => break,
+            }
+        }
+        for w in walk {
+            state[w] = 2;
+        }
+    }
+    None
 }
 
 /// Tolerance on coincident joint origins of a compound joint, m.
@@ -111,6 +188,9 @@ pub fn articulate(
         .enumerate()
         .map(|(i, j)| (j.name.as_str(), i))
         .collect();
+    if let Some(joints) = mimic_cycle(&model.joints) {
+        return Err(ArticulationError::MimicCycle { joints });
+    }
     // 1. Which joints merge their links.
     let mut merged = vec![false; model.joints.len()];
     for (i, joint) in model.joints.iter().enumerate() {
@@ -170,6 +250,15 @@ pub fn articulate(
                 merged[j] = true;
                 locked_massless.push(model.joints[j].name.clone());
             }
+        }
+    }
+    // Every kept joint moves about or along its axis: it must have a direction.
+    for (j, joint) in model.joints.iter().enumerate() {
+        if !merged[j] && axis_direction(&joint.axis).is_none() {
+            return Err(ArticulationError::BadAxis {
+                joint: joint.name.clone(),
+                axis: joint.axis.into(),
+            });
         }
     }
     // Mimic rules on the kept joints: the leader must be kept too (a merged leader merged the
@@ -341,7 +430,8 @@ fn check_compound(
     };
     let axis = |j: &Joint| {
         let parent_pose = model.links[j.parent].model_from_link;
-        (parent_pose * j.parent_from_joint).rotation * j.axis.normalize()
+        (parent_pose * j.parent_from_joint).rotation
+            * axis_direction(&j.axis).map_or_else(nalgebra::Vector3::zeros, |u| u.into_inner())
     };
     let o0 = origin(&model.joints[chain[0]]);
     let mut axes = Vec::new();
@@ -396,4 +486,73 @@ fn preorder(model: &Model, children: &[Vec<usize>]) -> Vec<usize> {
         }
     }
     order
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::kinematics::Mimic;
+    use nalgebra::{Isometry3, Vector3};
+
+    /// Joints named `names`, joint `k` mimicking `leaders[k]` (when given).
+    fn joints(leaders: &[(&str, Option<&str>)]) -> Vec<Joint> {
+        leaders
+            .iter()
+            .enumerate()
+            .map(|(k, (name, leader))| Joint {
+                name: name.to_string(),
+                kind: JointKind::Revolute,
+                parent: k,
+                child: k + 1,
+                parent_from_joint: Isometry3::identity(),
+                axis: Vector3::z(),
+                mimic: leader.map(|l| Mimic {
+                    joint: l.to_string(),
+                    multiplier: 1.0,
+                    offset: 0.0,
+                }),
+                limits: None,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn mimic_cycles_of_any_length_are_found() {
+        let names = |v: &[&str]| Some(v.iter().map(|s| s.to_string()).collect::<Vec<_>>());
+        // Self, pair, triple (entered from a joint leading into it: the cycle alone).
+        assert_eq!(mimic_cycle(&joints(&[("a", Some("a"))])), names(&["a"]));
+        assert_eq!(
+            mimic_cycle(&joints(&[("x", None), ("a", Some("b")), ("b", Some("a"))])),
+            names(&["a", "b"])
+        );
+        assert_eq!(
+            mimic_cycle(&joints(&[
+                ("d", Some("a")),
+                ("a", Some("b")),
+                ("b", Some("c")),
+                ("c", Some("a")),
+            ])),
+            names(&["a", "b", "c"])
+        );
+        // Chains, a missing leader and shared leaders are no cycle.
+        assert_eq!(
+            mimic_cycle(&joints(&[
+                ("a", Some("b")),
+                ("b", Some("c")),
+                ("c", None),
+                ("d", Some("c")),
+                ("e", Some("ghost")),
+            ])),
+            None
+        );
+        let e = ArticulationError::MimicCycle {
+            joints: vec!["a".into(), "b".into()],
+        };
+        assert_eq!(
+            e.to_string(),
+            "the mimic joints form a cycle (`a` mimics `b`, `b` mimics `a`): each follows the \
+             next, so none of them is set by a joint that moves freely; remove the <mimic> of one \
+             of them"
+        );
+    }
 }

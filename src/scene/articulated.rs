@@ -286,7 +286,11 @@ fn shared_model(
         length_scale = length_scale
             .max(anchor_parent.norm())
             .max(anchor_child.norm());
-        let axis = |j: &crate::model::kinematics::Joint| j.axis.normalize();
+        // Kept joints have a direction (`articulation::articulate` refuses any other).
+        let axis = |j: &crate::model::kinematics::Joint| {
+            crate::model::kinematics::axis_direction(&j.axis)
+                .map_or_else(Vector3::zeros, |u| u.into_inner())
+        };
         let mut compound = None;
         let mut stage_origins = Vec::new();
         let kind = if gj.chain.len() == 1 {

@@ -20,13 +20,17 @@ use crate::model::geometry::mesh_io::{self, MAX_SCENE_TRIANGLES};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+/// The mesh file drawing most triangles: its path, its triangles and how many times it is
+/// drawn.
+pub type Heaviest = Option<(PathBuf, u64, u64)>;
+
 /// Triangles of the visual meshes of every recorded frame of `world` (a mesh counted once per
-/// frame and visual that uses it), and the mesh file contributing most with its share and
-/// uses. `count` gives a file's triangles.
+/// frame and visual that uses it), and the mesh file contributing most. `count` gives a file's
+/// triangles.
 pub fn recorded_triangles(
     world: &World,
     mut count: impl FnMut(&Path) -> Result<u64, MeshError>,
-) -> Result<(u64, Option<(PathBuf, u64, u64)>), MeshError> {
+) -> Result<(u64, Heaviest), MeshError> {
     let mut per_file: HashMap<&Path, (u64, u64)> = HashMap::new();
     let mut total = 0u64;
     for frame in &world.layout.frames {
