@@ -5,28 +5,10 @@
 
 mod common;
 
-use common::{root, text, tumble};
+use common::{exe, listing, scene, text, tumble};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn scene(name: &str) -> String {
-    root().join("models").join(name).display().to_string()
-}
-
-fn exe() -> &'static str {
-    env!("CARGO_BIN_EXE_tumble")
-}
-
-/// Every name in `dir`, sorted.
-fn listing(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
-}
 
 fn bytes(path: &Path) -> Vec<u8> {
     std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))

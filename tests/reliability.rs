@@ -5,28 +5,10 @@
 
 mod common;
 
-use common::{root, run_py, text, tumble, venv_bin};
+use common::{exe, listing, run_py, scene, text, tumble, venv_bin};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn scene(name: &str) -> String {
-    root().join("models").join(name).display().to_string()
-}
-
-fn exe() -> &'static str {
-    env!("CARGO_BIN_EXE_tumble")
-}
-
-/// Every file in `dir` (names), sorted.
-fn listing(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
-    names
-}
 
 /// Starts a long run, waits until it is recording, sends `signal` (`INT` or `TERM`) with the
 /// `kill` command, and checks that both recordings are complete and end at the step the

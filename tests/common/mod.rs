@@ -138,3 +138,23 @@ pub fn run_scene_parts(
     )
     .unwrap()
 }
+
+/// A bundled scene of `models/`, as a path string.
+pub fn scene(name: &str) -> String {
+    root().join("models").join(name).display().to_string()
+}
+
+/// The release binary under test.
+pub fn exe() -> &'static str {
+    env!("CARGO_BIN_EXE_tumble")
+}
+
+/// Every name in `dir`, sorted.
+pub fn listing(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
