@@ -221,6 +221,8 @@ fn meshes_outside_the_model_folders_are_refused_and_never_embedded() {
         assert!(line.contains(&format!("`{mesh}`")), "{line}");
         assert!(line.contains(&resolved.display().to_string()), "{line}");
         assert!(line.contains(&real.display().to_string()), "{line}");
+        // The real path is named apart only when it differs from the resolved one.
+        assert_eq!(line.contains("(real path "), resolved != real, "{line}");
         assert!(stdout.contains("1 link(s) with problems"), "{stdout}");
         let out = tumble(
             &["inspect", urdf_path.to_str().unwrap(), "--json"],
@@ -469,6 +471,15 @@ fn links_and_packages_inside_the_model_still_work() {
         stdout.contains(&format!(
             "`tri_link.obj` -> {} (real path {}): allowed, inside the URDF's folder {}",
             base.join("robot/model/tri_link.obj").display(),
+            base.join("robot/model/meshes/tri.obj").display(),
+            base.join("robot/model").display()
+        )),
+        "{stdout}"
+    );
+
+    assert!(
+        stdout.contains(&format!(
+            "`meshes/tri.obj` -> {}: allowed, inside the URDF's folder {}\n",
             base.join("robot/model/meshes/tri.obj").display(),
             base.join("robot/model").display()
         )),

@@ -389,7 +389,6 @@ fn render_meshes(out: &mut String, meshes: &[MeshUse]) {
         };
         let detail = match m.status {
             MeshStatus::Refused(_) => format!("REFUSED: {detail}"),
-            _ if detail.is_empty() => status.to_string(),
             _ => format!("{status}, {detail}"),
         };
         let _ = writeln!(
