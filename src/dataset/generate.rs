@@ -248,8 +248,15 @@ pub fn generate(spec: &DatasetSpec, opts: &Options) -> anyhow::Result<Summary> {
             s.chunks += 1;
             #[cfg(unix)]
             if opts.raise_sigint_after_chunks == Some(s.chunks) {
-                // Delivered to this thread before `raise` returns: the next loop turn sees it.
+                // The signal thread (`crate::interrupt`) sets the flag shortly after `raise`
+                // returns: wait for it (at most a second), so the next loop turn sees it.
                 let _ = signal_hook::low_level::raise(signal_hook::consts::SIGINT);
+                let raised = std::time::Instant::now();
+                while !crate::interrupt::requested()
+                    && raised.elapsed() < std::time::Duration::from_secs(1)
+                {
+                    std::thread::sleep(std::time::Duration::from_millis(1));
+                }
             }
             if opts.stop_after_chunks.is_some_and(|k| s.chunks >= k) {
                 stop.store(true, Ordering::SeqCst);
