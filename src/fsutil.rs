@@ -72,6 +72,24 @@ pub fn abandon() -> usize {
     finals.len()
 }
 
+/// `file.try_lock()`, retried for up to 100 ms while the lock is taken. A lock released by its
+/// holder can live on for a moment in a process forked by another thread of the holder (the
+/// descriptor is copied at `fork` and closed only at `exec`): seen in the test suite, which
+/// starts the binary from many threads. A real second run is still refused within 0.1 s.
+fn try_lock_briefly(file: &File) -> Result<(), std::fs::TryLockError> {
+    let started = std::time::Instant::now();
+    loop {
+        match file.try_lock() {
+            Err(std::fs::TryLockError::WouldBlock)
+                if started.elapsed() < std::time::Duration::from_millis(100) =>
+            {
+                std::thread::sleep(std::time::Duration::from_millis(2));
+            }
+            other => return other,
+        }
+    }
+}
+
 /// The `(device, inode)` of a file's metadata.
 fn identity(meta: &std::fs::Metadata) -> (u64, u64) {
     (meta.dev(), meta.ino())
@@ -182,7 +200,7 @@ pub fn create_part_named(final_path: &Path, part: &Path) -> anyhow::Result<File>
         if let Some(problem) = foreign_part(&part, &meta) {
             bail!("{problem}");
         }
-        match file.try_lock() {
+        match try_lock_briefly(&file) {
             Ok(()) => {}
             Err(std::fs::TryLockError::WouldBlock) => {
                 return Err(busy(final_path, &part, meta.ino()));
@@ -474,7 +492,7 @@ pub fn lock_folder(dir: &Path) -> anyhow::Result<FolderLock> {
     let meta = file
         .metadata()
         .with_context(|| format!("cannot lock the folder {}", dir.display()))?;
-    match file.try_lock() {
+    match try_lock_briefly(&file) {
         Ok(()) => Ok(FolderLock { _file: file }),
         Err(std::fs::TryLockError::WouldBlock) => {
             let who = match holder(meta.ino()) {
