@@ -118,9 +118,7 @@ impl Population {
 /// A count as written by people: `700000`, `1.2e9` past a billion ([`readable`] for
 /// fractions).
 pub fn human_number(n: f64) -> String {
-    if n.is_finite() && n.abs() < 1e9 && n.fract() == 0.0 {
-        format!("{n}")
-    } else if n.abs() >= 1e9 && n.is_finite() {
+    if n.abs() >= 1e9 && n.is_finite() {
         format!("{n:e}")
     } else {
         readable(n)
@@ -409,6 +407,10 @@ mod tests {
         assert_eq!(human_number(700000.0), "700000");
         assert_eq!(human_number(1.5), "1.5");
         assert_eq!(human_number(2.5e9), "2.5e9");
+        assert_eq!(human_number(999_999_999.0), "999999999");
+        assert_eq!(human_number(1e9), "1e9");
+        assert_eq!(human_number(-1e9), "-1e9");
+        assert_eq!(human_number(f64::INFINITY), "inf");
     }
 
     /// What the user typed reads back as typed; huge and tiny magnitudes take an exponent.
