@@ -17,12 +17,13 @@ pub mod placement;
 pub mod plot;
 pub mod record;
 pub mod replay;
-pub mod run;
 pub mod scene;
 pub mod sim;
+pub mod simulation;
 pub mod stability;
 pub mod survey;
 pub mod trade;
+pub mod world;
 
 /// The tool's version, written into every recording's metadata.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");

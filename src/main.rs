@@ -42,7 +42,7 @@ fn main() -> ExitCode {
             );
             if let Some(stop) = e.downcast_ref::<tumble::interrupt::Interrupted>() {
                 ExitCode::from(stop.exit_code())
-            } else if e.downcast_ref::<tumble::run::Diverged>().is_some() {
+            } else if e.downcast_ref::<tumble::simulation::Diverged>().is_some() {
                 ExitCode::from(3)
             } else {
                 ExitCode::from(2)

@@ -52,10 +52,10 @@ use crate::budget::readable;
 use crate::model::policy::{self, GeometrySource, InertiaPolicy, MassSettings, ModelMassSettings};
 use crate::model::{MassProperties, Model, urdf};
 use crate::placement;
-use crate::record::{BodyLayout, FrameLayout, RecordingLayout, RobotDescription};
+use crate::record::{BodyLayout, FrameLayout, RobotDescription};
 use crate::sim::BodyInit;
 use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
-use crate::sim::mechanism::{Articulated, Mechanism};
+use crate::world::{Attachment, World};
 
 mod articulated;
 pub mod bounds;
@@ -685,9 +685,9 @@ impl Scene {
         }
     }
 
-    /// What [`crate::run::run`] needs from `[sim]`.
-    pub fn run_settings(&self) -> crate::run::RunSettings {
-        crate::run::RunSettings {
+    /// What a run ([`crate::sim::RunSettings`]) needs from `[sim]`.
+    pub fn run_settings(&self) -> crate::sim::RunSettings {
+        crate::sim::RunSettings {
             steps: self.steps(),
             log_every: self.sim.log_every,
             gravity: self.gravity(),
@@ -965,102 +965,6 @@ fn finite3(key: &str, v: &[f64; 3]) -> anyhow::Result<()> {
         Ok(())
     } else {
         bail!("{key} must hold three finite numbers (got {v:?})")
-    }
-}
-
-/// What a scene builds: the bodies' initial states and how link frames follow them.
-#[derive(Debug, Clone, Default)]
-pub struct World {
-    pub layout: RecordingLayout,
-    pub bodies: Vec<BodyInit>,
-    /// Per recorded frame (same order as `layout.frames`): the body it moves with and the
-    /// constant pose of the link in that body's principal frame. Shared with the run's frame
-    /// builder ([`crate::run::FrameBuilder`]) instead of copied: 64 bytes per frame.
-    pub attachments: std::sync::Arc<Vec<Attachment>>,
-    /// Articulated models (`bodies = "articulated"`), each over a contiguous range of
-    /// `bodies`, in scene order (the same order as `layout.mechanisms`).
-    pub mechanisms: Vec<std::sync::Arc<Mechanism>>,
-    /// Frames of compound joints' massless interior links: placed from the mechanism's report,
-    /// not from a body (their [`Attachment`] is a placeholder).
-    pub interior_frames: Vec<InteriorFrame>,
-    /// What the build decided that the user should know (e.g. joints locked because no mass
-    /// hangs from them), one line each; the command prints them.
-    pub notes: Vec<String>,
-    /// The URDF oddities the models loaded with (docs/urdf.md), each once however many models
-    /// share the file; the command prints them.
-    pub warnings: Vec<urdf::LoadWarning>,
-}
-
-/// A massless link frame inside a compound joint.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct InteriorFrame {
-    /// Index into `layout.frames`.
-    pub frame: usize,
-    /// Index into `World::mechanisms`.
-    pub mechanism: usize,
-    /// Index into the mechanism report's interior link poses
-    /// ([`crate::sim::mechanism::project::Report::interior_world_from_link`]).
-    pub interior: usize,
-    /// Pose of the frame's link in that interior link's frame (identity for the link itself).
-    pub interior_from_link: Isometry3<f64>,
-}
-
-/// A link frame riding on a body.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Attachment {
-    /// Index into `World::bodies`, or [`Attachment::WORLD`] for a frame at rest (the welded
-    /// root of a fixed-base articulated model): then `body_from_link` is `world_from_link`.
-    pub body: usize,
-    pub body_from_link: Isometry3<f64>,
-}
-
-impl Attachment {
-    /// The `body` of a frame at rest in the world.
-    pub const WORLD: usize = usize::MAX;
-}
-
-impl World {
-    /// What the world holds, for the memory estimate ([`crate::budget::Population`]).
-    pub fn population(&self) -> crate::budget::Population {
-        crate::budget::Population {
-            bodies: self.bodies.len() as f64,
-            frames: self.layout.frames.len() as f64,
-            mechanism_bodies: self
-                .mechanisms
-                .iter()
-                .map(|m| m.bodies().len())
-                .sum::<usize>() as f64,
-            mechanisms: self.mechanisms.len() as f64,
-        }
-    }
-
-    /// The integrator that steps this world: `kind` itself when no model is articulated,
-    /// else the [`Articulated`] stepper (free bodies and mechanisms), which supports the
-    /// variational family only (an error naming the model otherwise).
-    pub fn integrator(
-        &self,
-        kind: IntegratorKind,
-        dt_secs: f64,
-        settings: &VariationalSettings,
-    ) -> anyhow::Result<Box<dyn crate::sim::Integrator>> {
-        Self::integrator_of(kind, dt_secs, settings, &self.mechanisms, self.bodies.len())
-    }
-
-    /// [`Self::integrator`] for a batch of `body_count` bodies holding `mechanisms` (a
-    /// partition of the world, its mechanisms re-based to it: [`crate::sim::partition`]).
-    pub fn integrator_of(
-        kind: IntegratorKind,
-        dt_secs: f64,
-        settings: &VariationalSettings,
-        mechanisms: &[Arc<Mechanism>],
-        body_count: usize,
-    ) -> anyhow::Result<Box<dyn crate::sim::Integrator>> {
-        if mechanisms.is_empty() {
-            return Ok(kind.build(dt_secs, settings));
-        }
-        Ok(Box::new(Articulated::new(
-            kind, dt_secs, settings, mechanisms, body_count,
-        )?))
     }
 }
 

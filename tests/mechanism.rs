@@ -8,11 +8,12 @@ mod common;
 
 use nalgebra::{Matrix2, Vector3};
 use tumble::record::{JointState, MechanismState};
-use tumble::run::FrameBuilder;
-use tumble::scene::{Scene, World};
+use tumble::scene::Scene;
 use tumble::sim::integrators::{IntegratorKind, VariationalSettings};
 use tumble::sim::reference::elliptic::{complete_k, jacobi_sn_cn_dn};
 use tumble::sim::{Bodies, Integrator, StepStats};
+use tumble::simulation::FrameBuilder;
+use tumble::world::World;
 
 const G: f64 = 9.81;
 

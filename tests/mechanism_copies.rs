@@ -6,9 +6,10 @@ mod common;
 
 use nalgebra::Vector3;
 use std::sync::Arc;
-use tumble::run::FrameBuilder;
-use tumble::scene::{Scene, World};
+use tumble::scene::Scene;
 use tumble::sim::Bodies;
+use tumble::simulation::FrameBuilder;
+use tumble::world::World;
 
 fn scene(text: &str) -> Scene {
     Scene::parse(text, &common::root().join("models/test_scene.toml")).expect("scene parses")

@@ -7,9 +7,9 @@ mod common;
 
 use nalgebra::Vector3;
 use std::path::Path;
-use tumble::run::FrameBuilder;
 use tumble::scene::Scene;
 use tumble::sim::Bodies;
+use tumble::simulation::FrameBuilder;
 
 struct Swing {
     joints: usize,

@@ -62,8 +62,8 @@ fn run_on_one_thread(scene: &std::path::Path, check_initial: bool) -> u64 {
             .map(|b| (b.linvel_world, b.angvel_world))
             .collect()
     });
-    let mut sinks: Vec<Box<dyn tumble::record::Sink>> = vec![Box::new(Check { initial })];
-    let summary = common::run_scene_parts(&scene, &world, 1, &run, &mut sinks);
+    let sinks: Vec<Box<dyn tumble::record::Sink>> = vec![Box::new(Check { initial })];
+    let summary = common::run_scene_parts(&scene, &world, 1, &run, sinks);
     summary.frames_recorded
 }
 

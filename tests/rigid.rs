@@ -11,7 +11,8 @@ use std::f64::consts::{FRAC_PI_2, FRAC_PI_6};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use tumble::record::{Frame, Sink};
-use tumble::scene::{Scene, World};
+use tumble::scene::Scene;
+use tumble::world::World;
 
 // ---------------------------------------------------------------------------------------------
 // An independent reading of models/arm.urdf: its numbers copied from the file (our own file, the
@@ -201,15 +202,14 @@ impl Sink for MemorySink {
     }
 }
 
-fn run(scene: &Scene) -> (World, Recorded, tumble::run::RunSummary) {
+fn run(scene: &Scene) -> (World, Recorded, tumble::simulation::RunSummary) {
     let world = scene.build().unwrap_or_else(|e| panic!("{e:#}"));
     let recorded = Arc::new(Mutex::new(Recorded::default()));
-    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(MemorySink(recorded.clone()))];
-    let mut integ = scene
+    let sinks: Vec<Box<dyn Sink>> = vec![Box::new(MemorySink(recorded.clone()))];
+    let integ = scene
         .integrator()
         .build(scene.sim.dt, &scene.variational_settings());
-    let summary =
-        tumble::run::run(&world, integ.as_mut(), &scene.run_settings(), &mut sinks).unwrap();
+    let summary = common::run_world(&world, integ, &scene.run_settings(), sinks);
     let recorded = recorded.lock().unwrap().clone();
     (world, recorded, summary)
 }

@@ -504,10 +504,8 @@ fn pipelined_sinks_take_the_frames_without_a_copy() {
             Pipelined::shared(Box::new(sink), "keep", &share, 1).unwrap(),
         ));
     }
-    let summary = common::run_scene_parts(&scene, &world, 2, &scene.run_settings(), &mut sinks);
-    for sink in sinks {
-        sink.finish().unwrap();
-    }
+    // Finished by the run (every sink's `finish`).
+    let summary = common::run_scene_parts(&scene, &world, 2, &scene.run_settings(), sinks);
     assert_eq!(share.buffers(), 0, "a pipelined sink copied a frame");
     let direct = logs[0].lock().unwrap().clone();
     // duration 0.03 s at dt 1 ms, every 5th step: steps 0, 5, ..., 30.
@@ -539,9 +537,8 @@ fn the_run_summary_measures_the_recorded_energy_and_momentum() {
     let expected = initial_energy(&world, &nalgebra::Vector3::zeros());
     let mut run = scene.run_settings();
     run.steps = 200;
-    let mut sinks: Vec<Box<dyn tumble::record::Sink>> = Vec::new();
     for threads in [1, 2] {
-        let summary = common::run_scene_parts(&scene, &world, threads, &run, &mut sinks);
+        let summary = common::run_scene_parts(&scene, &world, threads, &run, Vec::new());
         let rel = (summary.energy_initial - expected).abs() / expected;
         // Rounding of a 1000-term sum and of `J Ω` and back: measured 0 (1 and 2 threads).
         assert!(
@@ -574,7 +571,7 @@ fn an_articulated_run_summary_measures_the_reported_energy() {
     let expected = initial_energy(&world, &g);
     let mut run = scene.run_settings();
     run.steps = 100;
-    let summary = common::run_scene_parts(&scene, &world, 1, &run, &mut Vec::new());
+    let summary = common::run_scene_parts(&scene, &world, 1, &run, Vec::new());
     let rel = (summary.energy_initial - expected).abs() / expected.abs();
     // Measured: exact (0), and a momentum change of 2.6e-16 over 100 steps.
     assert!(
@@ -591,7 +588,7 @@ fn an_articulated_run_summary_measures_the_reported_energy() {
 
 /// `Σ ½ m |v|² + ½ Ωᵀ J Ω − m g·c` over the scene's initial states (body-frame `Ω = Rᵀ ω`),
 /// computed here, apart from the simulator's own energy code.
-fn initial_energy(world: &tumble::scene::World, g: &nalgebra::Vector3<f64>) -> f64 {
+fn initial_energy(world: &tumble::world::World, g: &nalgebra::Vector3<f64>) -> f64 {
     world
         .bodies
         .iter()

@@ -238,14 +238,14 @@ fn bundled_scenes_build_and_conserve() {
         let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{name}: {e:#}"));
         let world = scene.build().unwrap_or_else(|e| panic!("{name}: {e:#}"));
         assert!(!world.bodies.is_empty());
-        let mut integ = scene
+        let integ = scene
             .integrator()
             .build(scene.sim.dt, &scene.variational_settings());
-        let settings = tumble::run::RunSettings {
+        let settings = tumble::sim::RunSettings {
             steps: scene.steps().min(2000),
             ..scene.run_settings()
         };
-        let summary = tumble::run::run(&world, integ.as_mut(), &settings, &mut []).unwrap();
+        let summary = common::run_world(&world, integ, &settings, Vec::new());
         // Torque-free about each centre of mass: angular momentum is conserved to round-off by
         // the variational scheme (measured at most 2.0e-14, the arm, over 2000 steps).
         assert!(

@@ -38,16 +38,18 @@
 //! - At 1e6 m the rounding of `c += v h + g h^2/2` is coherent, not a random walk: 240 ulp
 //!   after 1000 steps (the worst case is 500).
 
+mod common;
+
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use std::path::PathBuf;
 use tumble::model::urdf;
-use tumble::run::time_ns;
 use tumble::scene::Scene;
 use tumble::sim::guard::{Cause, Divergence, Guard};
 use tumble::sim::integrators::variational::solve_xi;
 use tumble::sim::integrators::{IntegratorKind, VariationalSettings};
 use tumble::sim::reference::{Asymmetric, Axisymmetric, parabola, rotation_error};
 use tumble::sim::{Bodies, BodyInit, StepStats};
+use tumble::simulation::time_ns;
 
 const EPS: f64 = f64::EPSILON;
 
@@ -881,10 +883,10 @@ fn stress_triangle_equality_urdf_loads_and_simulates() {
     let world = scene.build().unwrap();
     let init = world.bodies[0].clone();
     assert_eq!(init.principal_moments, Vector3::new(1.0, 1.0, 2.0));
-    let mut integ = scene
+    let integ = scene
         .integrator()
         .build(scene.sim.dt, &scene.variational_settings());
-    let summary = tumble::run::run(&world, integ.as_mut(), &scene.run_settings(), &mut []).unwrap();
+    let summary = common::run_world(&world, integ, &scene.run_settings(), Vec::new());
     assert_eq!(summary.stopped, None);
     assert_eq!(summary.steps, 10_000);
     // Round-off. Measured 5.9e-15.
@@ -954,10 +956,10 @@ fn stress_triangle_hlw_with_opt_in_conserves() {
     )
     .unwrap();
     let world = scene.build().unwrap();
-    let mut integ = scene
+    let integ = scene
         .integrator()
         .build(scene.sim.dt, &scene.variational_settings());
-    let summary = tumble::run::run(&world, integ.as_mut(), &scene.run_settings(), &mut []).unwrap();
+    let summary = common::run_world(&world, integ, &scene.run_settings(), Vec::new());
     let de = (summary.energy_final - summary.energy_initial).abs() / summary.energy_initial;
     eprintln!(
         "HLW scene: |Δπ|/|π| {:.1e}, energy {de:.1e}, {:?}",
@@ -1096,11 +1098,10 @@ fn stress_mass_urdf_validation_accepts_extremes() {
         )
         .unwrap();
         let world = scene.build().unwrap();
-        let mut integ = scene
+        let integ = scene
             .integrator()
             .build(scene.sim.dt, &scene.variational_settings());
-        let summary =
-            tumble::run::run(&world, integ.as_mut(), &scene.run_settings(), &mut []).unwrap();
+        let summary = common::run_world(&world, integ, &scene.run_settings(), Vec::new());
         eprintln!(
             "mass {mass:e}: principal moments relative error {rel:.1e}, |Δπ|/|π| {:.1e}",
             summary.angmom_rel_change_max

@@ -141,7 +141,7 @@ fn advance_timed(batch: &mut Partitions<'_>, steps: u64, gravity: &Vector3<f64>)
 /// and the count of non-converged solves.
 #[allow(clippy::too_many_arguments)]
 fn time_partitioned(
-    world: &crate::scene::World,
+    world: &crate::world::World,
     ranges: &[std::ops::Range<usize>],
     threads: usize,
     kind: IntegratorKind,
@@ -154,19 +154,15 @@ fn time_partitioned(
         .iter()
         .map(|r| crate::sim::partition::rebase(&world.mechanisms, r))
         .collect();
-    let mut integrators = ranges
+    let integrators = ranges
         .iter()
         .zip(&mechanisms)
-        .map(|(range, m)| crate::scene::World::integrator_of(kind, dt, settings, m, range.len()))
+        .map(|(range, m)| crate::sim::integrator_for(kind, dt, settings, m, range.len()))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let borrowed: Vec<&mut dyn Integrator> = integrators
-        .iter_mut()
-        .map(|b| &mut **b as &mut dyn Integrator)
-        .collect();
     let mut batch = Partitions::with_ranges(
         &world.bodies,
         ranges,
-        borrowed,
+        integrators,
         threads,
         &mechanisms,
         gravity,
@@ -221,13 +217,9 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
     for r in 0..args.repeats {
         for (c, &t) in counts.iter().enumerate() {
             let parts = partition_count(args.bodies, t);
-            let mut integrators: Vec<Box<dyn crate::sim::Integrator>> =
+            let integrators: Vec<Box<dyn crate::sim::Integrator>> =
                 (0..parts).map(|_| kind.build(dt, &settings)).collect();
-            let borrowed: Vec<&mut dyn crate::sim::Integrator> = integrators
-                .iter_mut()
-                .map(|b| &mut **b as &mut dyn crate::sim::Integrator)
-                .collect();
-            let mut batch = Partitions::new(&inits, borrowed, t, f64::MAX, None)?;
+            let mut batch = Partitions::new(&inits, integrators, t, f64::MAX, None)?;
             let started = Instant::now();
             let failures = advance_timed(&mut batch, args.steps, &gravity);
             let ns =
@@ -380,7 +372,7 @@ struct Errors {
 
 /// The largest relative errors of the reported energy and the conserved momenta over `secs`.
 fn measure_errors(
-    world: &crate::scene::World,
+    world: &crate::world::World,
     make: &dyn Fn() -> anyhow::Result<Box<dyn Integrator>>,
     gravity: &Vector3<f64>,
     dt: f64,
@@ -390,7 +382,7 @@ fn measure_errors(
     let mut bodies = Bodies::new(&world.bodies);
     let mut integrator = make()?;
     integrator.init(&bodies);
-    let mut frames = crate::run::FrameBuilder::new(world);
+    let mut frames = crate::simulation::FrameBuilder::new(world);
     let floating: Vec<usize> = world
         .layout
         .mechanisms

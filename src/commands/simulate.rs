@@ -9,10 +9,11 @@ use crate::record::parquet::{BodiesSink, TrajectorySink};
 use crate::record::pipelined::Pipelined;
 use crate::record::rerun::{RerunOptions, RerunSink};
 use crate::record::ros2::Ros2Sink;
-use crate::run::{Diverged, RunSummary};
-use crate::scene::{Scene, SimOverrides, World};
+use crate::scene::{Scene, SimOverrides};
 use crate::sim::integrators::{Jacobian, Potential};
 use crate::sim::{Bodies, limits};
+use crate::simulation::{Diverged, Inits, RunSummary, Simulation};
+use crate::world::World;
 use anyhow::Context;
 use std::path::{Path, PathBuf};
 
@@ -314,6 +315,9 @@ pub struct Outputs {
     pub written: Vec<PathBuf>,
     pub summary: RunSummary,
     pub bodies: usize,
+    /// Threads that stepped the bodies: a small batch uses fewer partitions than threads (and
+    /// a scene with mechanisms is cut only between them).
+    pub stepping_threads: usize,
     /// `--accuracy`: the plan and its a posteriori check.
     pub accuracy: Option<AccuracyReport>,
 }
@@ -462,7 +466,7 @@ pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
 /// the last good recorded step) and then returns a [`Diverged`] error. Without `--accuracy`
 /// (whose check after the run starts from them) the initial states are moved out of
 /// `world.bodies`, which is left empty: the run frees them once the partitions hold theirs
-/// ([`crate::run::Inits`]).
+/// ([`crate::simulation::Inits`]).
 pub fn simulate_world(
     scene: &Scene,
     world: &mut World,
@@ -470,12 +474,6 @@ pub fn simulate_world(
     options: &SimulateOptions,
 ) -> anyhow::Result<Outputs> {
     let body_count = world.bodies.len();
-    // Before any file exists: an integrator the world cannot use is refused with nothing written.
-    world.integrator(
-        scene.integrator(),
-        scene.sim.dt,
-        &scene.variational_settings(),
-    )?;
     // `--accuracy`: refused before any file exists when it cannot apply; the plan (each body's
     // pilot) is computed on the stepping threads.
     let plan = match scene.sim.accuracy {
@@ -487,6 +485,46 @@ pub fn simulate_world(
             options.threads,
         )?),
         None => None,
+    };
+    let (kind, dt, variational) = (
+        scene.integrator(),
+        scene.sim.dt,
+        scene.variational_settings(),
+    );
+    let settings = crate::sim::RunSettings {
+        stop_on_interrupt: true,
+        ..scene.run_settings()
+    };
+    // Before any file exists: the partitions and their integrators (an integrator the world
+    // cannot use is refused with nothing written).
+    let mut sim = if let Some(plan) = &plan {
+        Simulation::new(
+            &*world,
+            Inits::Borrowed(&world.bodies),
+            &|part| Ok(plan.integrator(&variational, part.range.clone())),
+            options.threads,
+            &settings,
+        )?
+    } else {
+        // A mechanism's bodies are coupled by its joint rows: the batch is cut between
+        // mechanisms, each partition's integrator steps its own (docs/mechanisms.md). The
+        // initial states leave the world: the run frees them once the partitions hold theirs.
+        let inits = std::mem::take(&mut world.bodies);
+        Simulation::new(
+            &*world,
+            Inits::Owned(inits),
+            &|part| {
+                crate::sim::integrator_for(
+                    kind,
+                    dt,
+                    &variational,
+                    part.mechanisms,
+                    part.range.len(),
+                )
+            },
+            options.threads,
+            &settings,
+        )?
     };
     let formats = options.formats;
     if formats.mcap || formats.rrd {
@@ -510,7 +548,7 @@ pub fn simulate_world(
     let share = crate::record::pipelined::FrameShare::default();
     let queue = crate::record::pipelined::queue_frames(crate::record::pipelined::frame_bytes(
         world.attachments.len(),
-        world.bodies.len(),
+        body_count,
         world.layout.joints.len(),
     ));
     let add = |sinks: &mut Vec<Box<dyn Sink>>,
@@ -532,7 +570,7 @@ pub fn simulate_world(
             &world.layout,
             &McapOptions {
                 ellipsoids: options.rerun.ellipsoids,
-                compression: options.mcap_compression.resolve(world.bodies.len()),
+                compression: options.mcap_compression.resolve(body_count),
             },
         )
         .map(|sink| {
@@ -562,38 +600,9 @@ pub fn simulate_world(
             .map(|sink| Box::new(sink) as Box<dyn Sink + Send>);
         add(&mut sinks, sink, "tumble-bodies")?;
     }
-    let (kind, dt, variational) = (
-        scene.integrator(),
-        scene.sim.dt,
-        scene.variational_settings(),
-    );
-    let settings = crate::run::RunSettings {
-        stop_on_interrupt: true,
-        ..scene.run_settings()
-    };
-    let result = if let Some(plan) = &plan {
-        crate::run::run_threaded_ranges(
-            &*world,
-            &|range| plan.integrator(&variational, range),
-            options.threads,
-            &settings,
-            &mut sinks,
-        )
-    } else {
-        // A mechanism's bodies are coupled by its joint rows: the batch is cut between
-        // mechanisms, each partition's integrator steps its own (docs/mechanisms.md). The
-        // initial states leave the world: the run frees them once the partitions hold theirs.
-        let inits = std::mem::take(&mut world.bodies);
-        crate::run::run_parts_from(
-            &*world,
-            crate::run::Inits::Owned(inits),
-            &|part| World::integrator_of(kind, dt, &variational, part.mechanisms, part.range.len()),
-            options.threads,
-            &settings,
-            &mut sinks,
-        )
-    };
-    let summary = crate::record::finish_all(sinks, result, &outputs)?;
+    sim.attach_all(sinks)?;
+    let stepping_threads = sim.partitions().threads();
+    let summary = sim.run_to_end(&outputs)?;
     let accuracy = plan.map(|plan| {
         let sample = plan.check_sample();
         let checked = in_pool(options.threads, || {
@@ -614,7 +623,7 @@ pub fn simulate_world(
                 "simulation stopped after step {} of {} (t = {} s)",
                 summary.steps,
                 settings.steps,
-                crate::run::time_ns(summary.steps, scene.sim.dt) as f64 / 1e9
+                crate::simulation::time_ns(summary.steps, scene.sim.dt) as f64 / 1e9
             ),
             finished: format!(
                 "the recordings end at that step and are complete: {}",
@@ -644,6 +653,7 @@ pub fn simulate_world(
         written: written.clone(),
         summary,
         bodies: body_count,
+        stepping_threads,
         accuracy,
     })
 }
@@ -804,13 +814,6 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     }
     crate::interrupt::install()?;
     let started = std::time::Instant::now();
-    // What will step: a small batch uses fewer partitions than threads (and a scene with
-    // mechanisms is cut only between them).
-    let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
-    let stepping = crate::sim::partition::stepping_threads(
-        crate::sim::partition::ranges(world.bodies.len(), threads, &mechanism_ranges).len(),
-        threads,
-    );
     let out = simulate_world(
         &scene,
         &mut world,
@@ -829,7 +832,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     )?;
     let wall = started.elapsed().as_secs_f64();
     let s = &out.summary;
-    let threads = stepping;
+    let threads = out.stepping_threads;
     println!(
         "simulated {} bodies for {} steps of {} s ({} s) with {} on {threads} thread{} in {wall:.2} s wall time",
         out.bodies,

@@ -235,7 +235,7 @@ pub fn run(args: &TradeArgs) -> anyhow::Result<()> {
         eprintln!(
             "warning: trade.rrd and trade.mcap end before step {} (t = {} s): {} failed on body {body:?} there: {}",
             d.step,
-            crate::run::time_ns(d.step, report.series_dt) as f64 / 1e9,
+            crate::simulation::time_ns(d.step, report.series_dt) as f64 / 1e9,
             kind.name(),
             d.cause
         );

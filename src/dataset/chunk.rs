@@ -12,6 +12,7 @@ use crate::record::mcap::McapSink;
 use crate::record::rerun::{RerunOptions, RerunSink};
 use crate::record::ros2::Ros2Sink;
 use crate::record::{RecordingLayout, Sink};
+use crate::simulation::{Inits, Simulation};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
@@ -210,13 +211,30 @@ fn simulate_run(
             recordings.push(name);
         }
     }
-    let mut integrator = params
-        .integrator
-        .build(params.dt_secs, &scene.variational_settings());
     let settings = scene.run_settings();
-    let result = crate::run::run(&world, integrator.as_mut(), &settings, &mut sinks);
     let outputs: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
-    let summary = crate::record::finish_all(sinks, result, &outputs)?;
+    // One partition on this worker's thread (the chunks are the parallelism).
+    let variational = scene.variational_settings();
+    let sim = Simulation::new(
+        &world,
+        Inits::Borrowed(&world.bodies),
+        &|part| {
+            crate::sim::integrator_for(
+                params.integrator,
+                params.dt_secs,
+                &variational,
+                part.mechanisms,
+                part.range.len(),
+            )
+        },
+        1,
+        &settings,
+    )
+    .and_then(|mut sim| sim.attach_all(std::mem::take(&mut sinks)).map(|()| sim));
+    let summary = match sim {
+        Ok(sim) => sim.run_to_end(&outputs)?,
+        Err(e) => return crate::record::finish_all(sinks, Err(e), &outputs),
+    };
     let diverged = summary.stopped.map(|d| {
         (
             ctx.body_names[params.model][d.body].clone(),

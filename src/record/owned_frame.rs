@@ -1,6 +1,6 @@
 //! A recorded step that owns its buffers, shared between the sinks' threads without a copy.
 //!
-//! The run's frame builder ([`crate::run::FrameBuilder`]) builds each frame straight into one
+//! The run's frame builder ([`crate::simulation::FrameBuilder`]) builds each frame straight into one
 //! of a few such buffers and hands the same [`Arc`] to every sink ([`super::Sink::write_shared`]):
 //! a pipelined sink ([`super::pipelined`]) queues the `Arc` itself, so a frame is written once
 //! and never copied, and the builder keeps no buffers of its own beside those in flight

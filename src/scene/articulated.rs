@@ -24,7 +24,7 @@
 //! Every link frame is recorded (massless ones too), frame ids as in the other modes. A body is
 //! named after its group's root link frame id.
 
-use super::{Attachment, BaseMode, InteriorFrame, ModelEntry, World};
+use super::{BaseMode, ModelEntry};
 use crate::model::articulation::{self, Articulation};
 use crate::model::kinematics::JointKind;
 use crate::model::{MassProperties, Model};
@@ -36,6 +36,7 @@ use crate::sim::mechanism::{
     Base, BodyPose, CompoundChain, Coordinate, CoordinateKind, JointRows, Mechanism,
     MechanismJoint, MechanismModel, Mimic, RowKind,
 };
+use crate::world::{Attachment, InteriorFrame, World};
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use std::collections::{BTreeSet, HashMap, HashSet};

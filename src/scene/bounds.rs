@@ -1,7 +1,7 @@
 //! Values the integrator and the recordings cannot handle, refused before the run (exit 2)
 //! with the file, the model and the key (docs/limits.md, "Bounds on initial values").
 //!
-//! - **Frame times.** Recording timestamps are whole nanoseconds ([`crate::run::time_ns`]):
+//! - **Frame times.** Recording timestamps are whole nanoseconds ([`crate::simulation::time_ns`]):
 //!   recorded frames `sim.dt × sim.log_every` apart must be at least 1 ns apart, and so must
 //!   the last step (recorded too) be from the frame before it ([`check_frame_times`], with
 //!   the scene's other values); the run must end within `i64::MAX` ns, 292 years
@@ -22,8 +22,9 @@
 //!
 //! These bound only initial values; what the motion does later is the divergence guard's.
 
-use super::{ModelEntry, Scene, World};
+use super::{ModelEntry, Scene};
 use crate::budget::readable;
+use crate::world::World;
 use anyhow::bail;
 
 /// Farthest from the origin a body may get at its initial speed over the run, m: where
@@ -42,7 +43,7 @@ pub fn check_frame_times(
     log_every: u64,
     steps: u64,
 ) -> anyhow::Result<()> {
-    // As `crate::run::time_ns` computes it.
+    // As `crate::simulation::time_ns` computes it.
     let dt_ns = dt * 1e9;
     let spacing_ns = log_every as f64 * dt_ns;
     if spacing_ns < 1.0 {

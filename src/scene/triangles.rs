@@ -12,11 +12,11 @@
 //! over the text, DAE by reading it); a file that cannot be read counts 0 here (the recorder
 //! leaves it out with a warning), one over the per-mesh cap is an error naming it.
 
-use super::World;
 use crate::budget::grouped;
 use crate::model::Geometry;
 use crate::model::geometry::mesh::MeshError;
 use crate::model::geometry::mesh_io::{self, MAX_SCENE_TRIANGLES};
+use crate::world::World;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 

@@ -2,14 +2,18 @@
 
 pub mod accuracy;
 pub mod bodies;
+pub mod choose;
 pub mod guard;
 pub mod integrators;
 pub mod limits;
 pub mod mechanism;
 pub mod partition;
 pub mod reference;
+pub mod run_settings;
 pub mod so3;
 pub mod workload;
 
 pub use bodies::{Bodies, BodyInit};
+pub use choose::integrator_for;
 pub use integrators::{Integrator, IntegratorKind, StepStats};
+pub use run_settings::RunSettings;

@@ -155,7 +155,7 @@ pub struct Part<'a> {
     /// Global index of its first body.
     pub first: usize,
     pub bodies: Bodies,
-    integrator: &'a mut dyn Integrator,
+    integrator: Box<dyn Integrator + 'a>,
     guard: Guard,
     /// Statistics of each step of the current window (failed bodies in global indices).
     stats: Vec<StepStats>,
@@ -243,7 +243,7 @@ impl<'a> Partitions<'a> {
     /// [`stepping_threads`] threads when that is more than one. No mechanisms.
     pub fn new(
         inits: &[BodyInit],
-        integrators: Vec<&'a mut dyn Integrator>,
+        integrators: Vec<Box<dyn Integrator + 'a>>,
         threads: usize,
         divergence_energy_ratio: f64,
         stop_on_newton_failure: Option<u32>,
@@ -275,7 +275,7 @@ impl<'a> Partitions<'a> {
     pub fn with_ranges(
         inits: &[BodyInit],
         ranges: &[Range<usize>],
-        integrators: Vec<&'a mut dyn Integrator>,
+        integrators: Vec<Box<dyn Integrator + 'a>>,
         threads: usize,
         mechanisms: &[Vec<Arc<Mechanism>>],
         gravity: &Vector3<f64>,
@@ -288,7 +288,7 @@ impl<'a> Partitions<'a> {
             .into_iter()
             .zip(ranges)
             .zip(mechanisms)
-            .map(|((integrator, range), mechanisms)| {
+            .map(|((mut integrator, range), mechanisms)| {
                 let bodies = Bodies::new(&inits[range.clone()]);
                 integrator.init(&bodies);
                 let mut guard =
@@ -337,6 +337,11 @@ impl<'a> Partitions<'a> {
 
     pub fn is_empty(&self) -> bool {
         self.len == 0
+    }
+
+    /// Threads stepping the partitions (1 without a pool: on the calling thread).
+    pub fn threads(&self) -> usize {
+        self.pool.as_ref().map_or(1, |p| p.current_num_threads())
     }
 
     /// The step size of the integrators, s.
@@ -556,13 +561,10 @@ mod tests {
         let g = Vector3::zeros();
         for parts in [1, 2] {
             let log = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
-            let mut integrators: Vec<ThreadLog> =
-                (0..parts).map(|_| ThreadLog(log.clone())).collect();
-            let borrowed = integrators
-                .iter_mut()
-                .map(|i| i as &mut dyn Integrator)
+            let integrators: Vec<Box<dyn Integrator>> = (0..parts)
+                .map(|_| Box::new(ThreadLog(log.clone())) as Box<dyn Integrator>)
                 .collect();
-            let mut batch = Partitions::new(&inits, borrowed, parts, f64::MAX, None).unwrap();
+            let mut batch = Partitions::new(&inits, integrators, parts, f64::MAX, None).unwrap();
             batch.advance(0, 3, &g);
             let names = log.lock().unwrap().clone();
             assert_eq!(names.len(), 3 * parts);
@@ -601,12 +603,10 @@ mod tests {
         }
         let inits = free_body_batch(2048);
         let log = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
-        let mut integrators: Vec<Slow> = (0..8).map(|k| Slow(log.clone(), k)).collect();
-        let borrowed = integrators
-            .iter_mut()
-            .map(|i| i as &mut dyn Integrator)
+        let integrators: Vec<Box<dyn Integrator>> = (0..8)
+            .map(|k| Box::new(Slow(log.clone(), k)) as Box<dyn Integrator>)
             .collect();
-        let mut batch = Partitions::new(&inits, borrowed, 2, f64::MAX, None).unwrap();
+        let mut batch = Partitions::new(&inits, integrators, 2, f64::MAX, None).unwrap();
         assert_eq!(batch.parts.len(), 8);
         batch.advance(0, 1, &Vector3::zeros());
         let log = log.lock().unwrap().clone();
@@ -657,21 +657,10 @@ mod tests {
         let g = Vector3::new(0.0, 0.0, -9.81);
         for &kind in IntegratorKind::ALL {
             let settings = Default::default();
-            let mut one = kind.build(0.002, &settings);
-            let mut whole =
-                Partitions::new(&inits, vec![one.as_mut()], 1, 100.0, Some(1024)).unwrap();
-            let mut three: Vec<_> = (0..3).map(|_| kind.build(0.002, &settings)).collect();
-            let mut split = Partitions::new(
-                &inits,
-                three
-                    .iter_mut()
-                    .map(|b| &mut **b as &mut dyn Integrator)
-                    .collect(),
-                2,
-                100.0,
-                Some(1024),
-            )
-            .unwrap();
+            let one = kind.build(0.002, &settings);
+            let mut whole = Partitions::new(&inits, vec![one], 1, 100.0, Some(1024)).unwrap();
+            let three: Vec<_> = (0..3).map(|_| kind.build(0.002, &settings)).collect();
+            let mut split = Partitions::new(&inits, three, 2, 100.0, Some(1024)).unwrap();
             assert_eq!(split.parts.len(), 3);
             let (a, b) = (whole.advance(0, 25, &g), split.advance(0, 25, &g));
             assert_eq!(a.stats, b.stats, "{}", kind.name());

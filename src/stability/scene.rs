@@ -20,11 +20,12 @@
 
 use super::Status;
 use crate::record::Frame;
-use crate::run::FrameBuilder;
-use crate::scene::{Scene, World};
+use crate::scene::Scene;
 use crate::sim::guard::{Cause, Guard};
 use crate::sim::limits::ENERGY_ERROR_BOUND;
 use crate::sim::{Bodies, IntegratorKind};
+use crate::simulation::FrameBuilder;
+use crate::world::World;
 use std::fmt::Write as _;
 
 /// Default step sizes: the scene's `dt` times these.

@@ -12,7 +12,7 @@
 //! - `energy_err_max`: largest `|E(t) − E(0)|` of the scene's reported energy, J, every step;
 //! - `momentum_err`: largest `|L(t) − L(0)|` of the conserved angular momenta, kg m²/s: every
 //!   free body's about its centre of mass and every floating model's total about the model's
-//!   centre of mass ([`crate::run::FrameBuilder::conserved_angmom`]); `NaN` when the scene
+//!   centre of mass ([`crate::simulation::FrameBuilder::conserved_angmom`]); `NaN` when the scene
 //!   conserves none (fixed-base models only: the world holds them);
 //! - `ns_per_body_step`: one bare step of the whole scene on one thread (a mechanism's bodies
 //!   are coupled by its rows), divided by the number of bodies.
@@ -33,11 +33,11 @@ use super::measure::{
     EnergySeries, LineFit, SERIES_POINTS, TradeRow, steps_in, timed_median, worst,
 };
 use super::reference::{Reference, rotation_error};
-use crate::run::FrameBuilder;
-use crate::scene::World;
 use crate::sim::integrators::VariationalSettings;
 use crate::sim::mechanism::stepper::SUPPORTED;
 use crate::sim::{Bodies, IntegratorKind};
+use crate::simulation::FrameBuilder;
+use crate::world::World;
 use nalgebra::Vector3;
 use std::time::Instant;
 

@@ -64,14 +64,10 @@ fn timed_partitions(
     parts: usize,
     threads: usize,
 ) -> f64 {
-    let mut integrators: Vec<Box<dyn crate::sim::Integrator>> =
+    let integrators: Vec<Box<dyn crate::sim::Integrator>> =
         (0..parts).map(|_| kind.build(dt, variational)).collect();
-    let borrowed: Vec<&mut dyn crate::sim::Integrator> = integrators
-        .iter_mut()
-        .map(|b| &mut **b as &mut dyn crate::sim::Integrator)
-        .collect();
     let Ok(mut batch) =
-        crate::sim::partition::Partitions::new(init, borrowed, threads, f64::MAX, None)
+        crate::sim::partition::Partitions::new(init, integrators, threads, f64::MAX, None)
     else {
         return f64::NAN;
     };

@@ -10,10 +10,11 @@
 use crate::record::mcap::McapSink;
 use crate::record::rerun::{RerunOptions, RerunSink};
 use crate::record::{Frame, RecordingLayout, Sink, TopicGroup};
-use crate::run::FrameBuilder;
-use crate::scene::{Scene, World};
+use crate::scene::Scene;
 use crate::sim::guard::{Divergence, Guard};
 use crate::sim::{Bodies, IntegratorKind};
+use crate::simulation::FrameBuilder;
+use crate::world::World;
 use std::path::Path;
 
 /// Most frames recorded per run (`log_every` is chosen to stay below).

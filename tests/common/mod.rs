@@ -77,12 +77,12 @@ pub fn reference_frames(scene: &tumble::scene::Scene) -> (Vec<String>, Recorded)
     let world = scene.build().unwrap();
     let memory = Memory::default();
     let frames = memory.frames.clone();
-    let mut sinks: Vec<Box<dyn tumble::record::Sink>> = vec![Box::new(memory)];
-    let mut integ = scene
+    let sinks: Vec<Box<dyn tumble::record::Sink>> = vec![Box::new(memory)];
+    let integ = scene
         .integrator()
         .build(scene.sim.dt, &scene.variational_settings());
     let settings = scene.run_settings();
-    tumble::run::run(&world, integ.as_mut(), &settings, &mut sinks).unwrap();
+    run_world(&world, integ, &settings, sinks);
     let ids = world
         .layout
         .frames
@@ -107,36 +107,39 @@ pub fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
 
-/// Runs `world` (built from `scene`) with `run_parts` on `threads` threads, each partition
-/// stepped by the scene's own integrator, into `sinks`.
+/// Runs `world` with one `integrator` (one partition, this thread) into `sinks`, finished.
+pub fn run_world(
+    world: &tumble::world::World,
+    integrator: Box<dyn tumble::sim::Integrator>,
+    settings: &tumble::sim::RunSettings,
+    sinks: Vec<Box<dyn tumble::record::Sink>>,
+) -> tumble::simulation::RunSummary {
+    let mut sim =
+        tumble::simulation::Simulation::with_integrator(world, integrator, settings).unwrap();
+    sim.attach_all(sinks).unwrap();
+    sim.run_to_end(&[]).unwrap()
+}
+
+/// Runs `world` (built from `scene`) on `threads` threads, each partition stepped by the
+/// scene's own integrator, into `sinks`, finished.
 pub fn run_scene_parts(
     scene: &tumble::scene::Scene,
-    world: &tumble::scene::World,
+    world: &tumble::world::World,
     threads: usize,
-    settings: &tumble::run::RunSettings,
-    sinks: &mut [Box<dyn tumble::record::Sink>],
-) -> tumble::run::RunSummary {
-    let (kind, dt, variational) = (
+    settings: &tumble::sim::RunSettings,
+    sinks: Vec<Box<dyn tumble::record::Sink>>,
+) -> tumble::simulation::RunSummary {
+    let mut sim = tumble::simulation::Simulation::of_world(
+        world,
         scene.integrator(),
         scene.sim.dt,
-        scene.variational_settings(),
-    );
-    tumble::run::run_parts(
-        world,
-        &|part| {
-            tumble::scene::World::integrator_of(
-                kind,
-                dt,
-                &variational,
-                part.mechanisms,
-                part.range.len(),
-            )
-        },
+        &scene.variational_settings(),
         threads,
         settings,
-        sinks,
     )
-    .unwrap()
+    .unwrap();
+    sim.attach_all(sinks).unwrap();
+    sim.run_to_end(&[]).unwrap()
 }
 
 /// A bundled scene of `models/`, as a path string.

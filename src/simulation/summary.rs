@@ -1,0 +1,77 @@
+//! What a run did ([`RunSummary`]), the error of a run the guard stopped ([`Diverged`]), and
+//! the integer clock of the recordings ([`time_ns`]).
+
+use crate::sim::StepStats;
+use crate::sim::guard::Divergence;
+
+/// What a run did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RunSummary {
+    pub steps: u64,
+    /// The last step recorded.
+    pub last_recorded_step: u64,
+    pub frames_recorded: u64,
+    pub stats: StepStats,
+    /// Total mechanical energy of all bodies at the start and at the end, J.
+    pub energy_initial: f64,
+    pub energy_final: f64,
+    /// Largest change of any body's spatial angular momentum about its centre of mass, relative
+    /// to that body's initial |L| (conserved exactly by the variational schemes).
+    pub angmom_rel_change_max: f64,
+    /// Set when the guard stopped the run: `steps` is then the last good step, and the
+    /// recordings end at the last recorded step before it.
+    pub stopped: Option<Divergence>,
+    /// Set when SIGINT/SIGTERM stopped the run (the signal number; 0 for a request from code):
+    /// `steps` is then the last step done, and it was recorded.
+    pub interrupted: Option<i32>,
+}
+
+/// Simulation time of step `k` in integer nanoseconds. Exact integer arithmetic when `dt_secs`
+/// is a whole number of nanoseconds (to 1e-6 ns), else rounded per step.
+pub fn time_ns(step: u64, dt_secs: f64) -> i64 {
+    let dt_ns = dt_secs * 1e9;
+    if (dt_ns - dt_ns.round()).abs() < 1e-6 && dt_ns >= 1.0 {
+        step as i64 * dt_ns.round() as i64
+    } else {
+        (step as f64 * dt_ns).round() as i64
+    }
+}
+
+/// The error of a run the guard stopped ([`RunSummary::stopped`]), after its recordings were
+/// finished. `tumble` exits with status 3 on it.
+#[derive(Debug, Clone)]
+pub struct Diverged {
+    pub divergence: Divergence,
+    /// The body's name (its frame id).
+    pub body_name: String,
+    pub dt_secs: f64,
+    /// Steps recorded, the last one.
+    pub last_recorded_step: u64,
+    /// The finished recordings.
+    pub outputs: Vec<std::path::PathBuf>,
+}
+
+impl std::fmt::Display for Diverged {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let d = &self.divergence;
+        write!(
+            f,
+            "body {:?} (index {}) failed at step {} (t = {} s): {}. The run stopped after step {}; \
+             the recordings end at step {} (t = {} s) and are complete and readable:",
+            self.body_name,
+            d.body,
+            d.step,
+            time_ns(d.step, self.dt_secs) as f64 / 1e9,
+            d.cause,
+            d.step.saturating_sub(1),
+            self.last_recorded_step,
+            time_ns(self.last_recorded_step, self.dt_secs) as f64 / 1e9,
+        )?;
+        for path in &self.outputs {
+            write!(f, " {}", path.display())?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for Diverged {}

@@ -1,0 +1,90 @@
+//! What a scene builds and a simulation steps: the bodies' initial states, the mechanisms over
+//! them, how recorded link frames follow the bodies, and what the recorders need to know
+//! ([`RecordingLayout`]).
+//!
+//! `scene` builds a [`World`] (`crate::scene::Scene::build`); `simulation` steps it; nothing
+//! here knows TOML or integrator choice.
+
+use crate::model::urdf;
+use crate::record::RecordingLayout;
+use crate::sim::BodyInit;
+use crate::sim::integrators::{IntegratorKind, VariationalSettings};
+use crate::sim::mechanism::Mechanism;
+use nalgebra::Isometry3;
+
+/// What a scene builds: the bodies' initial states and how link frames follow them.
+#[derive(Debug, Clone, Default)]
+pub struct World {
+    pub layout: RecordingLayout,
+    pub bodies: Vec<BodyInit>,
+    /// Per recorded frame (same order as `layout.frames`): the body it moves with and the
+    /// constant pose of the link in that body's principal frame. Shared with the run's frame
+    /// builder ([`crate::simulation::FrameBuilder`]) instead of copied: 64 bytes per frame.
+    pub attachments: std::sync::Arc<Vec<Attachment>>,
+    /// Articulated models (`bodies = "articulated"`), each over a contiguous range of
+    /// `bodies`, in scene order (the same order as `layout.mechanisms`).
+    pub mechanisms: Vec<std::sync::Arc<Mechanism>>,
+    /// Frames of compound joints' massless interior links: placed from the mechanism's report,
+    /// not from a body (their [`Attachment`] is a placeholder).
+    pub interior_frames: Vec<InteriorFrame>,
+    /// What the build decided that the user should know (e.g. joints locked because no mass
+    /// hangs from them), one line each; the command prints them.
+    pub notes: Vec<String>,
+    /// The URDF oddities the models loaded with (docs/urdf.md), each once however many models
+    /// share the file; the command prints them.
+    pub warnings: Vec<urdf::LoadWarning>,
+}
+
+/// A massless link frame inside a compound joint.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InteriorFrame {
+    /// Index into `layout.frames`.
+    pub frame: usize,
+    /// Index into `World::mechanisms`.
+    pub mechanism: usize,
+    /// Index into the mechanism report's interior link poses
+    /// ([`crate::sim::mechanism::project::Report::interior_world_from_link`]).
+    pub interior: usize,
+    /// Pose of the frame's link in that interior link's frame (identity for the link itself).
+    pub interior_from_link: Isometry3<f64>,
+}
+
+/// A link frame riding on a body.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Attachment {
+    /// Index into `World::bodies`, or [`Attachment::WORLD`] for a frame at rest (the welded
+    /// root of a fixed-base articulated model): then `body_from_link` is `world_from_link`.
+    pub body: usize,
+    pub body_from_link: Isometry3<f64>,
+}
+
+impl Attachment {
+    /// The `body` of a frame at rest in the world.
+    pub const WORLD: usize = usize::MAX;
+}
+
+impl World {
+    /// What the world holds, for the memory estimate ([`crate::budget::Population`]).
+    pub fn population(&self) -> crate::budget::Population {
+        crate::budget::Population {
+            bodies: self.bodies.len() as f64,
+            frames: self.layout.frames.len() as f64,
+            mechanism_bodies: self
+                .mechanisms
+                .iter()
+                .map(|m| m.bodies().len())
+                .sum::<usize>() as f64,
+            mechanisms: self.mechanisms.len() as f64,
+        }
+    }
+
+    /// The integrator that steps this whole world ([`crate::sim::integrator_for`]).
+    pub fn integrator(
+        &self,
+        kind: IntegratorKind,
+        dt_secs: f64,
+        settings: &VariationalSettings,
+    ) -> anyhow::Result<Box<dyn crate::sim::Integrator>> {
+        crate::sim::integrator_for(kind, dt_secs, settings, &self.mechanisms, self.bodies.len())
+    }
+}
