@@ -13,7 +13,6 @@ pub mod input;
 pub mod interrupt;
 pub mod message;
 pub mod model;
-pub mod placement;
 pub mod plot;
 pub mod record;
 pub mod replay;

@@ -2,7 +2,7 @@
 //! substep factors `--accuracy` chooses, their cost, and the a posteriori check.
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
-use tumble::dataset::rng::Rng;
+use tumble::scene::placement::rng::Rng;
 use tumble::sim::accuracy::Substepped;
 use tumble::sim::accuracy::measure::achieved_error;
 use tumble::sim::accuracy::model::ErrorModel;

@@ -11,9 +11,9 @@ use common::{root, run_py, text, tumble};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use tumble::dataset::distribution::Dist;
-use tumble::dataset::rng::Rng;
 use tumble::dataset::{DatasetSpec, Manifest, Options, generate, merge};
+use tumble::scene::placement::distribution::Dist;
+use tumble::scene::placement::rng::Rng;
 
 /// A spec varying every key over the three bundled models, written to `dir/name`.
 /// `dataset` holds extra `[dataset]` lines; `vary` replaces the `[vary]` entries when given.

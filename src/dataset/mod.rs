@@ -3,7 +3,7 @@
 //! recordings.
 //!
 //! Flow: [`spec`] parses the TOML (template, `[vary]` distributions, run count, master seed);
-//! run `i` draws its parameters from [`rng`] streams seeded by (seed, i) alone ([`sample`]);
+//! run `i` draws its parameters from `crate::scene::placement::rng` streams seeded by (seed, i) alone ([`sample`]);
 //! runs are grouped into chunks of `runs_per_file`, each simulated by one thread in run order
 //! ([`chunk`]) into Parquet part files ([`tables`], [`parquet`]); [`generate`] runs the chunks
 //! in parallel, resumes and stops cleanly, keeping [`manifest`] up to date; [`shard`] splits the
@@ -20,12 +20,10 @@
 //! ```
 
 pub mod chunk;
-pub mod distribution;
 pub mod generate;
 pub mod manifest;
 pub mod merge;
 pub mod parquet;
-pub mod rng;
 pub mod sample;
 pub mod shard;
 pub mod spec;

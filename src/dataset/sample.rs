@@ -1,11 +1,9 @@
 //! What run `i` is: its drawn parameters ([`draw`]), its scene ([`run_scene`]) and its bodies
 //! ([`ModelCache::world`]).
 
-use super::distribution::Dist;
-use super::rng::{Rng, run_seed};
-use super::spec::{DatasetSpec, OrientationDist};
-use crate::model::kinematics::rotation_from_rpy;
+use super::spec::DatasetSpec;
 use crate::scene::Scene;
+use crate::scene::placement::{Dist, Rng, draw_vec3, run_seed};
 use crate::sim::IntegratorKind;
 use crate::world::World;
 use anyhow::Context;
@@ -49,38 +47,6 @@ impl RunParams {
     }
 }
 
-/// A 3-vector key: drawn from `dist` with the key's stream of `seed` (a run's or a copy's
-/// [`run_seed`]), else `value`.
-pub fn draw_vec3(seed: u64, key: &str, dist: &Option<Dist>, value: [f64; 3]) -> [f64; 3] {
-    match dist {
-        Some(d) => {
-            let v = d.sample(&mut Rng::for_key(seed, key));
-            [v[0], v[1], v[2]]
-        }
-        None => value,
-    }
-}
-
-/// The root orientation: drawn as `orientation` says from the `orientation` (uniform) or `rpy`
-/// stream of `seed`, else `R(rpy)`.
-pub fn draw_rotation(
-    seed: u64,
-    orientation: &OrientationDist,
-    rpy: [f64; 3],
-) -> UnitQuaternion<f64> {
-    match orientation {
-        OrientationDist::Template => rotation_from_rpy(rpy),
-        OrientationDist::Uniform => {
-            let [x, y, z, w] = Rng::for_key(seed, "orientation").unit_quaternion_xyzw();
-            UnitQuaternion::new_normalize(Quaternion::new(w, x, y, z))
-        }
-        OrientationDist::Rpy(d) => {
-            let r = d.sample(&mut Rng::for_key(seed, "rpy"));
-            rotation_from_rpy([r[0], r[1], r[2]])
-        }
-    }
-}
-
 /// Draws run `run` of `spec`: each varied key from its own stream of the run's seed.
 pub fn draw(spec: &DatasetSpec, run: u64) -> RunParams {
     let seed = run_seed(spec.seed, run);
@@ -104,7 +70,7 @@ pub fn draw(spec: &DatasetSpec, run: u64) -> RunParams {
         None => None,
     }
     .unwrap_or_else(|| t.integrator());
-    let rotation = draw_rotation(seed, &v.orientation, entry.rpy);
+    let rotation = v.orientation.rotation(seed, entry.rpy);
     let q = rotation.quaternion().coords;
     RunParams {
         run,

@@ -29,8 +29,9 @@
 //! Distributions: [`super::distribution`]. Unknown keys and bad values are errors naming the
 //! spec file and the key.
 
-use super::distribution::{Dist, parse_string_choice};
 use crate::scene::Scene;
+use crate::scene::placement::Orientation;
+use crate::scene::placement::distribution::{Dist, parse_string_choice};
 use crate::sim::IntegratorKind;
 use anyhow::{Context, bail};
 use serde::Deserialize;
@@ -75,17 +76,6 @@ struct DatasetTable {
     record_runs: Option<i64>,
 }
 
-/// How the root link frame's orientation is drawn.
-#[derive(Debug, Clone, PartialEq)]
-pub enum OrientationDist {
-    /// The template's `rpy`.
-    Template,
-    /// Uniformly distributed over SO(3) (Shoemake's method).
-    Uniform,
-    /// Roll, pitch, yaw (rad) from a distribution, `R = Rz Ry Rx`.
-    Rpy(Dist),
-}
-
 /// The `[vary]` table.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Vary {
@@ -96,7 +86,7 @@ pub struct Vary {
     pub integrator: Option<Vec<String>>,
     pub gravity: Option<Dist>,
     pub position: Option<Dist>,
-    pub orientation: OrientationDist,
+    pub orientation: Orientation,
     pub linvel: Option<Dist>,
     pub angvel: Option<Dist>,
 }
@@ -309,18 +299,8 @@ fn parse_vary(prefix: &str, table: &toml::Table) -> anyhow::Result<Vary> {
             );
         }
     }
-    let orientation = match (table.get("orientation"), table.get("rpy")) {
-        (Some(_), Some(_)) => bail!("{prefix}: give orientation or rpy, not both"),
-        (Some(v), None) => match v.as_str() {
-            Some("uniform") => OrientationDist::Uniform,
-            _ => bail!(
-                "{prefix}.orientation: expected \"uniform\" (a uniformly random rotation); \
-                 for other distributions use rpy = {{ ... }}"
-            ),
-        },
-        (None, Some(v)) => OrientationDist::Rpy(Dist::parse(&format!("{prefix}.rpy"), v, 3)?),
-        (None, None) => OrientationDist::Template,
-    };
+    let orientation =
+        Orientation::parse(prefix, table.get("orientation"), table.get("rpy"), false)?;
     Ok(Vary {
         model: strings("model")?,
         dt,

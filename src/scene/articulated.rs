@@ -47,7 +47,7 @@ use std::collections::{BTreeSet, HashMap, HashSet};
 pub(super) struct CopyPlace<'a> {
     pub prefix: Option<&'a str>,
     pub label: &'a str,
-    pub place: &'a crate::placement::Placement,
+    pub place: &'a crate::scene::placement::Placement,
 }
 use std::sync::Arc;
 
@@ -83,7 +83,7 @@ pub(super) fn add_articulated_model(
         *template = Some(prepare(world, model, entry, copy.label)?);
     }
     match template.as_ref().expect("filled above") {
-        Template::Rigid => super::add_rigid_model(
+        Template::Rigid => super::rigid::add_rigid_model(
             world,
             model,
             copy.prefix,

@@ -23,12 +23,15 @@
 //! is `n_<i>`, `i` zero-padded to the width of `copies - 1` (`box_0000` .. `box_9999`), so its
 //! frame ids are `n_<i>/<link>`. Without `copies` the table is one model named as before.
 
-use crate::dataset::distribution::Dist;
-use crate::dataset::rng::run_seed;
-use crate::dataset::spec::OrientationDist;
-use crate::model::kinematics::rotation_from_rpy;
-use anyhow::{Context, bail};
-use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
+pub mod distribution;
+pub mod orientation;
+pub mod rng;
+
+pub use distribution::Dist;
+pub use orientation::Orientation;
+pub use rng::{Rng, run_seed};
+
+use nalgebra::{Isometry3, Translation3, Vector3};
 
 /// Most copies one `[[model]]` may ask for.
 pub const MAX_COPIES: u64 = 10_000_000;
@@ -48,18 +51,6 @@ pub struct Draws {
     pub written: toml::Table,
 }
 
-/// How the root link frame's orientation is given.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub enum Orientation {
-    /// The entry's `rpy` value.
-    #[default]
-    Rpy,
-    /// `orientation = [x, y, z, w]`: a unit quaternion (normalised when read).
-    Quaternion([f64; 4]),
-    /// A distribution: `orientation = "uniform"` or `rpy = { ... }` (the dataset's).
-    Drawn(OrientationDist),
-}
-
 impl Draws {
     /// Whether anything is drawn.
     pub fn is_empty(&self) -> bool {
@@ -70,66 +61,38 @@ impl Draws {
     /// table number `index` of `file`, leaving plain values for serde. Errors name the file,
     /// the model and the key.
     pub fn take(file: &str, index: usize, table: &mut toml::Table) -> anyhow::Result<Self> {
-        let key = |k: &str| format!("{file}: model[{index}].{k}");
+        let prefix = format!("{file}: model[{index}]");
         let mut draws = Draws::default();
+        let mut rpy_dist = None;
         for name in DRAWN_KEYS {
             let Some(value) = table.get(name).filter(|v| v.is_table()).cloned() else {
                 continue;
             };
             table.remove(name);
-            let dist = Dist::parse(&key(name), &value, 3)?;
-            draws.written.insert(name.into(), value);
+            draws.written.insert(name.into(), value.clone());
+            if name == "rpy" {
+                rpy_dist = Some(value);
+                continue;
+            }
+            let dist = Dist::parse(&format!("{prefix}.{name}"), &value, 3)?;
             match name {
                 "position" => draws.position = Some(dist),
-                "rpy" => draws.orientation = Orientation::Drawn(OrientationDist::Rpy(dist)),
                 "linvel" => draws.linvel = Some(dist),
                 _ => draws.angvel = Some(dist),
             }
         }
-        if let Some(value) = table.remove("orientation") {
-            if table.contains_key("rpy") || draws.written.contains_key("rpy") {
-                bail!("{}: give orientation or rpy, not both", key("orientation"));
-            }
-            draws.orientation = match &value {
-                toml::Value::String(s) if s == "uniform" => {
-                    Orientation::Drawn(OrientationDist::Uniform)
-                }
-                toml::Value::Array(a) => {
-                    Orientation::Quaternion(unit_quaternion(&key("orientation"), a)?)
-                }
-                _ => bail!(
-                    "{}: expected \"uniform\" (a uniformly random rotation) or a unit quaternion \
-                     [x, y, z, w] (got {value}); for other distributions use rpy = {{ ... }}",
-                    key("orientation")
-                ),
-            };
+        let orientation = table.remove("orientation");
+        draws.orientation = Orientation::parse(
+            &prefix,
+            orientation.as_ref(),
+            rpy_dist.as_ref(),
+            table.contains_key("rpy"),
+        )?;
+        if let Some(value) = orientation {
             draws.written.insert("orientation".into(), value);
         }
         Ok(draws)
     }
-}
-
-/// `[x, y, z, w]`, finite, of norm 1 within 1e-6 (then normalised).
-fn unit_quaternion(key: &str, items: &[toml::Value]) -> anyhow::Result<[f64; 4]> {
-    let values: Option<Vec<f64>> = items
-        .iter()
-        .map(|v| match v {
-            toml::Value::Float(x) => Some(*x),
-            toml::Value::Integer(i) => Some(*i as f64),
-            _ => None,
-        })
-        .collect();
-    let q = values
-        .filter(|v| v.len() == 4 && v.iter().all(|x| x.is_finite()))
-        .with_context(|| format!("{key}: expected [x, y, z, w], four finite numbers"))?;
-    let norm = q.iter().map(|x| x * x).sum::<f64>().sqrt();
-    if (norm - 1.0).abs() > 1e-6 {
-        bail!(
-            "{key}: the quaternion [x, y, z, w] must have norm 1 (got {})",
-            crate::budget::readable(norm)
-        );
-    }
-    Ok([q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm])
 }
 
 /// Where one copy starts.
@@ -153,31 +116,32 @@ pub struct Fixed {
 }
 
 /// Copy `copy` of a table with `seed`, its fixed values and its draws: each drawn key from its
-/// own stream `Rng::for_key(run_seed(seed, copy), key)`, as [`crate::dataset::sample::draw`].
+/// own stream `Rng::for_key(run_seed(seed, copy), key)`, as a dataset's run draws
+/// (`crate::dataset::sample::draw`).
 pub fn place(fixed: &Fixed, draws: &Draws, seed: u64, copy: u64) -> Placement {
     let stream_seed = run_seed(seed, copy);
     let vec3 = |key: &str, d: &Option<Dist>, value: [f64; 3]| -> Vector3<f64> {
-        Vector3::from(crate::dataset::sample::draw_vec3(
-            stream_seed,
-            key,
-            d,
-            value,
-        ))
-    };
-    let rotation = match &draws.orientation {
-        Orientation::Rpy => rotation_from_rpy(fixed.rpy),
-        Orientation::Quaternion([x, y, z, w]) => {
-            UnitQuaternion::new_unchecked(Quaternion::new(*w, *x, *y, *z))
-        }
-        Orientation::Drawn(d) => crate::dataset::sample::draw_rotation(stream_seed, d, fixed.rpy),
+        Vector3::from(draw_vec3(stream_seed, key, d, value))
     };
     Placement {
         world_from_model: Isometry3::from_parts(
             Translation3::from(vec3("position", &draws.position, fixed.position)),
-            rotation,
+            draws.orientation.rotation(stream_seed, fixed.rpy),
         ),
         linvel_world: vec3("linvel", &draws.linvel, fixed.linvel),
         angvel_world: vec3("angvel", &draws.angvel, fixed.angvel),
+    }
+}
+
+/// A 3-vector key: drawn from `dist` with the key's stream of `seed` (a run's or a copy's
+/// [`run_seed`]), else `value`.
+pub fn draw_vec3(seed: u64, key: &str, dist: &Option<Dist>, value: [f64; 3]) -> [f64; 3] {
+    match dist {
+        Some(d) => {
+            let v = d.sample(&mut Rng::for_key(seed, key));
+            [v[0], v[1], v[2]]
+        }
+        None => value,
     }
 }
 
@@ -213,7 +177,7 @@ mod tests {
         );
         let d = Draws::take("s.toml", 0, &mut t).unwrap();
         assert!(d.position.is_some() && d.linvel.is_none());
-        assert_eq!(d.orientation, Orientation::Drawn(OrientationDist::Uniform));
+        assert_eq!(d.orientation, Orientation::Uniform);
         assert!(!t.contains_key("position") && !t.contains_key("orientation"));
         assert!(t.contains_key("linvel"));
         assert_eq!(d.written.len(), 2);
