@@ -125,115 +125,47 @@ pub enum ModelError {
     NothingToSimulate { path: PathBuf },
 }
 
-/// Loads the URDF at `path` at the zero joint configuration. `package_paths` are searched first
-/// for `package://` meshes (see [`super::package`]).
-pub fn load(path: &Path, package_paths: &[PathBuf]) -> Result<Model, ModelError> {
-    load_at(path, package_paths, &HashMap::new())
+/// What a load varies in, besides the file: everything but the file has a default (no package
+/// paths, the zero joint configuration, [`Strictness::Lenient`], meshes read from the default
+/// folders only).
+#[derive(Debug, Clone, Default)]
+pub struct LoadOptions {
+    /// Searched first for `package://` meshes (`--package-path`; see [`super::package`]).
+    pub package_paths: Vec<PathBuf>,
+    /// The joint configuration the links are placed at (joint name → rad or m; missing joints
+    /// at 0; see [`kinematics::forward_kinematics`]).
+    pub joint_positions: HashMap<String, f64>,
+    /// Whether the oddities of [`lenient`] load (with warnings in `Model::warnings`) or are
+    /// refused.
+    pub strictness: Strictness,
+    /// Folders mesh files may also be read from (`--allow-mesh-path`, the scene's folder and
+    /// `allow_mesh_paths`; [`super::confine`]).
+    pub mesh_access: MeshAccess,
 }
 
-/// [`load`] from text already read; `path` names the file in messages and anchors relative
-/// mesh paths and the parent-folder package search.
-pub fn load_str(xml: &str, path: &Path, package_paths: &[PathBuf]) -> Result<Model, ModelError> {
-    load_str_at(xml, path, package_paths, &HashMap::new())
-}
-
-/// [`load`] with the links placed at a joint configuration (joint name → rad or m; missing
-/// joints at 0; see [`kinematics::forward_kinematics`]).
-pub fn load_at(
-    path: &Path,
-    package_paths: &[PathBuf],
-    joint_positions: &HashMap<String, f64>,
-) -> Result<Model, ModelError> {
-    load_with(path, package_paths, joint_positions, Strictness::Lenient)
-}
-
-/// [`load_at`], choosing whether the oddities of [`lenient`] load (with warnings in
-/// `Model::warnings`) or are refused.
-pub fn load_with(
-    path: &Path,
-    package_paths: &[PathBuf],
-    joint_positions: &HashMap<String, f64>,
-    strictness: Strictness,
-) -> Result<Model, ModelError> {
-    load_with_access(
-        path,
-        package_paths,
-        joint_positions,
-        strictness,
-        &MeshAccess::default(),
-    )
-}
-
-/// [`load_with`], with mesh files also read from the folders of `access` (`--allow-mesh-path`,
-/// the scene's folder and `allow_mesh_paths`; [`super::confine`]).
-pub fn load_with_access(
-    path: &Path,
-    package_paths: &[PathBuf],
-    joint_positions: &HashMap<String, f64>,
-    strictness: Strictness,
-    access: &MeshAccess,
-) -> Result<Model, ModelError> {
+/// Loads the URDF at `path` as `options` say (the defaults: [`LoadOptions::default`]).
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Model, ModelError> {
     let xml = crate::input::read_text(path, crate::input::URDF_MAX_BYTES).map_err(|error| {
         ModelError::Read {
             path: path.to_path_buf(),
             error,
         }
     })?;
-    load_str_with_access(
-        &xml,
-        path,
+    load_str(&xml, path, options)
+}
+
+/// [`load`] from text already read; `path` names the file in messages and anchors relative
+/// mesh paths and the parent-folder package search.
+pub fn load_str(xml: &str, path: &Path, options: &LoadOptions) -> Result<Model, ModelError> {
+    let LoadOptions {
         package_paths,
         joint_positions,
         strictness,
-        access,
-    )
-}
-
-/// [`load_str`] at a joint configuration.
-pub fn load_str_at(
-    xml: &str,
-    path: &Path,
-    package_paths: &[PathBuf],
-    joint_positions: &HashMap<String, f64>,
-) -> Result<Model, ModelError> {
-    load_str_with(
-        xml,
-        path,
-        package_paths,
-        joint_positions,
-        Strictness::Lenient,
-    )
-}
-
-/// [`load_with`] from text already read.
-pub fn load_str_with(
-    xml: &str,
-    path: &Path,
-    package_paths: &[PathBuf],
-    joint_positions: &HashMap<String, f64>,
-    strictness: Strictness,
-) -> Result<Model, ModelError> {
-    load_str_with_access(
-        xml,
-        path,
-        package_paths,
-        joint_positions,
-        strictness,
-        &MeshAccess::default(),
-    )
-}
-
-/// [`load_with_access`] from text already read.
-pub fn load_str_with_access(
-    xml: &str,
-    path: &Path,
-    package_paths: &[PathBuf],
-    joint_positions: &HashMap<String, f64>,
-    strictness: Strictness,
-    access: &MeshAccess,
-) -> Result<Model, ModelError> {
+        mesh_access: access,
+    } = options;
+    let package_paths = package_paths.as_slice();
     let file = || path.to_path_buf();
-    let lenient = strictness == Strictness::Lenient;
+    let lenient = *strictness == Strictness::Lenient;
     let mut warnings = Vec::new();
     let xml = if lenient {
         lenient::blank_misplaced_declarations(xml, path, &mut warnings)
