@@ -39,7 +39,8 @@ use super::confine::{MeshAccess, MeshRoots, MeshStatus, MeshUse, Refusal};
 use super::kinematics::{self, Joint, JointKind, KinematicsError, Mimic};
 use super::package;
 use super::{Collision, Geometry, InertiaSource, Link, MassProperties, Model, Visual};
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Vector3};
+use std::borrow::Cow;
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
@@ -157,39 +158,78 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Model, ModelError> {
 /// [`load`] from text already read; `path` names the file in messages and anchors relative
 /// mesh paths and the parent-folder package search.
 pub fn load_str(xml: &str, path: &Path, options: &LoadOptions) -> Result<Model, ModelError> {
-    let LoadOptions {
-        package_paths,
-        joint_positions,
-        strictness,
-        mesh_access: access,
-    } = options;
-    let package_paths = package_paths.as_slice();
-    let file = || path.to_path_buf();
-    let lenient = *strictness == Strictness::Lenient;
+    let lenient = options.strictness == Strictness::Lenient;
     let mut warnings = Vec::new();
+    let xml = checked_text(xml, path, lenient, &mut warnings)?;
+    let doc = parse_robot_xml(&xml, path)?;
+    let links_with_inertial = links_with_inertial(&doc);
+    let robot = read_robot(&xml, &doc, path, lenient, &mut warnings)?;
+    let index = link_indices(&robot, path)?;
+    let (joints, missing_mimics) = joints(&robot, &index, lenient, path)?;
+    warnings.extend(lenient::mimics_of_missing_joints(
+        &doc,
+        path,
+        &missing_mimics,
+    ));
+    // In file order (stable: the warnings of one element keep the order of the rules).
+    warnings.sort_by_key(|w| w.line);
+    let (root, poses) = place_links(&robot, &joints, &options.joint_positions, path)?;
+    let mut meshes = Meshes::new(path, &options.package_paths, &options.mesh_access);
+    let links = links(&robot, poses, &links_with_inertial, &mut meshes);
+    Ok(Model {
+        name: robot.name.clone(),
+        path: path.to_path_buf(),
+        links,
+        root,
+        joints,
+        warnings,
+        meshes: meshes.uses,
+    })
+}
+
+/// The text as the pre-scan reads it: in lenient mode with misplaced XML declarations blanked
+/// out (a warning each), then checked for XML whose parsing would take work out of proportion
+/// to its size ([`crate::input::check_xml`]: [`ModelError::XmlRefused`]).
+fn checked_text<'a>(
+    xml: &'a str,
+    path: &Path,
+    lenient: bool,
+    warnings: &mut Vec<LoadWarning>,
+) -> Result<Cow<'a, str>, ModelError> {
     let xml = if lenient {
-        lenient::blank_misplaced_declarations(xml, path, &mut warnings)
+        lenient::blank_misplaced_declarations(xml, path, warnings)
     } else {
         xml.into()
     };
-    let xml = xml.as_ref();
-    crate::input::check_xml(xml).map_err(|message| ModelError::XmlRefused {
-        path: file(),
+    crate::input::check_xml(&xml).map_err(|message| ModelError::XmlRefused {
+        path: path.to_path_buf(),
         message,
     })?;
-    let options = roxmltree::ParsingOptions {
+    Ok(xml)
+}
+
+/// How roxmltree parses a URDF: DTDs allowed (entities are bounded by
+/// [`crate::input::check_xml`] first).
+fn xml_options() -> roxmltree::ParsingOptions {
+    roxmltree::ParsingOptions {
         allow_dtd: true,
         ..Default::default()
-    };
-    let doc =
-        roxmltree::Document::parse_with_options(xml, options).map_err(|e| ModelError::Xml {
-            path: file(),
+    }
+}
+
+/// The pre-scan's document: well-formed XML ([`ModelError::Xml`]) whose root element is
+/// `<robot>` ([`ModelError::Parse`] otherwise).
+fn parse_robot_xml<'a>(xml: &'a str, path: &Path) -> Result<roxmltree::Document<'a>, ModelError> {
+    let doc = roxmltree::Document::parse_with_options(xml, xml_options()).map_err(|e| {
+        ModelError::Xml {
+            path: path.to_path_buf(),
             message: e.to_string(),
-        })?;
+        }
+    })?;
     let root = doc.root_element();
     if root.tag_name().name() != "robot" {
         return Err(ModelError::Parse {
-            path: file(),
+            path: path.to_path_buf(),
             location: None,
             message: format!(
                 "the root element is <{}>, expected <robot>",
@@ -197,28 +237,47 @@ pub fn load_str(xml: &str, path: &Path, options: &LoadOptions) -> Result<Model, 
             ),
         });
     }
-    let links_with_inertial: HashSet<&str> = root
+    Ok(doc)
+}
+
+/// The names of the links that have an `<inertial>` element (urdf-rs reads a missing one as
+/// mass 0: only the pre-scan can tell [`InertiaSource::Missing`] from an explicit zero).
+fn links_with_inertial<'a>(doc: &'a roxmltree::Document) -> HashSet<&'a str> {
+    doc.root_element()
         .children()
         .filter(|n| n.has_tag_name("link"))
         .filter(|n| n.children().any(|c| c.has_tag_name("inertial")))
         .filter_map(|n| n.attribute("name"))
-        .collect();
-    let mut edits = empty_textures(&doc);
+        .collect()
+}
+
+/// urdf-rs's reading of the text, after cutting out what it cannot read and URDF allows
+/// (empty `<texture/>`s) and, in lenient mode, the oddities of [`lenient`] (a warning each).
+/// When urdf-rs fails, [`ModelError::Parse`] names the first link or joint it cannot read
+/// ([`locate_parse_problem`]), located in the text urdf-rs read (what the leniency fixed is no
+/// longer a problem), with urdf-rs's message on one line.
+fn read_robot(
+    xml: &str,
+    doc: &roxmltree::Document,
+    path: &Path,
+    lenient: bool,
+    warnings: &mut Vec<LoadWarning>,
+) -> Result<urdf_rs::Robot, ModelError> {
+    let mut edits = empty_textures(doc);
     if lenient {
-        let (more, found) = lenient::document_edits(&doc, path);
+        let (more, found) = lenient::document_edits(doc, path);
         edits.extend(more);
         warnings.extend(found);
     }
     let cleaned = lenient::apply(xml, edits);
-    let robot = urdf_rs::read_from_string(&cleaned).map_err(|e| ModelError::Parse {
-        path: file(),
-        // Located in the text urdf-rs read (what the leniency fixed is no longer a problem).
+    urdf_rs::read_from_string(&cleaned).map_err(|e| ModelError::Parse {
+        path: path.to_path_buf(),
         location: match &cleaned {
-            std::borrow::Cow::Borrowed(_) => locate_parse_problem(&doc),
-            std::borrow::Cow::Owned(text) => {
-                match roxmltree::Document::parse_with_options(text, options) {
+            Cow::Borrowed(_) => locate_parse_problem(doc),
+            Cow::Owned(text) => {
+                match roxmltree::Document::parse_with_options(text, xml_options()) {
                     Ok(edited) => locate_parse_problem(&edited),
-                    Err(_) => locate_parse_problem(&doc),
+                    Err(_) => locate_parse_problem(doc),
                 }
             }
         },
@@ -228,20 +287,46 @@ pub fn load_str(xml: &str, path: &Path, options: &LoadOptions) -> Result<Model, 
             .split_whitespace()
             .collect::<Vec<_>>()
             .join(" "),
-    })?;
+    })
+}
 
+/// Each link's index in file order, checking that there is at least one link
+/// ([`ModelError::NoLinks`]) and that no name is used twice ([`ModelError::DuplicateLink`]).
+fn link_indices<'r>(
+    robot: &'r urdf_rs::Robot,
+    path: &Path,
+) -> Result<HashMap<&'r str, usize>, ModelError> {
     if robot.links.is_empty() {
-        return Err(ModelError::NoLinks { path: file() });
+        return Err(ModelError::NoLinks {
+            path: path.to_path_buf(),
+        });
     }
     let mut index: HashMap<&str, usize> = HashMap::new();
     for (i, link) in robot.links.iter().enumerate() {
         if index.insert(link.name.as_str(), i).is_some() {
             return Err(ModelError::DuplicateLink {
-                path: file(),
+                path: path.to_path_buf(),
                 link: link.name.clone(),
             });
         }
     }
+    Ok(index)
+}
+
+/// A `<mimic>` dropped because the joint it mimics does not exist: (joint, mimicked joint).
+type DroppedMimic<'r> = (&'r str, &'r str);
+
+/// The joints in file order, their links by index: checks that no joint name is used twice
+/// ([`ModelError::DuplicateJoint`]) and that parent and child are links of the robot
+/// ([`ModelError::UnknownLink`]). Limits are kept for revolute and prismatic joints whose
+/// upper bound is above the lower. In lenient mode a `<mimic>` of a joint that does not exist
+/// is dropped and returned as a (joint, mimicked) pair for its warning.
+fn joints<'r>(
+    robot: &'r urdf_rs::Robot,
+    index: &HashMap<&str, usize>,
+    lenient: bool,
+    path: &Path,
+) -> Result<(Vec<Joint>, Vec<DroppedMimic<'r>>), ModelError> {
     let all_joint_names: HashSet<&str> = robot.joints.iter().map(|j| j.name.as_str()).collect();
     let mut joint_names = HashSet::new();
     let mut missing_mimics = Vec::new();
@@ -249,7 +334,7 @@ pub fn load_str(xml: &str, path: &Path, options: &LoadOptions) -> Result<Model, 
     for j in &robot.joints {
         if !joint_names.insert(j.name.as_str()) {
             return Err(ModelError::DuplicateJoint {
-                path: file(),
+                path: path.to_path_buf(),
                 joint: j.name.clone(),
             });
         }
@@ -258,7 +343,7 @@ pub fn load_str(xml: &str, path: &Path, options: &LoadOptions) -> Result<Model, 
                 .get(name)
                 .copied()
                 .ok_or_else(|| ModelError::UnknownLink {
-                    path: file(),
+                    path: path.to_path_buf(),
                     joint: j.name.clone(),
                     role,
                     link: name.to_string(),
@@ -294,13 +379,21 @@ pub fn load_str(xml: &str, path: &Path, options: &LoadOptions) -> Result<Model, 
             .filter(|[lo, hi]| hi > lo),
         });
     }
-    warnings.extend(lenient::mimics_of_missing_joints(
-        &doc,
-        path,
-        &missing_mimics,
-    ));
-    // In file order (stable: the warnings of one element keep the order of the rules).
-    warnings.sort_by_key(|w| w.line);
+    Ok((joints, missing_mimics))
+}
+
+/// The root link's index and every link's pose in the model (root link) frame at
+/// `joint_positions`: checks that the joints form a tree with one root
+/// ([`ModelError::SeveralParents`], [`ModelError::SeveralRoots`], [`ModelError::Cycle`]) and
+/// that the configuration names joints that exist and can take it
+/// ([`ModelError::Configuration`]).
+fn place_links(
+    robot: &urdf_rs::Robot,
+    joints: &[Joint],
+    joint_positions: &HashMap<String, f64>,
+    path: &Path,
+) -> Result<(usize, Vec<Isometry3<f64>>), ModelError> {
+    let file = || path.to_path_buf();
     let names: Vec<String> = robot.links.iter().map(|l| l.name.clone()).collect();
     let tree_error = |e: KinematicsError| match e {
         KinematicsError::SeveralParents {
@@ -326,84 +419,95 @@ pub fn load_str(xml: &str, path: &Path, options: &LoadOptions) -> Result<Model, 
             error,
         },
     };
-    let (root_index, _) = kinematics::tree_order(&names, &joints).map_err(tree_error)?;
+    let (root_index, _) = kinematics::tree_order(&names, joints).map_err(tree_error)?;
     let poses =
-        kinematics::forward_kinematics(&names, &joints, joint_positions).map_err(tree_error)?;
+        kinematics::forward_kinematics(&names, joints, joint_positions).map_err(tree_error)?;
+    Ok((root_index, poses))
+}
 
-    let materials: HashMap<&str, [f32; 4]> = robot
+/// The named `<material>`s of the robot with a colour, by name (what a visual's
+/// `<material name="..."/>` refers to).
+fn materials(robot: &urdf_rs::Robot) -> HashMap<&str, [f32; 4]> {
+    robot
         .materials
         .iter()
         .filter_map(|m| Some((m.name.as_str(), rgba(m.color.as_ref()?))))
-        .collect();
+        .collect()
+}
 
-    let ros_paths = package::ros_package_path();
-    let mut meshes = Meshes {
-        urdf_path: path,
-        package_paths,
-        roots: MeshRoots::new(path, package_paths, &ros_paths, access),
-        ros_paths,
-        link: "",
-        uses: Vec::new(),
-    };
-    let links = robot
+/// The links in file order, each at its pose in `poses` (see [`link`]).
+fn links<'a>(
+    robot: &'a urdf_rs::Robot,
+    poses: Vec<Isometry3<f64>>,
+    links_with_inertial: &HashSet<&str>,
+    meshes: &mut Meshes<'a>,
+) -> Vec<Link> {
+    let materials = materials(robot);
+    robot
         .links
         .iter()
         .zip(poses)
         .map(|(l, model_from_link)| {
-            let mut problems = Vec::new();
-            meshes.link = &l.name;
-            let first_mesh = meshes.uses.len();
-            let (inertial, source) = if links_with_inertial.contains(l.name.as_str()) {
-                let mp = mass_properties_from_urdf(&l.inertial);
-                problems.extend(mp.validate());
-                (Some(mp), InertiaSource::Urdf)
-            } else {
-                (None, InertiaSource::Missing)
-            };
-            if !pose_is_finite(&model_from_link) {
-                problems.push(NON_FINITE_POSE.to_string());
-            }
-            let visuals = l
-                .visual
-                .iter()
-                .enumerate()
-                .map(|(k, v)| visual(v, k, &mut meshes, &materials, &mut problems))
-                .collect();
-            let collisions = l
-                .collision
-                .iter()
-                .enumerate()
-                .map(|(k, c)| collision(c, k, &mut meshes))
-                .collect();
-            // A refused mesh, visual or collision, is a problem of its link.
-            problems.extend(meshes.uses[first_mesh..].iter().filter_map(|m| {
-                let why = m.refusal()?;
-                Some(format!("{}: mesh `{}`: {why}", m.element, m.uri))
-            }));
-            Link {
-                name: l.name.clone(),
-                model_from_link,
-                inertial,
-                source,
-                problems,
-                visuals,
-                collisions,
-                urdf_inertial: inertial,
-                geometry_used: None,
-                notes: Vec::new(),
-            }
+            let has_inertial = links_with_inertial.contains(l.name.as_str());
+            link(l, model_from_link, has_inertial, &materials, meshes)
         })
-        .collect();
+        .collect()
+}
 
-    Ok(Model {
-        name: robot.name.clone(),
-        path: file(),
-        links,
-        root: root_index,
-        joints,
-        warnings,
-        meshes: meshes.uses,
-    })
+/// One link: its mass properties from `<inertial>` when it has one
+/// ([`InertiaSource::Urdf`], validated: [`MassProperties::validate`]) or none
+/// ([`InertiaSource::Missing`]), its visuals and collisions with their meshes resolved and
+/// confined. Its problems: the validation's findings, a pose that is not finite, bad visual
+/// geometry, unresolved visual meshes, refused meshes (visual or collision).
+fn link<'a>(
+    l: &'a urdf_rs::Link,
+    model_from_link: Isometry3<f64>,
+    has_inertial: bool,
+    materials: &HashMap<&str, [f32; 4]>,
+    meshes: &mut Meshes<'a>,
+) -> Link {
+    let mut problems = Vec::new();
+    meshes.link = &l.name;
+    let first_mesh = meshes.uses.len();
+    let (inertial, source) = if has_inertial {
+        let mp = mass_properties_from_urdf(&l.inertial);
+        problems.extend(mp.validate());
+        (Some(mp), InertiaSource::Urdf)
+    } else {
+        (None, InertiaSource::Missing)
+    };
+    if !pose_is_finite(&model_from_link) {
+        problems.push(NON_FINITE_POSE.to_string());
+    }
+    let visuals = l
+        .visual
+        .iter()
+        .enumerate()
+        .map(|(k, v)| visual(v, k, meshes, materials, &mut problems))
+        .collect();
+    let collisions = l
+        .collision
+        .iter()
+        .enumerate()
+        .map(|(k, c)| collision(c, k, meshes))
+        .collect();
+    // A refused mesh, visual or collision, is a problem of its link.
+    problems.extend(meshes.uses[first_mesh..].iter().filter_map(|m| {
+        let why = m.refusal()?;
+        Some(format!("{}: mesh `{}`: {why}", m.element, m.uri))
+    }));
+    Link {
+        name: l.name.clone(),
+        model_from_link,
+        inertial,
+        source,
+        problems,
+        visuals,
+        collisions,
+        urdf_inertial: inertial,
+        geometry_used: None,
+        notes: Vec::new(),
+    }
 }
 
 const NON_FINITE_POSE: &str = "pose in the model frame is not finite (a joint origin on the path from the root is NaN or infinite)";
@@ -452,6 +556,22 @@ struct Meshes<'a> {
     /// The link being read.
     link: &'a str,
     uses: Vec<MeshUse>,
+}
+
+impl<'a> Meshes<'a> {
+    /// Resolution and confinement for the URDF at `urdf_path` (package paths first, then
+    /// `ROS_PACKAGE_PATH`; the folders of [`MeshRoots`]), nothing found yet.
+    fn new(urdf_path: &'a Path, package_paths: &'a [PathBuf], access: &MeshAccess) -> Self {
+        let ros_paths = package::ros_package_path();
+        Meshes {
+            urdf_path,
+            package_paths,
+            roots: MeshRoots::new(urdf_path, package_paths, &ros_paths, access),
+            ros_paths,
+            link: "",
+            uses: Vec::new(),
+        }
+    }
 }
 
 fn visual(
