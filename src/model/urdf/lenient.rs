@@ -232,7 +232,7 @@ pub(super) fn blank_misplaced_declarations<'a>(
 /// The geometry elements URDF defines (capsule: URDF 1.1, read by urdf-rs and tumble).
 pub(super) const SHAPES: [&str; 5] = ["box", "cylinder", "sphere", "capsule", "mesh"];
 
-/// Children URDF allows once, per parent element (the lists `super::check_unique` refuses
+/// Children URDF allows once, per parent element (the lists `super::locate::check_unique` refuses
 /// repeats of).
 const SINGLE_IN_LINK: [&str; 1] = ["inertial"];
 const SINGLE_IN_INERTIAL: [&str; 3] = ["origin", "mass", "inertia"];
