@@ -325,7 +325,8 @@ pub(super) fn document_edits<'t>(
     (pass.edits, pass.warnings)
 }
 
-fn first_child<'a, 'i>(node: Node<'a, 'i>, tag: &str) -> Option<Node<'a, 'i>> {
+/// The first child element of `node` named `tag`.
+pub(super) fn first_child<'a, 'i>(node: Node<'a, 'i>, tag: &str) -> Option<Node<'a, 'i>> {
     node.children().find(|c| c.has_tag_name(tag))
 }
 

@@ -2,7 +2,7 @@
 //! document is checked against its requirements (required elements and attributes, numbers
 //! and vectors, elements allowed once) to name the first link, joint or material at fault.
 
-use super::lenient;
+use super::lenient::{self, first_child};
 
 /// After urdf-rs failed: find the first link or joint whose content urdf-rs cannot read,
 /// mirroring urdf-rs's requirements (required elements and attributes, numbers and vectors).
@@ -41,11 +41,6 @@ pub(super) fn locate_parse_problem(doc: &roxmltree::Document) -> Option<String> 
 
 /// What is wrong with an element, when something is.
 type Check = Option<String>;
-
-/// The first child element of `node` named `tag`.
-fn child<'a, 'i>(node: roxmltree::Node<'a, 'i>, tag: &str) -> Option<roxmltree::Node<'a, 'i>> {
-    node.children().find(|c| c.has_tag_name(tag))
-}
 
 /// Attribute `attr` of `node`, when present (or `required`), is a number.
 fn check_number(node: roxmltree::Node, attr: &str, required: bool) -> Check {
@@ -89,13 +84,13 @@ fn check_vector(node: roxmltree::Node, attr: &str, n: usize, required: bool) -> 
 
 /// The `<origin>` of `node`, if any: `xyz` and `rpy` are 3 numbers each when present.
 fn check_origin(node: roxmltree::Node) -> Check {
-    let origin = child(node, "origin")?;
+    let origin = first_child(node, "origin")?;
     check_vector(origin, "xyz", 3, false).or_else(|| check_vector(origin, "rpy", 3, false))
 }
 
 /// `node` has a child `<tag>`.
 fn check_required(node: roxmltree::Node, tag: &str) -> Result<(), String> {
-    match child(node, tag) {
+    match first_child(node, tag) {
         Some(_) => Ok(()),
         None => Err(format!("<{}> has no <{tag}>", node.tag_name().name())),
     }
@@ -131,14 +126,14 @@ fn check_link(link: roxmltree::Node) -> Check {
     if let Some(p) = check_unique(link, &["inertial"]) {
         return Some(p);
     }
-    if let Some(inertial) = child(link, "inertial") {
+    if let Some(inertial) = first_child(link, "inertial") {
         if let Some(p) = check_unique(inertial, &["origin", "mass", "inertia"]) {
             return Some(format!("inertial {p}"));
         }
         if let Some(p) = check_origin(inertial) {
             return Some(format!("inertial {p}"));
         }
-        match child(inertial, "mass") {
+        match first_child(inertial, "mass") {
             None => return Some("<inertial> has no <mass>".into()),
             Some(mass) => {
                 if let Some(p) = check_number(mass, "value", true) {
@@ -146,7 +141,7 @@ fn check_link(link: roxmltree::Node) -> Check {
                 }
             }
         }
-        match child(inertial, "inertia") {
+        match first_child(inertial, "inertia") {
             None => return Some("<inertial> has no <inertia>".into()),
             Some(inertia) => {
                 for attr in ["ixx", "ixy", "ixz", "iyy", "iyz", "izz"] {
@@ -183,7 +178,7 @@ fn check_link(link: roxmltree::Node) -> Check {
             .or_else(|| check_origin(element))
             .or_else(|| check_geometry(element).err())
             .or_else(|| {
-                child(element, "material")
+                first_child(element, "material")
                     .filter(|_| element.has_tag_name("visual"))
                     .and_then(check_material)
             });
@@ -198,7 +193,7 @@ fn check_link(link: roxmltree::Node) -> Check {
 /// required attributes, nothing after it.
 fn check_geometry(element: roxmltree::Node) -> Result<(), String> {
     check_required(element, "geometry")?;
-    let geometry = child(element, "geometry").ok_or_else(String::new)?;
+    let geometry = first_child(element, "geometry").ok_or_else(String::new)?;
     let Some(shape) = geometry.children().find(|c| c.is_element()) else {
         return Err("<geometry> is empty".into());
     };
@@ -233,7 +228,7 @@ fn check_material(material: roxmltree::Node) -> Check {
     if material.attribute("name").is_none() {
         return Some("<material> has no `name` attribute".into());
     }
-    child(material, "color").and_then(|c| check_vector(c, "rgba", 4, true))
+    first_child(material, "color").and_then(|c| check_vector(c, "rgba", 4, true))
 }
 
 /// A `<joint>`: a known type, its elements at most once, parent and child links, then the
@@ -274,7 +269,7 @@ fn check_joint(joint: roxmltree::Node, version_1_2: bool) -> Check {
         return Some(p);
     }
     for role in ["parent", "child"] {
-        match child(joint, role) {
+        match first_child(joint, role) {
             None => return Some(format!("<joint> has no <{role}>")),
             Some(n) if n.attribute("link").is_none() => {
                 return Some(format!("<{role}> has no `link` attribute"));
@@ -285,10 +280,10 @@ fn check_joint(joint: roxmltree::Node, version_1_2: bool) -> Check {
     if let Some(p) = check_origin(joint) {
         return Some(p);
     }
-    if let Some(p) = child(joint, "axis").and_then(|a| check_vector(a, "xyz", 3, true)) {
+    if let Some(p) = first_child(joint, "axis").and_then(|a| check_vector(a, "xyz", 3, true)) {
         return Some(p);
     }
-    if let Some(limit) = child(joint, "limit") {
+    if let Some(limit) = first_child(joint, "limit") {
         for attr in ["lower", "upper", "effort"] {
             if let Some(p) = check_number(limit, attr, false) {
                 return Some(p);
@@ -298,7 +293,7 @@ fn check_joint(joint: roxmltree::Node, version_1_2: bool) -> Check {
             return Some(p);
         }
     }
-    if let Some(mimic) = child(joint, "mimic") {
+    if let Some(mimic) = first_child(joint, "mimic") {
         if mimic.attribute("joint").is_none() {
             return Some("<mimic> has no `joint` attribute".into());
         }
@@ -308,7 +303,7 @@ fn check_joint(joint: roxmltree::Node, version_1_2: bool) -> Check {
             }
         }
     }
-    if let Some(s) = child(joint, "safety_controller")
+    if let Some(s) = first_child(joint, "safety_controller")
         && let Some(p) = check_number(s, "k_velocity", true)
     {
         return Some(p);
