@@ -151,7 +151,13 @@ pub fn survey_file_with(
     strictness: urdf::Strictness,
     access: &crate::model::confine::MeshAccess,
 ) -> FileReport {
-    match urdf::load_with_access(path, package_paths, &Default::default(), strictness, access) {
+    let options = urdf::LoadOptions {
+        package_paths: package_paths.to_vec(),
+        strictness,
+        mesh_access: access.clone(),
+        ..Default::default()
+    };
+    match urdf::load(path, &options) {
         Ok(model) => classify(path, &model),
         Err(e) => FileReport {
             path: path.to_path_buf(),

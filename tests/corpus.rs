@@ -269,11 +269,14 @@ fn leniently_loaded_files_read_as_pinocchio_reads_them() {
             .iter()
             .map(|(k, v)| (k.to_string(), *v))
             .collect();
-        let model = urdf::load_with(
+        let model = urdf::load(
             &odd.path,
-            std::slice::from_ref(&share),
-            &joints,
-            Strictness::Lenient,
+            &urdf::LoadOptions {
+                package_paths: vec![share.clone()],
+                joint_positions: joints,
+                strictness: Strictness::Lenient,
+                ..Default::default()
+            },
         )
         .unwrap_or_else(|e| panic!("{e}"));
         let pin_links = pin["links"].as_object().unwrap();

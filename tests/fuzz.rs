@@ -407,7 +407,7 @@ fn fuzz_urdf_loader() {
     let path = common::root().join("tests/hostile/urdf/fuzzed.urdf");
     fuzz("urdf", mutated(valid, hostile), |bytes| {
         let text = String::from_utf8_lossy(&bytes);
-        match urdf::load_str(&text, &path, &[]) {
+        match urdf::load_str(&text, &path, &Default::default()) {
             Ok(model) => exercise_model(&model),
             Err(e) => {
                 let message = e.to_string();

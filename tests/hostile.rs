@@ -528,7 +528,7 @@ fn a_symlink_to_a_device_is_not_a_mesh() {
         "{err}"
     );
     let holder = mesh_urdf(tmp.path(), &tmp.path().join("zero.stl"));
-    let model = tumble::model::urdf::load(&holder, &[]).unwrap();
+    let model = tumble::model::urdf::load(&holder, &Default::default()).unwrap();
     let problems = &model.links[0].problems;
     assert!(
         problems
@@ -541,12 +541,12 @@ fn a_symlink_to_a_device_is_not_a_mesh() {
         allowed: vec![PathBuf::from("/dev")],
         scene_folder: None,
     };
-    let model = tumble::model::urdf::load_with_access(
+    let model = tumble::model::urdf::load(
         &holder,
-        &[],
-        &Default::default(),
-        tumble::model::urdf::Strictness::Lenient,
-        &allowed,
+        &tumble::model::urdf::LoadOptions {
+            mesh_access: allowed,
+            ..Default::default()
+        },
     )
     .unwrap();
     let problems = &model.links[0].problems;

@@ -31,7 +31,7 @@ fn data(name: &str) -> PathBuf {
 }
 
 fn load(name: &str) -> Model {
-    urdf::load(&data(name), &[]).unwrap_or_else(|e| panic!("{e}"))
+    urdf::load(&data(name), &Default::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn settings(inertia: InertiaPolicy, density: f64, geometry: GeometrySource) -> ModelMassSettings {

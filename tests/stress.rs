@@ -868,7 +868,7 @@ fn stress_inertia_thin_strip_against_jacobi_elliptic() {
 #[test]
 fn stress_triangle_equality_urdf_loads_and_simulates() {
     let path = data("triangle_equality.urdf");
-    let model = urdf::load(&path, &[]).unwrap();
+    let model = urdf::load(&path, &Default::default()).unwrap();
     model.check_simulable(false).unwrap();
     let mp = model.links[0].inertial.unwrap();
     assert!(mp.validate().is_empty(), "{:?}", mp.validate());
@@ -918,7 +918,7 @@ fn stress_triangle_equality_urdf_loads_and_simulates() {
 #[test]
 fn stress_triangle_hlw_refused_without_opt_in() {
     let path = data("hairer_lubich_wanner.urdf");
-    let model = urdf::load(&path, &[]).unwrap();
+    let model = urdf::load(&path, &Default::default()).unwrap();
     let err = model.check_simulable(false).unwrap_err().to_string();
     let scene = Scene::parse(
         "[[model]]\nurdf = \"hairer_lubich_wanner.urdf\"\nangvel = [0.3, 0.0, 0.5]\n",
@@ -1074,7 +1074,7 @@ fn stress_mass_urdf_validation_accepts_extremes() {
         );
         let path = dir.path().join(format!("mass_{mass:e}.urdf"));
         std::fs::write(&path, &xml).unwrap();
-        let model = urdf::load(&path, &[]).unwrap();
+        let model = urdf::load(&path, &Default::default()).unwrap();
         model.check_simulable(false).unwrap();
         let mp = model.links[0].inertial.unwrap();
         assert_eq!(mp.mass, mass);

@@ -22,7 +22,7 @@ fn data(name: &str) -> PathBuf {
 }
 
 fn load(path: &Path) -> Model {
-    urdf::load(path, &[]).unwrap_or_else(|e| panic!("{e}"))
+    urdf::load(path, &Default::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn link<'a>(model: &'a Model, name: &str) -> &'a tumble::model::Link {
@@ -224,7 +224,7 @@ fn every_validation_rule_names_file_link_and_rule() {
 #[test]
 fn a_model_without_mass_is_not_simulable() {
     let xml = r#"<robot name="r"><link name="only"/></robot>"#;
-    let model = urdf::load_str(xml, Path::new("frames_only.urdf"), &[]).unwrap();
+    let model = urdf::load_str(xml, Path::new("frames_only.urdf"), &Default::default()).unwrap();
     let msg = model.check_simulable(false).unwrap_err().to_string();
     assert!(
         msg.contains("frames_only.urdf") && msg.contains("nothing to simulate"),
@@ -251,7 +251,7 @@ fn structural_errors_name_file_and_culprit() {
         ("not_xml.urdf", &["not well-formed XML"]),
     ];
     for (file, needles) in cases {
-        let err = urdf::load(&data(file), &[]).expect_err(file);
+        let err = urdf::load(&data(file), &Default::default()).expect_err(file);
         let msg = err.to_string();
         assert!(msg.contains(file), "{file}: {msg}");
         for needle in needles {
@@ -262,7 +262,7 @@ fn structural_errors_name_file_and_culprit() {
 
 #[test]
 fn unreadable_file_is_an_error_naming_it() {
-    let err = urdf::load(Path::new("/nonexistent/robot.urdf"), &[]).unwrap_err();
+    let err = urdf::load(Path::new("/nonexistent/robot.urdf"), &Default::default()).unwrap_err();
     assert!(matches!(err, ModelError::Read { .. }));
     assert!(err.to_string().contains("/nonexistent/robot.urdf"));
 }
@@ -334,7 +334,14 @@ fn package_uris_with_hyphens_resolve_without_ros() {
             .unwrap_or_else(|| panic!("via {}", search.display()));
         assert_eq!(found.canonicalize().unwrap(), mesh.canonicalize().unwrap());
     }
-    let model = urdf::load(&outside, std::slice::from_ref(&ws)).unwrap();
+    let model = urdf::load(
+        &outside,
+        &urdf::LoadOptions {
+            package_paths: vec![ws.clone()],
+            ..Default::default()
+        },
+    )
+    .unwrap();
     assert!(model.links[0].problems.is_empty());
 
     // (b) ROS_PACKAGE_PATH-style entries.
@@ -430,7 +437,14 @@ fn arm_forward_kinematics_at_a_bent_elbow() {
     // Elbow (axis y of its joint frame) at +90 deg: the forearm's x, Rz(90) Ry(90) x, points
     // down (0, 0, -1), so the hand sits 0.25 m below the elbow at z = 0.15.
     let q = HashMap::from([("elbow".to_string(), FRAC_PI_2)]);
-    let model = urdf::load_at(&repo("models/arm.urdf"), &[], &q).unwrap();
+    let model = urdf::load(
+        &repo("models/arm.urdf"),
+        &urdf::LoadOptions {
+            joint_positions: q,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let rz = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), FRAC_PI_2);
     let ry = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), FRAC_PI_2);
     let rx = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), FRAC_PI_2);
@@ -438,9 +452,15 @@ fn arm_forward_kinematics_at_a_bent_elbow() {
     assert_pose(&hand, Vector3::new(0.0, 0.0, 0.15), rz * ry * rx);
     // An unknown joint name is an error naming the file and joint.
     let q = HashMap::from([("knee".to_string(), 1.0)]);
-    let msg = urdf::load_at(&repo("models/arm.urdf"), &[], &q)
-        .unwrap_err()
-        .to_string();
+    let msg = urdf::load(
+        &repo("models/arm.urdf"),
+        &urdf::LoadOptions {
+            joint_positions: q,
+            ..Default::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
     assert!(msg.contains("arm.urdf") && msg.contains("`knee`"), "{msg}");
 }
 

@@ -30,7 +30,12 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
 
 fn load_at(path: &Path, joints: &[(&str, f64)], strictness: Strictness) -> Result<Model, String> {
     let joints: HashMap<String, f64> = joints.iter().map(|(k, v)| (k.to_string(), *v)).collect();
-    urdf::load_with(path, &[], &joints, strictness).map_err(|e| e.to_string())
+    let options = urdf::LoadOptions {
+        joint_positions: joints,
+        strictness,
+        ..Default::default()
+    };
+    urdf::load(path, &options).map_err(|e| e.to_string())
 }
 
 fn lenient(path: &Path) -> Model {

@@ -146,12 +146,14 @@ pub fn run(args: &InspectArgs) -> anyhow::Result<bool> {
             .collect::<std::io::Result<_>>()?,
         scene_folder: None,
     };
-    let mut model = urdf::load_with_access(
+    let mut model = urdf::load(
         &args.model,
-        &args.package_paths,
-        &Default::default(),
-        urdf::Strictness::from_strict(args.strict),
-        &access,
+        &urdf::LoadOptions {
+            package_paths: args.package_paths.clone(),
+            strictness: urdf::Strictness::from_strict(args.strict),
+            mesh_access: access,
+            ..Default::default()
+        },
     )?;
     for warning in &model.warnings {
         eprintln!("warning: {warning}");

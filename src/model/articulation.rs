@@ -21,7 +21,7 @@
 //!
 //! Multi-DOF URDF joints (`floating`, `planar`, `spherical`) are refused unless locked.
 //! This module works in the model (root link) frame at the configuration the model was loaded
-//! at ([`super::urdf::load_at`]); [`crate::scene`] turns the result into bodies and a
+//! at ([`super::urdf::load`]); [`crate::scene`] turns the result into bodies and a
 //! [`crate::sim::mechanism::Mechanism`].
 
 use super::kinematics::{Joint, JointKind, axis_direction};

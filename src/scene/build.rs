@@ -86,12 +86,14 @@ impl Scene {
                 Some(model) => model.clone(),
                 None => {
                     let joints: HashMap<String, f64> = entry.joints.clone().into_iter().collect();
-                    let mut model = urdf::load_with_access(
+                    let mut model = urdf::load(
                         &urdf_path,
-                        &package_paths,
-                        &joints,
-                        urdf::Strictness::from_strict(entry.strict),
-                        &mesh_access,
+                        &urdf::LoadOptions {
+                            package_paths: package_paths.clone(),
+                            joint_positions: joints,
+                            strictness: urdf::Strictness::from_strict(entry.strict),
+                            mesh_access: mesh_access.clone(),
+                        },
                     )
                     .with_context(context)?;
                     // A mesh outside the folders meshes are read from stops everything.

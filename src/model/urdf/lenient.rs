@@ -232,7 +232,7 @@ pub(super) fn blank_misplaced_declarations<'a>(
 /// The geometry elements URDF defines (capsule: URDF 1.1, read by urdf-rs and tumble).
 pub(super) const SHAPES: [&str; 5] = ["box", "cylinder", "sphere", "capsule", "mesh"];
 
-/// Children URDF allows once, per parent element (the lists `super::check_unique` refuses
+/// Children URDF allows once, per parent element (the lists `super::locate::check_unique` refuses
 /// repeats of).
 const SINGLE_IN_LINK: [&str; 1] = ["inertial"];
 const SINGLE_IN_INERTIAL: [&str; 3] = ["origin", "mass", "inertia"];
@@ -325,7 +325,8 @@ pub(super) fn document_edits<'t>(
     (pass.edits, pass.warnings)
 }
 
-fn first_child<'a, 'i>(node: Node<'a, 'i>, tag: &str) -> Option<Node<'a, 'i>> {
+/// The first child element of `node` named `tag`.
+pub(super) fn first_child<'a, 'i>(node: Node<'a, 'i>, tag: &str) -> Option<Node<'a, 'i>> {
     node.children().find(|c| c.has_tag_name(tag))
 }
 
