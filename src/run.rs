@@ -7,7 +7,7 @@ use crate::sim::guard::Divergence;
 use crate::sim::mechanism::Mechanism;
 use crate::sim::mechanism::project::Reporter;
 use crate::sim::partition::Partitions;
-use crate::sim::{Bodies, BodyInit, Integrator, StepStats};
+use crate::sim::{Bodies, BodyInit, Integrator, Loads, StepStats};
 use nalgebra::{Isometry3, Vector3};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -97,13 +97,13 @@ pub struct FrameBuilder {
 }
 
 /// The state of body `j` of `bodies`, as recorded.
-fn body_state(bodies: &Bodies, j: usize, gravity: &Vector3<f64>) -> BodyState {
+fn body_state(bodies: &Bodies, j: usize, loads: &Loads) -> BodyState {
     BodyState {
         linvel_world: bodies.linvel_world[j],
         angvel_world: bodies.angvel_world(j),
         angmom_world: bodies.angmom_world(j),
         kinetic_energy: bodies.kinetic_energy(j),
-        potential_energy: bodies.potential_energy(j, gravity),
+        potential_energy: bodies.potential_energy(j, loads),
     }
 }
 
@@ -177,13 +177,7 @@ impl FrameBuilder {
     }
 
     /// Fills a frame buffer from `bodies` and returns the frame of step `step`.
-    pub fn frame(
-        &mut self,
-        bodies: &Bodies,
-        gravity: &Vector3<f64>,
-        step: u64,
-        dt_secs: f64,
-    ) -> Frame<'_> {
+    pub fn frame(&mut self, bodies: &Bodies, loads: &Loads, step: u64, dt_secs: f64) -> Frame<'_> {
         let time_ns = time_ns(step, dt_secs);
         let time_secs = time_ns as f64 / 1e9;
         let sizes = self.sizes(bodies.len());
@@ -197,13 +191,13 @@ impl FrameBuilder {
             };
         }
         for (i, state) in out.bodies.iter_mut().enumerate() {
-            *state = body_state(bodies, i, gravity);
+            *state = body_state(bodies, i, loads);
         }
         for k in 0..self.mechanisms.len() {
             let (model, reporter) = &mut self.mechanisms[k];
-            reporter.report(model, bodies, gravity, time_secs);
+            reporter.report(model, bodies, loads, time_secs);
             let model = Arc::clone(model);
-            self.write_mechanism(out, k, &model, bodies, 0, gravity, time_secs);
+            self.write_mechanism(out, k, &model, bodies, 0, loads, time_secs);
         }
         self.place_interior_frames(out);
         self.pool = pool;
@@ -221,7 +215,7 @@ impl FrameBuilder {
         model: &Mechanism,
         bodies: &Bodies,
         offset: usize,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         time_secs: f64,
     ) {
         let report = &self.mechanisms[k].1.report;
@@ -236,7 +230,7 @@ impl FrameBuilder {
                 angvel_world: q * omega,
                 angmom_world: q * m,
                 kinetic_energy: 0.5 * mass * v.norm_squared() + 0.5 * m.dot(&omega),
-                potential_energy: bodies.potential_energy(gi, gravity),
+                potential_energy: bodies.potential_energy(gi, loads),
             };
         }
         let joints = self.mechanism_ranges[k].1.clone();
@@ -286,7 +280,7 @@ impl FrameBuilder {
     pub fn frame_of_parts(
         &mut self,
         batch: &Partitions<'_>,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         step: u64,
         dt_secs: f64,
     ) -> Frame<'_> {
@@ -310,7 +304,7 @@ impl FrameBuilder {
         let fill = |(c, states): (usize, &mut [BodyState])| {
             for (k, state) in states.iter_mut().enumerate() {
                 let (bodies, j) = parts.body(c * FRAME_TASK_ITEMS + k);
-                *state = body_state(bodies, j, gravity);
+                *state = body_state(bodies, j, loads);
             }
         };
         // On the stepping pool's threads, or here on one thread (`View::is_threaded`).
@@ -357,7 +351,7 @@ impl FrameBuilder {
                 &mut (Arc<Mechanism>, Reporter),
                 &(usize, Mechanism),
             )| {
-                reporter.report(local, view.part(*k), gravity, time_secs);
+                reporter.report(local, view.part(*k), loads, time_secs);
             };
             if view.is_threaded() {
                 view.install(|| {
@@ -372,7 +366,7 @@ impl FrameBuilder {
             let located = std::mem::take(&mut self.located);
             for (m, (k, local)) in located.iter().enumerate() {
                 let part = &batch.parts[*k];
-                self.write_mechanism(out, m, local, &part.bodies, part.first, gravity, time_secs);
+                self.write_mechanism(out, m, local, &part.bodies, part.first, loads, time_secs);
             }
             self.located = located;
             self.place_interior_frames(out);
@@ -559,7 +553,7 @@ fn run_partitions(
     settings: &RunSettings,
     sinks: &mut [Box<dyn Sink>],
 ) -> anyhow::Result<RunSummary> {
-    let g = settings.gravity;
+    let g = Loads::uniform_gravity(settings.gravity);
     let mut parts = Partitions::with_ranges(
         &inits,
         &ranges,

@@ -5,6 +5,7 @@ pub mod bodies;
 pub mod guard;
 pub mod integrators;
 pub mod limits;
+pub mod loads;
 pub mod mechanism;
 pub mod partition;
 pub mod reference;
@@ -13,3 +14,4 @@ pub mod workload;
 
 pub use bodies::{Bodies, BodyInit};
 pub use integrators::{Integrator, IntegratorKind, StepStats};
+pub use loads::Loads;

@@ -87,6 +87,7 @@ use super::translation::{Potential, step_translation};
 use super::{BLOCK_BODIES, Integrator, StepStats};
 use crate::sim::Bodies;
 use crate::sim::guard::Watch;
+use crate::sim::loads::Loads;
 use crate::sim::so3::{self, Coefficients, Real, SERIES_THETA_SQ};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use std::ops::{Add, Div, Mul, Neg, Sub};
@@ -980,23 +981,23 @@ impl Integrator for Variational {
         self.init_range(bodies, 0..bodies.len());
     }
 
-    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
+    fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
         if self.xi.len() != bodies.len() {
             self.init(bodies);
         }
-        self.step_range(bodies, 0..bodies.len(), gravity)
+        self.step_range(bodies, 0..bodies.len(), loads)
     }
 
     fn step_watched(
         &mut self,
         bodies: &mut Bodies,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         watch: &Watch,
     ) -> (StepStats, bool) {
         if self.xi.len() != bodies.len() {
             self.init(bodies);
         }
-        self.step_range_watched(bodies, 0..bodies.len(), gravity, Some(watch))
+        self.step_range_watched(bodies, 0..bodies.len(), loads, Some(watch))
     }
 }
 
@@ -1027,9 +1028,9 @@ impl Variational {
         &mut self,
         bodies: &mut Bodies,
         range: std::ops::Range<usize>,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
     ) -> StepStats {
-        self.step_range_watched(bodies, range, gravity, None).0
+        self.step_range_watched(bodies, range, loads, None).0
     }
 
     /// [`Variational::step_range`], block by block of [`BLOCK_BODIES`] bodies (rotation, then
@@ -1042,7 +1043,7 @@ impl Variational {
         &mut self,
         bodies: &mut Bodies,
         range: std::ops::Range<usize>,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         watch: Option<&Watch>,
     ) -> (StepStats, bool) {
         let offset = range.start;
@@ -1066,7 +1067,7 @@ impl Variational {
                 &mut bodies.com_world[block.clone()],
                 &mut bodies.linvel_world[block.clone()],
                 dt,
-                gravity,
+                loads,
                 self.settings.potential,
             );
             if let Some(watch) = watch {
@@ -1231,7 +1232,7 @@ mod tests {
     #[test]
     fn batched_lanes_match_one_body_steps_bit_for_bit() {
         let inits = mixed_bodies();
-        let g = Vector3::new(0.0, 0.0, -9.81);
+        let g = Loads::uniform_gravity(Vector3::new(0.0, 0.0, -9.81));
         let mut batch = Bodies::new(&inits);
         let mut batch_integ = Variational::new(0.001, VariationalSettings::default());
         batch_integ.init(&batch);
@@ -1279,7 +1280,7 @@ mod tests {
         let mut bodies = Bodies::new(&vec![init; 5]);
         let mut integ = Variational::new(0.001, VariationalSettings::default());
         integ.init(&bodies);
-        let g = Vector3::zeros();
+        let g = Loads::none();
         assert_eq!(integ.step(&mut bodies, &g).newton_iters_max, 0);
         for _ in 0..20_000 {
             let stats = integ.step(&mut bodies, &g);
@@ -1301,7 +1302,7 @@ mod tests {
         integ.init(&bodies);
         let mut worst: f64 = 0.0;
         for _ in 0..100_000 {
-            integ.step(&mut bodies, &Vector3::zeros());
+            integ.step(&mut bodies, &Loads::none());
             worst = worst.max((bodies.world_from_body[0].coords.norm_squared() - 1.0).abs());
         }
         // Measured 4.4e-16 (2 ulp of 1).
@@ -1319,9 +1320,9 @@ mod tests {
         let mut reference = bodies.clone();
         let mut reference_integ = integ.clone();
         bodies.angmom_body[1] = Vector3::new(f64::NAN, 0.0, 0.0);
-        let stats = integ.step(&mut bodies, &Vector3::zeros());
+        let stats = integ.step(&mut bodies, &Loads::none());
         assert_eq!(stats.newton_failures, 1);
-        reference_integ.step(&mut reference, &Vector3::zeros());
+        reference_integ.step(&mut reference, &Loads::none());
         for i in [0, 2, 3, 4] {
             assert_eq!(bodies.world_from_body[i], reference.world_from_body[i]);
             assert_eq!(bodies.angmom_body[i], reference.angmom_body[i]);

@@ -35,6 +35,7 @@ use super::rows::{BodyPose, MAX_ROWS, RowJacobian, RowValues};
 use super::tree::{Compliance, ExtraRow, Jacobians, TreeSolver};
 use crate::sim::integrators::variational::RotationEval;
 use crate::sim::integrators::{StepStats, VariationalSettings};
+use crate::sim::loads::Loads;
 use crate::sim::{Bodies, so3};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
@@ -273,7 +274,7 @@ impl Workspace {
         model: &Mechanism,
         bodies: &Bodies,
         h: f64,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         settings: &VariationalSettings,
         warm: Option<&Warm>,
     ) -> Attempt {
@@ -358,7 +359,7 @@ impl Workspace {
             if iterations > 0 {
                 self.impulses(model, bodies);
             }
-            let ratio = self.residuals(model, bodies, h, gravity, alpha, tol)?;
+            let ratio = self.residuals(model, bodies, h, loads, alpha, tol)?;
             if ratio <= 1.0 {
                 // Converged: reject the spurious root with a reversed axis.
                 for (j, joint) in model.joints.iter().enumerate() {
@@ -431,14 +432,14 @@ impl Workspace {
         model: &Mechanism,
         bodies: &Bodies,
         h: f64,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         alpha: f64,
         tol: f64,
     ) -> Result<f64, (Failure, u32)> {
         let first = model.first_body;
         let mut ratio: f64 = 0.0;
         let mut com_max: f64 = 0.0;
-        let dc_gravity = gravity * (alpha * h * h);
+        let dc_gravity = loads.gravity() * (alpha * h * h);
         for i in 0..model.body_count {
             let gi = first + i;
             let j = &bodies.inertia_body[gi];
@@ -578,7 +579,7 @@ impl Workspace {
         model: &Mechanism,
         bodies: &mut Bodies,
         h: f64,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         warm: &mut Warm,
     ) {
         let first = model.first_body;
@@ -588,7 +589,7 @@ impl Workspace {
             bodies.world_from_body[gi] = q;
             bodies.angmom_body[gi] = m;
             bodies.com_world[gi] = self.pose_next[i].com;
-            bodies.linvel_world[gi] = self.vplus[i] + gravity * h;
+            bodies.linvel_world[gi] = self.vplus[i] + loads.gravity() * h;
         }
         warm.push(&self.lambda, &self.mu, &self.xi);
         for m in &model.mimics {
@@ -646,37 +647,37 @@ pub fn step(
     warm: &mut Warm,
     bodies: &mut Bodies,
     h: f64,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
     settings: &VariationalSettings,
 ) -> StepStats {
     let ws = &mut state.ws;
     let mut stats = StepStats::default();
     let warm_start = warm.valid.then_some(&*warm);
-    let first = ws.attempt(model, bodies, h, gravity, settings, warm_start);
+    let first = ws.attempt(model, bodies, h, loads, settings, warm_start);
     let outcome = match first {
         Ok(it) => Ok(it),
         Err((_, it)) if warm.valid => {
             stats.newton_iters_max = it;
-            ws.attempt(model, bodies, h, gravity, settings, None)
+            ws.attempt(model, bodies, h, loads, settings, None)
         }
         Err(e) => Err(e),
     };
     match outcome {
         Ok(it) => {
             stats.newton_iters_max = stats.newton_iters_max.max(it);
-            ws.commit(model, bodies, h, gravity, warm);
+            ws.commit(model, bodies, h, loads, warm);
             stats
         }
         Err((_, it)) => {
             stats.newton_iters_max = stats.newton_iters_max.max(it);
             if !settings.substep {
                 // As for free bodies without substepping: the unconverged iterate is used.
-                ws.commit(model, bodies, h, gravity, warm);
+                ws.commit(model, bodies, h, loads, warm);
                 warm.valid = false;
                 stats.add_solve(model.first_body, it, false);
                 return stats;
             }
-            split(model, ws, warm, bodies, h, gravity, settings, &mut stats);
+            split(model, ws, warm, bodies, h, loads, settings, &mut stats);
             stats
         }
     }
@@ -692,7 +693,7 @@ fn split(
     warm: &mut Warm,
     bodies: &mut Bodies,
     h: f64,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
     settings: &VariationalSettings,
     stats: &mut StepStats,
 ) {
@@ -705,14 +706,14 @@ fn split(
         let mut ok = true;
         for _ in 0..n {
             let start = sub_warm.valid.then_some(&sub_warm);
-            let mut result = ws.attempt(model, bodies, hs, gravity, settings, start);
+            let mut result = ws.attempt(model, bodies, hs, loads, settings, start);
             if result.is_err() && sub_warm.valid {
-                result = ws.attempt(model, bodies, hs, gravity, settings, None);
+                result = ws.attempt(model, bodies, hs, loads, settings, None);
             }
             match result {
                 Ok(it) => {
                     stats.newton_iters_max = stats.newton_iters_max.max(it);
-                    ws.commit(model, bodies, hs, gravity, &mut sub_warm);
+                    ws.commit(model, bodies, hs, loads, &mut sub_warm);
                 }
                 Err(_) => {
                     ok = false;
@@ -825,7 +826,7 @@ pub(crate) mod tests {
         let mut bodies = Bodies::new(&inits);
         let mut state = MechanismState::new(&model);
         let mut warm = Warm::new(&model);
-        let g = Vector3::new(0.0, 0.0, -9.81);
+        let g = Loads::uniform_gravity(Vector3::new(0.0, 0.0, -9.81));
         let settings = VariationalSettings::default();
         let h = 1e-3;
         let mut iters = 0;
@@ -855,7 +856,7 @@ pub(crate) mod tests {
     #[test]
     fn a_failed_warm_start_is_retried_cold() {
         let (model, inits, _) = pendulum(1.0);
-        let g = Vector3::new(0.0, 0.0, -9.81);
+        let g = Loads::uniform_gravity(Vector3::new(0.0, 0.0, -9.81));
         let settings = VariationalSettings::default();
         let h = 1e-2;
         let mut bodies = Bodies::new(&inits);
@@ -899,7 +900,7 @@ pub(crate) mod tests {
         let (model, mut inits, _) = pendulum(0.0);
         inits[0].angvel_world = Vector3::new(0.0, 30.0, 0.0);
         inits[0].linvel_world = Vector3::new(-30.0, 0.0, 0.0);
-        let g = Vector3::zeros();
+        let g = Loads::none();
         let settings = VariationalSettings::default();
         let mut bodies = Bodies::new(&inits);
         let mut state = MechanismState::new(&model);
