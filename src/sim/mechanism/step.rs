@@ -106,38 +106,72 @@ pub enum Failure {
     SpuriousRoot,
 }
 
-/// Buffers of one mechanism's step, sized once.
+/// Buffers of one mechanism's step, sized once. Indices: `i` a body of the mechanism (local), `j`
+/// a joint, `m` a mimic row; `k` is the start of the step, `k + 1` (`next`) its end. The
+/// equations are those of the module doc and of [`super`].
 #[derive(Debug, Clone)]
 pub struct Workspace {
+    /// `q_k`: each body's pose (`R_i`, `c_i`) at the start of the step.
     pose_k: Vec<BodyPose>,
+    /// `q_{k+1}(ξ, λ)`: each body's pose at the end, `R_i exp(ξ_i)` and
+    /// `c_i + h v_i⁺ + α h² g`, at the current iterate.
     pose_next: Vec<BodyPose>,
-    q_next: Vec<UnitQuaternion<f64>>,
-    gl: Vec<(RowJacobian, RowJacobian)>,
-    gr: Vec<(RowJacobian, RowJacobian)>,
-    extra_left: Vec<ExtraRow>,
-    extra_right: Vec<ExtraRow>,
-    g: Vec<RowValues>,
-    g_extra: Vec<f64>,
-    mplus: Vec<Vector3<f64>>,
+    /// `R_i exp(ξ_i)` as a quaternion, at the current iterate (the commit takes the renormalised
+    /// one from [`RotationEval::advance`]).
+    rot_next: Vec<UnitQuaternion<f64>>,
+    /// `G(q_k)`: each joint's row Jacobian at the start poses, (parent block, child block); the
+    /// impulses are `G(q_k)ᵀ λ`.
+    jac_k: Vec<(RowJacobian, RowJacobian)>,
+    /// `G(q_{k+1})`: each joint's row Jacobian at the end poses, (parent block, child block).
+    jac_next: Vec<(RowJacobian, RowJacobian)>,
+    /// The mimic rows' gradients at `q_k` (the mimic impulses are their transpose times `μ`).
+    mimic_jac_k: Vec<ExtraRow>,
+    /// The mimic rows' gradients at `q_{k+1}`.
+    mimic_jac_next: Vec<ExtraRow>,
+    /// `g(q_{k+1})`: each joint's constraint rows at the end poses (zero when solved).
+    constraint_residual: Vec<RowValues>,
+    /// Each mimic row's value at the end poses, `θ_follower − k θ_leader − offset`.
+    mimic_residual: Vec<f64>,
+    /// `M_i⁺ = M_i + G_ηᵀ λ` (+ mimic rows): body angular momentum after the start impulses.
+    angmom_plus: Vec<Vector3<f64>>,
     /// Per body: the largest torque impulse added to `M` (its round-off sets the floor of the
     /// free-step residual's tolerance).
     impulse_scale: Vec<f64>,
-    vplus: Vec<Vector3<f64>>,
+    /// `v_i⁺ = v_i + G_cᵀ λ / m_i` (+ mimic rows): velocity after the start impulses.
+    linvel_plus: Vec<Vector3<f64>>,
+    /// The unknowns `ξ_i`: each body's rotation over the step, `R_i' = R_i exp(ξ_i)`.
     xi: Vec<Vector3<f64>>,
+    /// The unknowns `λ_j`: each joint's multipliers (impulses).
     lambda: Vec<RowValues>,
+    /// The unknowns `μ_m`: each mimic row's multiplier.
     mu: Vec<f64>,
-    evals: Vec<RotationEval>,
-    f: Vec<Vector3<f64>>,
-    a_inv: Vec<Matrix3<f64>>,
-    tt: Vec<Matrix3<f64>>,
-    e: Vec<Vector3<f64>>,
-    s: Vec<Compliance>,
-    rhs: Vec<RowValues>,
-    rhs_extra: Vec<f64>,
-    dm: Vec<Vector3<f64>>,
+    /// The free-body step of each body evaluated at `ξ_i` with `M_i⁺`: the residual, the
+    /// Jacobian `A_i`, `T(ξ_i)ᵀ` and the end rotation.
+    free_evals: Vec<RotationEval>,
+    /// `f_i = (J_i/h) ξ_i − T(ξ_i)ᵀ M_i⁺`: the free-body residual (scaled by `1/h`).
+    free_residual: Vec<Vector3<f64>>,
+    /// `A_i⁻¹ = (∂f_i/∂ξ_i)⁻¹`.
+    free_jacobian_inv: Vec<Matrix3<f64>>,
+    /// `T_iᵀ = T(ξ_i)ᵀ`: maps `δξ_i` to the end orientation's variation `η_i'`.
+    t_transpose: Vec<Matrix3<f64>>,
+    /// `e_i = −T_iᵀ A_i⁻¹ f_i`: the end orientation's variation from the free-body Newton
+    /// step alone (at fixed `λ`).
+    eta_fixed_lambda: Vec<Vector3<f64>>,
+    /// `S_i = [(h/m_i) I, 0; 0, T_iᵀ A_i⁻¹ T_iᵀ]`: how the end pose moves with the impulse,
+    /// `[δc_i'; η_i'] = S_i δP_i + [0; e_i]`.
+    compliance: Vec<Compliance>,
+    /// Newton's right-hand side `−g − G(q_{k+1}) [0; e]` per joint, overwritten by the solve of
+    /// `G(q_{k+1}) S G(q_k)ᵀ δλ = −g − G(q_{k+1}) [0; e]` with the increment `δλ`.
+    delta_lambda: Vec<RowValues>,
+    /// The same for the mimic rows: their right-hand side, then the increment `δμ`.
+    delta_mu: Vec<f64>,
+    /// `δM_i⁺ = G_ηᵀ δλ` (+ mimic rows); then `δξ_i = A_i⁻¹ (T_iᵀ δM_i⁺ − f_i)`.
+    delta_angmom_plus: Vec<Vector3<f64>>,
+    /// The linear-time solve of Newton's system for `δλ`, `δμ` ([`super::tree`]).
     solver: TreeSolver,
     /// Unwrapped coordinate values at the current configuration (mimic references).
     pub coord_ref: Vec<f64>,
+    /// Coordinate values at the end poses (scratch for the start's mimic rows).
     coord_next: Vec<f64>,
     /// Body state saved before a split step.
     backup: Backup,
@@ -165,34 +199,34 @@ impl Workspace {
         Self {
             pose_k: vec![BodyPose::identity(); n],
             pose_next: vec![BodyPose::identity(); n],
-            q_next: vec![UnitQuaternion::identity(); n],
-            gl: vec![zj; nj],
-            gr: vec![zj; nj],
-            extra_left: vec![ExtraRow::default(); nm],
-            extra_right: vec![ExtraRow::default(); nm],
-            g: vec![RowValues::zeros(); nj],
-            g_extra: vec![0.0; nm],
-            mplus: vec![Vector3::zeros(); n],
+            rot_next: vec![UnitQuaternion::identity(); n],
+            jac_k: vec![zj; nj],
+            jac_next: vec![zj; nj],
+            mimic_jac_k: vec![ExtraRow::default(); nm],
+            mimic_jac_next: vec![ExtraRow::default(); nm],
+            constraint_residual: vec![RowValues::zeros(); nj],
+            mimic_residual: vec![0.0; nm],
+            angmom_plus: vec![Vector3::zeros(); n],
             impulse_scale: vec![0.0; n],
-            vplus: vec![Vector3::zeros(); n],
+            linvel_plus: vec![Vector3::zeros(); n],
             xi: vec![Vector3::zeros(); n],
             lambda: vec![RowValues::zeros(); nj],
             mu: vec![0.0; nm],
-            evals: vec![zero_eval; n],
-            f: vec![Vector3::zeros(); n],
-            a_inv: vec![Matrix3::identity(); n],
-            tt: vec![Matrix3::identity(); n],
-            e: vec![Vector3::zeros(); n],
-            s: vec![
+            free_evals: vec![zero_eval; n],
+            free_residual: vec![Vector3::zeros(); n],
+            free_jacobian_inv: vec![Matrix3::identity(); n],
+            t_transpose: vec![Matrix3::identity(); n],
+            eta_fixed_lambda: vec![Vector3::zeros(); n],
+            compliance: vec![
                 Compliance {
                     trans: 0.0,
                     rot: Matrix3::zeros()
                 };
                 n
             ],
-            rhs: vec![RowValues::zeros(); nj],
-            rhs_extra: vec![0.0; nm],
-            dm: vec![Vector3::zeros(); n],
+            delta_lambda: vec![RowValues::zeros(); nj],
+            delta_mu: vec![0.0; nm],
+            delta_angmom_plus: vec![Vector3::zeros(); n],
             solver: TreeSolver::new(model.topology(), nm),
             coord_ref: model.coordinates.iter().map(|c| c.initial).collect(),
             coord_next: model.coordinates.iter().map(|c| c.initial).collect(),
@@ -291,7 +325,7 @@ impl Workspace {
         }
         for (j, joint) in model.joints.iter().enumerate() {
             let a = *parent_pose(model, &self.pose_k, j);
-            let (jp, jc) = &mut self.gl[j];
+            let (jp, jc) = &mut self.jac_k[j];
             joint.rows.evaluate(&a, &self.pose_k[joint.child], jp, jc);
         }
         let mut scratch = std::mem::take(&mut self.coord_next);
@@ -310,7 +344,7 @@ impl Workspace {
                 self.coord_next = scratch;
                 return Err((Failure::Singular, 0));
             }
-            self.extra_left[m] = row;
+            self.mimic_jac_k[m] = row;
         }
         self.coord_next = scratch;
         // Start: warm λ, μ, ξ, or cold (λ = 0, ξ from the momenta).
@@ -340,7 +374,7 @@ impl Workspace {
         for i in 0..n {
             let gi = first + i;
             let inv_j = bodies.inv_inertia_body[gi];
-            let m = self.mplus[i];
+            let m = self.angmom_plus[i];
             // ξ ≈ h J⁻¹ (M⁺ − ξ × M⁺ / 2) (from J ξ = h T(ξ)ᵀ M⁺ to second order), with the
             // previous ξ (warm) or the first-order guess (cold) on the right.
             let first_guess = m.component_mul(&inv_j) * h;
@@ -390,38 +424,38 @@ impl Workspace {
     fn impulses(&mut self, model: &Mechanism, bodies: &Bodies) {
         let first = model.first_body;
         for i in 0..model.body_count {
-            self.mplus[i] = bodies.angmom_body[first + i];
+            self.angmom_plus[i] = bodies.angmom_body[first + i];
             self.impulse_scale[i] = 0.0;
-            self.vplus[i] = Vector3::zeros();
+            self.linvel_plus[i] = Vector3::zeros();
         }
         for (j, joint) in model.joints.iter().enumerate() {
-            let (gp, gc) = &self.gl[j];
+            let (gp, gc) = &self.jac_k[j];
             let l = &self.lambda[j];
             let ic = gc.transpose() * l;
             let torque = ic.fixed_rows::<3>(3);
-            self.vplus[joint.child] += ic.fixed_rows::<3>(0);
-            self.mplus[joint.child] += torque;
+            self.linvel_plus[joint.child] += ic.fixed_rows::<3>(0);
+            self.angmom_plus[joint.child] += torque;
             self.impulse_scale[joint.child] = self.impulse_scale[joint.child].max(torque.amax());
             if let Some(p) = joint.parent {
                 let ip = gp.transpose() * l;
                 let torque = ip.fixed_rows::<3>(3);
-                self.vplus[p] += ip.fixed_rows::<3>(0);
-                self.mplus[p] += torque;
+                self.linvel_plus[p] += ip.fixed_rows::<3>(0);
+                self.angmom_plus[p] += torque;
                 self.impulse_scale[p] = self.impulse_scale[p].max(torque.amax());
             }
         }
-        for (m, row) in self.extra_left.iter().enumerate() {
+        for (m, row) in self.mimic_jac_k.iter().enumerate() {
             for (i, r) in row.bodies.iter().flatten() {
                 let imp = r.transpose() * self.mu[m];
                 let torque = imp.fixed_rows::<3>(3);
-                self.vplus[*i] += imp.fixed_rows::<3>(0);
-                self.mplus[*i] += torque;
+                self.linvel_plus[*i] += imp.fixed_rows::<3>(0);
+                self.angmom_plus[*i] += torque;
                 self.impulse_scale[*i] = self.impulse_scale[*i].max(torque.amax());
             }
         }
         for i in 0..model.body_count {
             let gi = first + i;
-            self.vplus[i] = bodies.linvel_world[gi] + self.vplus[i] / bodies.mass[gi];
+            self.linvel_plus[i] = bodies.linvel_world[gi] + self.linvel_plus[i] / bodies.mass[gi];
         }
     }
 
@@ -443,20 +477,20 @@ impl Workspace {
         for i in 0..model.body_count {
             let gi = first + i;
             let j = &bodies.inertia_body[gi];
-            let eval = RotationEval::new(j, &self.mplus[i], h, &self.xi[i]);
+            let eval = RotationEval::new(j, &self.angmom_plus[i], h, &self.xi[i]);
             let f = eval.residual();
             // Relative to the momentum, its terms (the torque impulses may cancel), and `J ξ/h`.
-            let scale = self.mplus[i]
+            let scale = self.angmom_plus[i]
                 .amax()
                 .max(bodies.angmom_body[gi].amax())
                 .max(self.impulse_scale[i])
                 .max((j.component_mul(&self.xi[i]) / h).amax());
             ratio = ratio.max(relative(f.amax(), tol * scale));
-            self.f[i] = f;
-            self.evals[i] = eval;
+            self.free_residual[i] = f;
+            self.free_evals[i] = eval;
             let q = bodies.world_from_body[gi] * so3::exp_quaternion(&self.xi[i]);
-            self.q_next[i] = q;
-            let com = bodies.com_world[gi] + self.vplus[i] * h + dc_gravity;
+            self.rot_next[i] = q;
+            let com = bodies.com_world[gi] + self.linvel_plus[i] * h + dc_gravity;
             com_max = com_max.max(com.amax());
             self.pose_next[i] = BodyPose {
                 rot: q.to_rotation_matrix().into_inner(),
@@ -467,7 +501,7 @@ impl Workspace {
         let dot_tol = tol.max(8.0 * f64::EPSILON);
         for (j, joint) in model.joints.iter().enumerate() {
             let a = *parent_pose(model, &self.pose_next, j);
-            let (jp, jc) = &mut self.gr[j];
+            let (jp, jc) = &mut self.jac_next[j];
             let g = joint
                 .rows
                 .evaluate(&a, &self.pose_next[joint.child], jp, jc);
@@ -479,7 +513,7 @@ impl Workspace {
                 };
                 ratio = ratio.max(relative(g[r].abs(), t));
             }
-            self.g[j] = g;
+            self.constraint_residual[j] = g;
         }
         let mut values = std::mem::take(&mut self.coord_next);
         for m in 0..model.mimics.len() {
@@ -501,8 +535,8 @@ impl Workspace {
                 dot_tol
             };
             ratio = ratio.max(relative(v.abs(), t));
-            self.g_extra[m] = v;
-            self.extra_right[m] = row;
+            self.mimic_residual[m] = v;
+            self.mimic_jac_next[m] = row;
         }
         self.coord_next = values;
         Ok(ratio)
@@ -512,63 +546,68 @@ impl Workspace {
     fn newton_update(&mut self, model: &Mechanism, bodies: &Bodies, h: f64) -> Result<(), Failure> {
         let first = model.first_body;
         for i in 0..model.body_count {
-            let a = self.evals[i].jacobian();
+            let a = self.free_evals[i].jacobian();
             let a_inv = a.try_inverse().ok_or(Failure::Singular)?;
-            let tt = self.evals[i].t_transpose();
-            self.a_inv[i] = a_inv;
-            self.tt[i] = tt;
-            self.e[i] = -(tt * (a_inv * self.f[i]));
-            self.s[i] = Compliance {
+            let tt = self.free_evals[i].t_transpose();
+            self.free_jacobian_inv[i] = a_inv;
+            self.t_transpose[i] = tt;
+            self.eta_fixed_lambda[i] = -(tt * (a_inv * self.free_residual[i]));
+            self.compliance[i] = Compliance {
                 trans: h / bodies.mass[first + i],
                 rot: tt * a_inv * tt,
             };
         }
         for (j, joint) in model.joints.iter().enumerate() {
-            let (gp, gc) = &self.gr[j];
-            let mut r = -self.g[j] - gc.fixed_view::<MAX_ROWS, 3>(0, 3) * self.e[joint.child];
+            let (gp, gc) = &self.jac_next[j];
+            let mut r = -self.constraint_residual[j]
+                - gc.fixed_view::<MAX_ROWS, 3>(0, 3) * self.eta_fixed_lambda[joint.child];
             if let Some(p) = joint.parent {
-                r -= gp.fixed_view::<MAX_ROWS, 3>(0, 3) * self.e[p];
+                r -= gp.fixed_view::<MAX_ROWS, 3>(0, 3) * self.eta_fixed_lambda[p];
             }
-            self.rhs[j] = r;
+            self.delta_lambda[j] = r;
         }
         for m in 0..model.mimics.len() {
-            let mut r = -self.g_extra[m];
-            for (i, row) in self.extra_right[m].bodies.iter().flatten() {
-                r -= (row.fixed_view::<1, 3>(0, 3) * self.e[*i])[0];
+            let mut r = -self.mimic_residual[m];
+            for (i, row) in self.mimic_jac_next[m].bodies.iter().flatten() {
+                r -= (row.fixed_view::<1, 3>(0, 3) * self.eta_fixed_lambda[*i])[0];
             }
-            self.rhs_extra[m] = r;
+            self.delta_mu[m] = r;
         }
         let jac = Jacobians {
-            left: &self.gl,
-            right: &self.gr,
-            extra_left: &self.extra_left,
-            extra_right: &self.extra_right,
+            left: &self.jac_k,
+            right: &self.jac_next,
+            extra_left: &self.mimic_jac_k,
+            extra_right: &self.mimic_jac_next,
         };
-        if !self.solver.factor(&jac, &self.s) {
+        if !self.solver.factor(&jac, &self.compliance) {
             return Err(Failure::Singular);
         }
-        self.solver.solve(&jac, &mut self.rhs, &mut self.rhs_extra);
+        self.solver
+            .solve(&jac, &mut self.delta_lambda, &mut self.delta_mu);
         // δM⁺ = Gηᵀ δλ (+ mimic rows), then δξ.
-        for d in self.dm.iter_mut() {
+        for d in self.delta_angmom_plus.iter_mut() {
             *d = Vector3::zeros();
         }
         for (j, joint) in model.joints.iter().enumerate() {
-            let (gp, gc) = &self.gl[j];
-            let dl = &self.rhs[j];
-            self.dm[joint.child] += gc.fixed_view::<MAX_ROWS, 3>(0, 3).transpose() * dl;
+            let (gp, gc) = &self.jac_k[j];
+            let dl = &self.delta_lambda[j];
+            self.delta_angmom_plus[joint.child] +=
+                gc.fixed_view::<MAX_ROWS, 3>(0, 3).transpose() * dl;
             if let Some(p) = joint.parent {
-                self.dm[p] += gp.fixed_view::<MAX_ROWS, 3>(0, 3).transpose() * dl;
+                self.delta_angmom_plus[p] += gp.fixed_view::<MAX_ROWS, 3>(0, 3).transpose() * dl;
             }
             self.lambda[j] += dl;
         }
         for m in 0..model.mimics.len() {
-            for (i, row) in self.extra_left[m].bodies.iter().flatten() {
-                self.dm[*i] += row.fixed_view::<1, 3>(0, 3).transpose() * self.rhs_extra[m];
+            for (i, row) in self.mimic_jac_k[m].bodies.iter().flatten() {
+                self.delta_angmom_plus[*i] +=
+                    row.fixed_view::<1, 3>(0, 3).transpose() * self.delta_mu[m];
             }
-            self.mu[m] += self.rhs_extra[m];
+            self.mu[m] += self.delta_mu[m];
         }
         for i in 0..model.body_count {
-            self.xi[i] += self.a_inv[i] * (self.tt[i] * self.dm[i] - self.f[i]);
+            self.xi[i] += self.free_jacobian_inv[i]
+                * (self.t_transpose[i] * self.delta_angmom_plus[i] - self.free_residual[i]);
         }
         Ok(())
     }
@@ -585,11 +624,11 @@ impl Workspace {
         let first = model.first_body;
         for i in 0..model.body_count {
             let gi = first + i;
-            let (q, m) = self.evals[i].advance(&bodies.world_from_body[gi]);
+            let (q, m) = self.free_evals[i].advance(&bodies.world_from_body[gi]);
             bodies.world_from_body[gi] = q;
             bodies.angmom_body[gi] = m;
             bodies.com_world[gi] = self.pose_next[i].com;
-            bodies.linvel_world[gi] = self.vplus[i] + loads.gravity() * h;
+            bodies.linvel_world[gi] = self.linvel_plus[i] + loads.gravity() * h;
         }
         warm.push(&self.lambda, &self.mu, &self.xi);
         for m in &model.mimics {
