@@ -28,10 +28,10 @@
 //!
 //! The cost of a step and what bounds it (benchmark history): `docs/variational_performance.md`.
 //!
-//! The files: [`lanes`] (the SIMD lane types), [`newton`] (the Newton core: residual, Jacobians,
-//! solve, predictor, rotation), [`substep`] (substepping of unconverged bodies), [`one_body`] (the
-//! one-body API the articulated step uses), [`integrator`] ([`Variational`], the
-//! [`Integrator`](super::Integrator) impl and the batched step); the settings are here.
+//! The files: `lanes.rs` (the SIMD lane types), `newton.rs` (the Newton core: residual,
+//! Jacobians, solve, predictor, rotation), `substep.rs` (substepping of unconverged bodies),
+//! `one_body.rs` (the one-body API the articulated step uses), `integrator.rs` ([`Variational`],
+//! the [`Integrator`](super::Integrator) impl and the batched step); the settings are here.
 
 mod integrator;
 mod lanes;

@@ -30,8 +30,8 @@
 //! constrained steps of `h/n` (with `substep`); a step that fails even then is a Newton
 //! failure (the run's guard stops the run).
 //!
-//! Files: [`warm`] (the warm start), [`workspace`] (the buffers, named after their equations),
-//! [`assembly`] (the residuals and Jacobians at an iterate), [`newton`] (the Newton loop, one
+//! Files: `warm.rs` (the warm start), `workspace.rs` (the buffers, named after their equations),
+//! `assembly.rs` (the residuals and Jacobians at an iterate), `newton.rs` (the Newton loop, one
 //! update, the commit); here, the step with its guards: warm, cold, substeps.
 
 mod assembly;
