@@ -40,7 +40,7 @@ use rapier3d_f64::prelude::{MassProperties, PhysicsWorld, RigidBodyBuilder, Rigi
 use std::hint::black_box;
 use tumble::sim::guard::Guard;
 use tumble::sim::integrators::{IntegratorKind, Variational, VariationalSettings};
-use tumble::sim::{Bodies, BodyInit, Integrator, StepStats};
+use tumble::sim::{Bodies, BodyInit, Integrator, Loads, StepStats};
 
 const DT_SECS: f64 = 0.001;
 const SIZES: [usize; 3] = [1, 100, 10_000];
@@ -99,7 +99,7 @@ fn check_same_problem() {
     integrator.init(&bodies);
     let (mut world, handles) = rapier_world(&inits, 4);
     for _ in 0..100 {
-        integrator.step(&mut bodies, &gravity());
+        integrator.step(&mut bodies, &Loads::uniform_gravity(gravity()));
         world.step();
     }
     // Rapier folds the additional mass properties in during its first step (and stores 1/m).
@@ -136,7 +136,9 @@ fn step(c: &mut Criterion) {
             integrator.init(&bodies);
             group.throughput(Throughput::Elements(n as u64));
             group.bench_with_input(BenchmarkId::new(kind.name(), n), &n, |b, _| {
-                b.iter(|| integrator.step(black_box(&mut bodies), &gravity()))
+                b.iter(|| {
+                    integrator.step(black_box(&mut bodies), &Loads::uniform_gravity(gravity()))
+                })
             });
         }
     }

@@ -3,6 +3,7 @@
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use tumble::scene::placement::rng::Rng;
+use tumble::sim::Loads;
 use tumble::sim::accuracy::Substepped;
 use tumble::sim::accuracy::measure::achieved_error;
 use tumble::sim::accuracy::model::ErrorModel;
@@ -300,14 +301,14 @@ fn substeps_are_the_schemes_own_steps() {
     mixed.init(&batch);
     let g = Vector3::new(0.0, 0.0, -9.81);
     for _ in 0..50 {
-        mixed.step(&mut batch, &g);
+        mixed.step(&mut batch, &Loads::uniform_gravity(g));
     }
     for (i, b) in bodies.iter().enumerate() {
         let mut one = Bodies::new(std::slice::from_ref(b));
         let mut plain = IntegratorKind::Variational4.build(dt / f64::from(ks[i]), &settings());
         plain.init(&one);
         for _ in 0..50 * ks[i] {
-            plain.step(&mut one, &g);
+            plain.step(&mut one, &Loads::uniform_gravity(g));
         }
         assert_eq!(one.world_from_body[0], batch.world_from_body[i], "body {i}");
         assert_eq!(one.angmom_body[0], batch.angmom_body[i], "body {i}");

@@ -1,6 +1,7 @@
 //! The variational integrator against closed forms and conservation laws.
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use tumble::sim::Loads;
 use tumble::sim::integrators::{Integrator, Potential, Variational, VariationalSettings};
 use tumble::sim::reference::{Axisymmetric, parabola, rotation_error};
 use tumble::sim::so3;
@@ -27,7 +28,7 @@ fn run(
     let mut integ = Variational::new(dt, settings);
     integ.init(&bodies);
     for _ in 0..steps {
-        integ.step(&mut bodies, &g);
+        integ.step(&mut bodies, &Loads::uniform_gravity(g));
     }
     bodies
 }
@@ -58,7 +59,7 @@ fn momentum_conserved_and_energy_bounded_over_1e5_steps() {
     let mut e_err_first: f64 = 0.0; // max over the first tenth
     let mut e_err_last: f64 = 0.0; // max over the last tenth
     for k in 1..=steps {
-        integ.step(&mut bodies, &g);
+        integ.step(&mut bodies, &Loads::uniform_gravity(g));
         l_err_max = l_err_max.max((bodies.angmom_world(0) - l0).norm() / l0.norm());
         let e_err = (bodies.rotational_energy(0) - e0).abs() / e0;
         if k <= steps / 10 {
@@ -94,7 +95,7 @@ fn energy_error_is_second_order() {
         let e0 = bodies.rotational_energy(0);
         let mut worst: f64 = 0.0;
         for _ in 0..(100.0 / dt).round() as u64 {
-            integ.step(&mut bodies, &Vector3::zeros());
+            integ.step(&mut bodies, &Loads::none());
             worst = worst.max((bodies.rotational_energy(0) - e0).abs() / e0);
         }
         worst
@@ -161,7 +162,7 @@ fn parabola_exact_with_symmetric_potential_and_offset_with_end_point() {
     let (c_exact, v_exact) = parabola(
         &init.world_from_body.translation.vector,
         &init.linvel_world,
-        &g,
+        &Loads::uniform_gravity(g),
         t,
     );
 

@@ -9,6 +9,7 @@ mod common;
 use nalgebra::{Matrix2, Vector3};
 use tumble::record::{JointState, MechanismState};
 use tumble::scene::Scene;
+use tumble::sim::Loads;
 use tumble::sim::integrators::{IntegratorKind, VariationalSettings};
 use tumble::sim::reference::elliptic::{complete_k, jacobi_sn_cn_dn};
 use tumble::sim::{Bodies, Integrator, StepStats};
@@ -64,7 +65,9 @@ impl Sim {
 
     fn advance(&mut self, steps: u64) {
         for _ in 0..steps {
-            let s = self.integrator.step(&mut self.bodies, &self.gravity);
+            let s = self
+                .integrator
+                .step(&mut self.bodies, &Loads::uniform_gravity(self.gravity));
             self.stats = self.stats.merge(s);
             self.step += 1;
         }
@@ -72,9 +75,12 @@ impl Sim {
 
     /// The reported joints and model totals at the current step.
     fn report(&mut self) -> (Vec<JointState>, Vec<MechanismState>) {
-        let frame = self
-            .frames
-            .frame(&self.bodies, &self.gravity, self.step, self.dt);
+        let frame = self.frames.frame(
+            &self.bodies,
+            &Loads::uniform_gravity(self.gravity),
+            self.step,
+            self.dt,
+        );
         (frame.joints.to_vec(), frame.mechanisms.to_vec())
     }
 
@@ -707,7 +713,9 @@ fn compound_joint_records_both_angles_and_places_the_massless_link() {
     for _ in 0..500 {
         sim.advance(10);
         let g = sim.gravity;
-        let frame_data = sim.frames.frame(&sim.bodies, &g, sim.step, sim.dt);
+        let frame_data =
+            sim.frames
+                .frame(&sim.bodies, &Loads::uniform_gravity(g), sim.step, sim.dt);
         let poses = frame_data.world_from_link.to_vec();
         let (yaw, pitch) = (frame_data.joints[0].position, frame_data.joints[1].position);
         let l = frame_data.mechanisms[0].angular_momentum;

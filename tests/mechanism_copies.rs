@@ -8,6 +8,7 @@ use nalgebra::Vector3;
 use std::sync::Arc;
 use tumble::scene::Scene;
 use tumble::sim::Bodies;
+use tumble::sim::Loads;
 use tumble::simulation::FrameBuilder;
 use tumble::world::World;
 
@@ -77,7 +78,7 @@ fn run(world: &World, scene: &Scene, steps: u64) -> Bodies {
         .unwrap();
     integrator.init(&bodies);
     for _ in 0..steps {
-        integrator.step(&mut bodies, &scene.gravity());
+        integrator.step(&mut bodies, &Loads::uniform_gravity(scene.gravity()));
     }
     bodies
 }
@@ -121,7 +122,12 @@ fn copies_share_one_mechanism_model_and_each_moves_as_the_model_alone() {
     // Where each copy stands: its root link frame at step 0.
     let mut frames = FrameBuilder::new(&world);
     let roots: Vec<Vector3<f64>> = {
-        let frame = frames.frame(&Bodies::new(&world.bodies), &scene.gravity(), 0, 0.002);
+        let frame = frames.frame(
+            &Bodies::new(&world.bodies),
+            &Loads::uniform_gravity(scene.gravity()),
+            0,
+            0.002,
+        );
         world
             .layout
             .frames

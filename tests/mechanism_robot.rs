@@ -9,6 +9,7 @@ use nalgebra::Vector3;
 use std::path::Path;
 use tumble::scene::Scene;
 use tumble::sim::Bodies;
+use tumble::sim::Loads;
 use tumble::simulation::FrameBuilder;
 
 struct Swing {
@@ -43,7 +44,7 @@ fn swing(robot: &str) -> Swing {
         .unwrap();
     integrator.init(&bodies);
     let mut frames = FrameBuilder::new(&world);
-    frames.frame(&bodies, &gravity, 0, dt);
+    frames.frame(&bodies, &Loads::uniform_gravity(gravity), 0, dt);
     let e0 = frames.total_energy();
     let mut out = Swing {
         joints: world.layout.joints.len(),
@@ -57,10 +58,10 @@ fn swing(robot: &str) -> Swing {
     };
     let mut de_max: f64 = 0.0;
     for step in 1..=10_000 {
-        let stats = integrator.step(&mut bodies, &gravity);
+        let stats = integrator.step(&mut bodies, &Loads::uniform_gravity(gravity));
         out.newton_failures += u64::from(stats.newton_failures);
         out.substepped += u64::from(stats.substepped);
-        let frame = frames.frame(&bodies, &gravity, step, dt);
+        let frame = frames.frame(&bodies, &Loads::uniform_gravity(gravity), step, dt);
         let kinetic: f64 = frame.bodies.iter().map(|b| b.kinetic_energy).sum();
         out.kinetic_max = out.kinetic_max.max(kinetic);
         let m = &frame.mechanisms[0];

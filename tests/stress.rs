@@ -44,6 +44,7 @@ use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use std::path::PathBuf;
 use tumble::model::urdf;
 use tumble::scene::Scene;
+use tumble::sim::Loads;
 use tumble::sim::guard::{Cause, Divergence, Guard};
 use tumble::sim::integrators::variational::solve_xi;
 use tumble::sim::integrators::{IntegratorKind, VariationalSettings};
@@ -159,7 +160,7 @@ fn simulate(
     integ.init(&bodies);
     let mut total = StepStats::default();
     for k in 1..=steps {
-        let stats = integ.step(&mut bodies, &g);
+        let stats = integ.step(&mut bodies, &Loads::uniform_gravity(g));
         total = total.merge(stats);
         each(k, &bodies, &stats);
     }
@@ -1149,7 +1150,7 @@ fn stress_far_position_parabola_at_1e6_m() {
         &defaults(),
         g,
         |k, b, _| {
-            let (c, _) = parabola(&c_far, &v0, &g, k as f64 * dt);
+            let (c, _) = parabola(&c_far, &v0, &Loads::uniform_gravity(g), k as f64 * dt);
             worst = worst.max((b.com_world[0] - c).amax());
             assert!(
                 b.com_world[0]
@@ -1167,7 +1168,7 @@ fn stress_far_position_parabola_at_1e6_m() {
         g,
         |_, _, _| {},
     );
-    let (_, v_exact) = parabola(&c_far, &v0, &g, steps as f64 * dt);
+    let (_, v_exact) = parabola(&c_far, &v0, &Loads::uniform_gravity(g), steps as f64 * dt);
     eprintln!(
         "1e6 m: largest position error {worst:.2e} m = {:.1} ulp over {steps} steps",
         worst / ulp
@@ -1379,12 +1380,12 @@ fn stress_gravity_off_and_on_every_integrator() {
                 let expected = match kind {
                     IntegratorKind::Euler => c0 + v0 * t + g * (t * (t - dt) / 2.0),
                     IntegratorKind::SemiImplicit => c0 + v0 * t + g * (t * (t + dt) / 2.0),
-                    _ => parabola(&c0, &v0, &g, t).0,
+                    _ => parabola(&c0, &v0, &Loads::uniform_gravity(g), t).0,
                 };
                 parabola_err = parabola_err.max((b.com_world[0] - expected).amax());
             },
         );
-        let (_, v_end) = parabola(&c0, &v0, &g, steps as f64 * dt);
+        let (_, v_end) = parabola(&c0, &v0, &Loads::uniform_gravity(g), steps as f64 * dt);
         let v_err = (on.linvel_world[0] - v_end).amax();
         eprintln!(
             "{:>14}: line {line_err:.1e} m, parabola {parabola_err:.1e} m, velocity {v_err:.1e} m/s",
@@ -1509,7 +1510,7 @@ fn stress_mixed_batch_one_bad_body() {
     let mut first_report = None;
     let mut substepped = 0;
     for k in 1..=steps {
-        let stats = integ.step(&mut bodies, &g);
+        let stats = integ.step(&mut bodies, &Loads::uniform_gravity(g));
         substepped += stats.substepped;
         if k <= inject_after {
             assert_eq!(stats.newton_failures, 0, "step {k}: {stats:?}");

@@ -22,6 +22,7 @@
 //!   (`scripts/bench_mechanism.sh`).
 
 use crate::scene::Scene;
+use crate::sim::Loads;
 use crate::sim::partition::{Partitions, partition_count, stepping_threads};
 use crate::sim::workload::free_body_batch;
 use crate::sim::{Bodies, Integrator, IntegratorKind};
@@ -101,7 +102,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
 fn time_steps(
     start: &Bodies,
     make: &dyn Fn() -> anyhow::Result<Box<dyn Integrator>>,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
     args: &BenchArgs,
     per_run: &dyn Fn(usize, f64, u64),
 ) -> anyhow::Result<f64> {
@@ -113,7 +114,7 @@ fn time_steps(
         let started = Instant::now();
         let mut failures = 0u64;
         for _ in 0..args.steps {
-            failures += u64::from(integrator.step(&mut bodies, gravity).newton_failures);
+            failures += u64::from(integrator.step(&mut bodies, loads).newton_failures);
         }
         let ns = started.elapsed().as_secs_f64() * 1e9 / args.steps as f64;
         std::hint::black_box(&bodies);
@@ -125,12 +126,12 @@ fn time_steps(
 
 /// Steps `batch` through `steps` steps, the threads meeting every [`WINDOW_STEPS`]; returns the
 /// count of non-converged solves.
-fn advance_timed(batch: &mut Partitions<'_>, steps: u64, gravity: &Vector3<f64>) -> u64 {
+fn advance_timed(batch: &mut Partitions<'_>, steps: u64, loads: &Loads) -> u64 {
     let mut failures = 0u64;
     let mut step = 0;
     while step < steps {
         let end = (step + WINDOW_STEPS).min(steps);
-        failures += u64::from(batch.advance(step, end, gravity).stats.newton_failures);
+        failures += u64::from(batch.advance(step, end, loads).stats.newton_failures);
         step = end;
     }
     failures
@@ -147,7 +148,7 @@ fn time_partitioned(
     kind: IntegratorKind,
     dt: f64,
     settings: &crate::sim::integrators::VariationalSettings,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
     steps: u64,
 ) -> anyhow::Result<(f64, u64)> {
     let mechanisms: Vec<_> = ranges
@@ -165,12 +166,12 @@ fn time_partitioned(
         integrators,
         threads,
         &mechanisms,
-        gravity,
+        loads,
         f64::MAX,
         None,
     )?;
     let started = Instant::now();
-    let failures = advance_timed(&mut batch, steps, gravity);
+    let failures = advance_timed(&mut batch, steps, loads);
     let ns = started.elapsed().as_secs_f64() * 1e9 / steps as f64;
     std::hint::black_box(&batch.parts);
     Ok((ns, failures))
@@ -191,7 +192,7 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
     let asked = crate::commands::simulate::thread_count(args.threads)?;
     let threads = stepping_threads(partition_count(args.bodies, asked), asked);
     let inits = free_body_batch(args.bodies);
-    let gravity = Vector3::new(0.0, 0.0, -9.81);
+    let loads = Loads::uniform_gravity(Vector3::new(0.0, 0.0, -9.81));
     let settings = Default::default();
     let counts: Vec<usize> = if threads > 1 {
         vec![1, threads]
@@ -221,7 +222,7 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
                 (0..parts).map(|_| kind.build(dt, &settings)).collect();
             let mut batch = Partitions::new(&inits, integrators, t, f64::MAX, None)?;
             let started = Instant::now();
-            let failures = advance_timed(&mut batch, args.steps, &gravity);
+            let failures = advance_timed(&mut batch, args.steps, &loads);
             let ns =
                 started.elapsed().as_secs_f64() * 1e9 / (args.steps as f64 * args.bodies as f64);
             std::hint::black_box(&batch.parts);
@@ -275,7 +276,7 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
         None,
     )
     .check(args.allow_huge)?;
-    let gravity = scene.gravity();
+    let loads = Loads::uniform_gravity(scene.gravity());
     let start = Bodies::new(&world.bodies);
     let make = || world.integrator(kind, dt, &settings);
     make()?;
@@ -291,13 +292,13 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
         if !(secs.is_finite() && secs > 0.0) {
             bail!("--errors-over must be a positive number of seconds (got {secs})");
         }
-        let errors = measure_errors(&world, &make, &gravity, dt, secs)?;
+        let errors = measure_errors(&world, &make, &loads, dt, secs)?;
         println!("errors over {secs} s ({} steps):", errors.steps);
         println!("energy_err_max={:e}", errors.energy);
         println!("momentum_err_max={:e}", errors.angular);
         println!("linear_momentum_err_max={:e}", errors.linear);
     }
-    let ns = time_steps(&start, &make, &gravity, args, &|r, ns, failures| {
+    let ns = time_steps(&start, &make, &loads, args, &|r, ns, failures| {
         println!(
             "run {}: {ns:.1} ns per step, {:.2} ns per body-step ({failures} non-converged solves)",
             r + 1,
@@ -329,7 +330,7 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
         for r in 0..args.repeats {
             for (c, (ranges, t)) in [(&one, 1), (&ranges, used)].into_iter().enumerate() {
                 let (ns, failures) =
-                    time_partitioned(&world, ranges, t, kind, dt, &settings, &gravity, args.steps)?;
+                    time_partitioned(&world, ranges, t, kind, dt, &settings, &loads, args.steps)?;
                 println!(
                     "run {} ({t} thread{}): {ns:.1} ns per step, {:.2} ns per body-step \
                      ({failures} non-converged solves)",
@@ -374,7 +375,7 @@ struct Errors {
 fn measure_errors(
     world: &crate::world::World,
     make: &dyn Fn() -> anyhow::Result<Box<dyn Integrator>>,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
     dt: f64,
     secs: f64,
 ) -> anyhow::Result<Errors> {
@@ -391,7 +392,7 @@ fn measure_errors(
         .filter(|(_, m)| m.floating)
         .map(|(k, _)| k)
         .collect();
-    let frame = frames.frame(&bodies, gravity, 0, dt);
+    let frame = frames.frame(&bodies, loads, 0, dt);
     let p0: Vec<Vector3<f64>> = floating
         .iter()
         .map(|&k| frame.mechanisms[k].linear_momentum)
@@ -409,9 +410,9 @@ fn measure_errors(
         }
     };
     for step in 1..=steps {
-        integrator.step(&mut bodies, gravity);
-        let frame = frames.frame(&bodies, gravity, step, dt);
-        if gravity.norm() == 0.0 {
+        integrator.step(&mut bodies, loads);
+        let frame = frames.frame(&bodies, loads, step, dt);
+        if loads.gravity().norm() == 0.0 {
             for (i, &k) in floating.iter().enumerate() {
                 let p = frame.mechanisms[k].linear_momentum;
                 linear = worst(
@@ -432,7 +433,7 @@ fn measure_errors(
     if l0.is_empty() {
         angular = f64::NAN;
     }
-    if floating.is_empty() || gravity.norm() != 0.0 {
+    if floating.is_empty() || loads.gravity().norm() != 0.0 {
         linear = f64::NAN;
     }
     Ok(Errors {

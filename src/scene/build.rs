@@ -164,8 +164,10 @@ impl Scene {
         loaded: &LoadedModels,
         place: &dyn Fn(usize, u64) -> Placement,
     ) -> anyhow::Result<World> {
-        let mut world = World::default();
-        world.warnings = loaded.warnings.clone();
+        let mut world = World {
+            warnings: loaded.warnings.clone(),
+            ..Default::default()
+        };
         let total: u64 = self.models.iter().map(ModelEntry::copy_count).sum();
         let capacity = usize::try_from(total).unwrap_or(usize::MAX).min(1 << 24);
         world.bodies.reserve(capacity);

@@ -5,6 +5,7 @@
 //! quaternion `world_from_body`; rotation state is the body-frame angular momentum `M = J Ω`
 //! (not the angular velocity: the variational integrators update `M` exactly by rotation).
 
+use crate::sim::loads::Loads;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
 /// Initial state of one body.
@@ -112,13 +113,13 @@ impl Bodies {
         0.5 * self.mass[i] * self.linvel_world[i].norm_squared() + self.rotational_energy(i)
     }
 
-    /// Potential energy in uniform gravity `g`, zero at the world origin: `V = -m g · c`, J.
-    pub fn potential_energy(&self, i: usize, gravity: &Vector3<f64>) -> f64 {
-        -self.mass[i] * gravity.dot(&self.com_world[i])
+    /// Potential energy in `loads`' uniform gravity `g`, zero at the world origin: `V = -m g · c`, J.
+    pub fn potential_energy(&self, i: usize, loads: &Loads) -> f64 {
+        -self.mass[i] * loads.gravity().dot(&self.com_world[i])
     }
 
     /// Total mechanical energy of body `i`, J.
-    pub fn energy(&self, i: usize, gravity: &Vector3<f64>) -> f64 {
-        self.kinetic_energy(i) + self.potential_energy(i, gravity)
+    pub fn energy(&self, i: usize, loads: &Loads) -> f64 {
+        self.kinetic_energy(i) + self.potential_energy(i, loads)
     }
 }

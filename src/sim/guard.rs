@@ -8,6 +8,7 @@
 //! at the previous step, so nothing non-finite is ever recorded.
 
 use super::{Bodies, StepStats};
+use crate::sim::loads::Loads;
 use std::cmp::Ordering;
 use std::fmt;
 
@@ -180,7 +181,7 @@ impl Guard {
         &mut self,
         mechanisms: &[std::sync::Arc<crate::sim::mechanism::Mechanism>],
         bodies: &Bodies,
-        gravity: &nalgebra::Vector3<f64>,
+        loads: &Loads,
     ) {
         use crate::sim::mechanism::Base;
         for m in mechanisms {
@@ -198,7 +199,7 @@ impl Guard {
                     .fold(0.0, f64::max)
                     + m.length_scale;
                 let mass: f64 = range.clone().map(|i| bodies.mass[i]).sum();
-                reference += mass * gravity.norm() * 2.0 * reach;
+                reference += mass * loads.gravity().norm() * 2.0 * reach;
             }
             self.mechanisms.push(MechanismWatch {
                 bodies: range,

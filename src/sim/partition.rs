@@ -23,7 +23,8 @@
 use super::guard::{Divergence, Guard};
 use super::mechanism::Mechanism;
 use super::{Bodies, BodyInit, Integrator, StepStats};
-use nalgebra::{Isometry3, Vector3};
+use crate::sim::loads::Loads;
+use nalgebra::Isometry3;
 use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::Arc;
@@ -259,7 +260,7 @@ impl<'a> Partitions<'a> {
             integrators,
             threads,
             &none,
-            &Vector3::zeros(),
+            &Loads::none(),
             divergence_energy_ratio,
             stop_on_newton_failure,
         )?;
@@ -271,14 +272,14 @@ impl<'a> Partitions<'a> {
     /// `integrators` (one each, initialised here) on [`stepping_threads`] threads;
     /// `mechanisms[k]` are partition `k`'s
     /// mechanisms re-based to it ([`rebase`]), which its guard watches ([`Guard::watch_mechanisms`],
-    /// under `gravity`).
+    /// under `loads`).
     pub fn with_ranges(
         inits: &[BodyInit],
         ranges: &[Range<usize>],
         integrators: Vec<Box<dyn Integrator + 'a>>,
         threads: usize,
         mechanisms: &[Vec<Arc<Mechanism>>],
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         divergence_energy_ratio: f64,
         stop_on_newton_failure: Option<u32>,
     ) -> anyhow::Result<Self> {
@@ -293,7 +294,7 @@ impl<'a> Partitions<'a> {
                 integrator.init(&bodies);
                 let mut guard =
                     Guard::new(&bodies, divergence_energy_ratio, stop_on_newton_failure);
-                guard.watch_mechanisms(mechanisms, &bodies, gravity);
+                guard.watch_mechanisms(mechanisms, &bodies, loads);
                 Part {
                     first: range.start,
                     bodies,
@@ -376,14 +377,14 @@ impl<'a> Partitions<'a> {
 
     /// Steps every partition from step `from + 1` to step `to` (each stops at its first
     /// divergence) and merges what they report.
-    pub fn advance(&mut self, from: u64, to: u64, gravity: &Vector3<f64>) -> Window {
+    pub fn advance(&mut self, from: u64, to: u64, loads: &Loads) -> Window {
         let step_part = |part: &mut Part<'_>| {
             part.stats.clear();
             part.stop = None;
             for step in from + 1..=to {
                 let (local, any_suspect) =
                     part.integrator
-                        .step_watched(&mut part.bodies, gravity, part.guard.watch());
+                        .step_watched(&mut part.bodies, loads, part.guard.watch());
                 let mut global = local;
                 global.failed_body = local.failed_body.map(|b| b + part.first);
                 part.stats.push(global);
@@ -543,7 +544,7 @@ mod tests {
             "thread-log"
         }
         fn init(&mut self, _bodies: &Bodies) {}
-        fn step(&mut self, _bodies: &mut Bodies, _gravity: &Vector3<f64>) -> StepStats {
+        fn step(&mut self, _bodies: &mut Bodies, _loads: &Loads) -> StepStats {
             let name = std::thread::current().name().unwrap_or("").to_owned();
             self.0.lock().unwrap().push(name);
             StepStats::default()
@@ -558,7 +559,7 @@ mod tests {
     #[test]
     fn partitions_step_on_the_pool_and_one_on_the_caller() {
         let inits = free_body_batch(600);
-        let g = Vector3::zeros();
+        let g = Loads::none();
         for parts in [1, 2] {
             let log = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
             let integrators: Vec<Box<dyn Integrator>> = (0..parts)
@@ -589,7 +590,7 @@ mod tests {
                 "slow"
             }
             fn init(&mut self, _bodies: &Bodies) {}
-            fn step(&mut self, _bodies: &mut Bodies, _gravity: &Vector3<f64>) -> StepStats {
+            fn step(&mut self, _bodies: &mut Bodies, _loads: &Loads) -> StepStats {
                 if self.1 == 0 {
                     std::thread::sleep(std::time::Duration::from_millis(200));
                 }
@@ -608,7 +609,7 @@ mod tests {
             .collect();
         let mut batch = Partitions::new(&inits, integrators, 2, f64::MAX, None).unwrap();
         assert_eq!(batch.parts.len(), 8);
-        batch.advance(0, 1, &Vector3::zeros());
+        batch.advance(0, 1, &Loads::none());
         let log = log.lock().unwrap().clone();
         assert_eq!(log.len(), 8);
         let slow = &log.iter().find(|(k, _)| *k == 0).unwrap().1;
@@ -654,7 +655,7 @@ mod tests {
     #[test]
     fn partitions_step_the_same_bits_as_one_batch() {
         let inits = free_body_batch(1003);
-        let g = Vector3::new(0.0, 0.0, -9.81);
+        let g = Loads::uniform_gravity(nalgebra::Vector3::new(0.0, 0.0, -9.81));
         for &kind in IntegratorKind::ALL {
             let settings = Default::default();
             let one = kind.build(0.002, &settings);

@@ -5,6 +5,7 @@ use super::time_ns;
 use crate::budget::readable;
 use crate::record::{BodyState, Frame, FramePool, JointState, MechanismState, OwnedFrame};
 use crate::sim::Bodies;
+use crate::sim::Loads;
 use crate::sim::mechanism::Mechanism;
 use crate::sim::mechanism::project::Reporter;
 use crate::sim::partition::Partitions;
@@ -47,13 +48,13 @@ pub struct FrameBuilder {
 }
 
 /// The state of body `j` of `bodies`, as recorded.
-fn body_state(bodies: &Bodies, j: usize, gravity: &Vector3<f64>) -> BodyState {
+fn body_state(bodies: &Bodies, j: usize, loads: &Loads) -> BodyState {
     BodyState {
         linvel_world: bodies.linvel_world[j],
         angvel_world: bodies.angvel_world(j),
         angmom_world: bodies.angmom_world(j),
         kinetic_energy: bodies.kinetic_energy(j),
-        potential_energy: bodies.potential_energy(j, gravity),
+        potential_energy: bodies.potential_energy(j, loads),
     }
 }
 
@@ -127,13 +128,7 @@ impl FrameBuilder {
     }
 
     /// Fills a frame buffer from `bodies` and returns the frame of step `step`.
-    pub fn frame(
-        &mut self,
-        bodies: &Bodies,
-        gravity: &Vector3<f64>,
-        step: u64,
-        dt_secs: f64,
-    ) -> Frame<'_> {
+    pub fn frame(&mut self, bodies: &Bodies, loads: &Loads, step: u64, dt_secs: f64) -> Frame<'_> {
         let time_ns = time_ns(step, dt_secs);
         let time_secs = time_ns as f64 / 1e9;
         let sizes = self.sizes(bodies.len());
@@ -147,13 +142,13 @@ impl FrameBuilder {
             };
         }
         for (i, state) in out.bodies.iter_mut().enumerate() {
-            *state = body_state(bodies, i, gravity);
+            *state = body_state(bodies, i, loads);
         }
         for k in 0..self.mechanisms.len() {
             let (model, reporter) = &mut self.mechanisms[k];
-            reporter.report(model, bodies, gravity, time_secs);
+            reporter.report(model, bodies, loads, time_secs);
             let model = Arc::clone(model);
-            self.write_mechanism(out, k, &model, bodies, 0, gravity, time_secs);
+            self.write_mechanism(out, k, &model, bodies, 0, loads, time_secs);
         }
         self.place_interior_frames(out);
         self.pool = pool;
@@ -171,7 +166,7 @@ impl FrameBuilder {
         model: &Mechanism,
         bodies: &Bodies,
         offset: usize,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         time_secs: f64,
     ) {
         let report = &self.mechanisms[k].1.report;
@@ -186,7 +181,7 @@ impl FrameBuilder {
                 angvel_world: q * omega,
                 angmom_world: q * m,
                 kinetic_energy: 0.5 * mass * v.norm_squared() + 0.5 * m.dot(&omega),
-                potential_energy: bodies.potential_energy(gi, gravity),
+                potential_energy: bodies.potential_energy(gi, loads),
             };
         }
         let joints = self.mechanism_ranges[k].1.clone();
@@ -236,7 +231,7 @@ impl FrameBuilder {
     pub fn frame_of_parts(
         &mut self,
         batch: &Partitions<'_>,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         step: u64,
         dt_secs: f64,
     ) -> Frame<'_> {
@@ -260,7 +255,7 @@ impl FrameBuilder {
         let fill = |(c, states): (usize, &mut [BodyState])| {
             for (k, state) in states.iter_mut().enumerate() {
                 let (bodies, j) = parts.body(c * FRAME_TASK_ITEMS + k);
-                *state = body_state(bodies, j, gravity);
+                *state = body_state(bodies, j, loads);
             }
         };
         // On the stepping pool's threads, or here on one thread (`View::is_threaded`).
@@ -307,7 +302,7 @@ impl FrameBuilder {
                 &mut (Arc<Mechanism>, Reporter),
                 &(usize, Mechanism),
             )| {
-                reporter.report(local, view.part(*k), gravity, time_secs);
+                reporter.report(local, view.part(*k), loads, time_secs);
             };
             if view.is_threaded() {
                 view.install(|| {
@@ -322,7 +317,7 @@ impl FrameBuilder {
             let located = std::mem::take(&mut self.located);
             for (m, (k, local)) in located.iter().enumerate() {
                 let part = &batch.parts[*k];
-                self.write_mechanism(out, m, local, &part.bodies, part.first, gravity, time_secs);
+                self.write_mechanism(out, m, local, &part.bodies, part.first, loads, time_secs);
             }
             self.located = located;
             self.place_interior_frames(out);

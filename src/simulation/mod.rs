@@ -27,7 +27,7 @@ use crate::record::{OwnedFrame, Sink};
 use crate::sim::integrators::{IntegratorKind, VariationalSettings};
 use crate::sim::mechanism::Mechanism;
 use crate::sim::partition::{Partitions, View};
-use crate::sim::{BodyInit, Integrator, RunSettings};
+use crate::sim::{BodyInit, Integrator, Loads, RunSettings};
 use crate::world::World;
 use nalgebra::Vector3;
 use std::sync::Arc;
@@ -69,7 +69,8 @@ pub struct Simulation {
     frames: FrameBuilder,
     sinks: Vec<Box<dyn Sink>>,
     settings: RunSettings,
-    gravity: Vector3<f64>,
+    /// What acts on the bodies during a step (gravity today).
+    loads: Loads,
     /// The last step done.
     step: u64,
     /// The step the frame builder last built (`None` before the first).
@@ -113,14 +114,14 @@ impl Simulation {
                 })
             })
             .collect::<anyhow::Result<Vec<_>>>()?;
-        let gravity = settings.gravity;
+        let loads = Loads::uniform_gravity(settings.gravity);
         let parts = Partitions::with_ranges(
             &inits,
             &ranges,
             integrators,
             threads,
             &mechanisms,
-            &gravity,
+            &loads,
             settings.divergence_energy_ratio,
             settings.stop_on_newton_failure,
         )?;
@@ -134,7 +135,7 @@ impl Simulation {
             })
             .collect();
         let summary = RunSummary {
-            energy_initial: parts.sum(|b, j| b.energy(j, &gravity)),
+            energy_initial: parts.sum(|b, j| b.energy(j, &loads)),
             steps: settings.steps,
             ..Default::default()
         };
@@ -143,7 +144,7 @@ impl Simulation {
             frames: FrameBuilder::new(world),
             sinks: Vec::new(),
             settings: *settings,
-            gravity,
+            loads,
             step: 0,
             built: None,
             started: false,
@@ -250,7 +251,7 @@ impl Simulation {
                 .min(self.settings.steps)
                 .min(step + MAX_WINDOW_STEPS)
                 .min(target);
-            let window = self.parts.advance(step, end, &self.gravity);
+            let window = self.parts.advance(step, end, &self.loads);
             self.summary.stats = self.summary.stats.merge(window.stats);
             if let Some(stop) = window.stop {
                 self.summary.stopped = Some(stop);
@@ -342,8 +343,8 @@ impl Simulation {
             self.frames.conserved_angmom(&mut l);
             l
         } else {
-            let g = self.gravity;
-            summary.energy_final = self.parts.sum(|b, j| b.energy(j, &g));
+            let loads = &self.loads;
+            summary.energy_final = self.parts.sum(|b, j| b.energy(j, loads));
             (0..self.parts.len())
                 .map(|i| {
                     let (bodies, j) = self.parts.body(i);
@@ -410,7 +411,7 @@ impl Simulation {
     fn build_frame(&mut self) {
         let dt = self.parts.dt();
         self.frames
-            .frame_of_parts(&self.parts, &self.gravity, self.step, dt);
+            .frame_of_parts(&self.parts, &self.loads, self.step, dt);
         self.built = Some(self.step);
     }
 

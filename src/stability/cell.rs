@@ -1,6 +1,7 @@
 //! One cell of the stability map: one body, one integrator, guarded like `tumble simulate`.
 
 use super::{Cell, Row, Status};
+use crate::sim::Loads;
 use crate::sim::guard::{Cause, DEFAULT_DIVERGENCE_ENERGY_RATIO, Guard};
 use crate::sim::integrators::VariationalSettings;
 use crate::sim::limits::ENERGY_ERROR_BOUND;
@@ -32,7 +33,7 @@ pub fn run_cell(kind: IntegratorKind, cell: Cell) -> Row {
         DEFAULT_DIVERGENCE_ENERGY_RATIO,
         settings.substep.then_some(settings.max_substeps),
     );
-    let gravity = Vector3::zeros();
+    let loads = Loads::none();
     let energy_0 = bodies.rotational_energy(0);
     let relative_error = |t: f64| (t - energy_0).abs() / energy_0;
     let steps = cell.steps();
@@ -48,7 +49,7 @@ pub fn run_cell(kind: IntegratorKind, cell: Cell) -> Row {
         status: Status::Ok,
     };
     for step in 1..=steps {
-        let stats = integrator.step(&mut bodies, &gravity);
+        let stats = integrator.step(&mut bodies, &loads);
         row.newton_iters_max = row.newton_iters_max.max(stats.newton_iters_max);
         row.substeps += u64::from(stats.substepped);
         row.substep_factor_max = row.substep_factor_max.max(stats.substep_factor_max);

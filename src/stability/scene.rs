@@ -21,6 +21,7 @@
 use super::Status;
 use crate::record::Frame;
 use crate::scene::Scene;
+use crate::sim::Loads;
 use crate::sim::guard::{Cause, Guard};
 use crate::sim::limits::ENERGY_ERROR_BOUND;
 use crate::sim::{Bodies, IntegratorKind};
@@ -121,7 +122,7 @@ pub fn run_row(
 ) -> anyhow::Result<SceneRow> {
     let settings = scene.variational_settings();
     let run = scene.run_settings();
-    let gravity = scene.gravity();
+    let loads = Loads::uniform_gravity(scene.gravity());
     let mut bodies = Bodies::new(&world.bodies);
     let mut integrator = world.integrator(kind, dt, &settings)?;
     integrator.init(&bodies);
@@ -130,9 +131,9 @@ pub fn run_row(
         run.divergence_energy_ratio,
         run.stop_on_newton_failure,
     );
-    guard.watch_mechanisms(&world.mechanisms, &bodies, &gravity);
+    guard.watch_mechanisms(&world.mechanisms, &bodies, &loads);
     let mut frames = FrameBuilder::new(world);
-    let (t0, e0, gap0, angle0) = totals(&frames.frame(&bodies, &gravity, 0, dt));
+    let (t0, e0, gap0, angle0) = totals(&frames.frame(&bodies, &loads, 0, dt));
     let steps = ((duration_secs / dt).ceil() as u64).max(1);
     let mut row = SceneRow {
         integrator: kind,
@@ -154,7 +155,7 @@ pub fn run_row(
         if scale > 0.0 { de / scale } else { de }
     };
     for step in 1..=steps {
-        let stats = integrator.step(&mut bodies, &gravity);
+        let stats = integrator.step(&mut bodies, &loads);
         row.newton_iters_max = row.newton_iters_max.max(stats.newton_iters_max);
         row.substeps += u64::from(stats.substepped);
         row.substep_factor_max = row.substep_factor_max.max(stats.substep_factor_max);
@@ -173,7 +174,7 @@ pub fn run_row(
             };
             return Ok(row);
         }
-        let (t, e, gap, angle) = totals(&frames.frame(&bodies, &gravity, step, dt));
+        let (t, e, gap, angle) = totals(&frames.frame(&bodies, &loads, step, dt));
         kinetic_max = kinetic_max.max(t);
         de_max = de_max.max((e - e0).abs());
         row.residual_m_max = row.residual_m_max.max(gap);

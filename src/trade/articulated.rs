@@ -33,6 +33,7 @@ use super::measure::{
     EnergySeries, LineFit, SERIES_POINTS, TradeRow, steps_in, timed_median, worst,
 };
 use super::reference::{Reference, rotation_error};
+use crate::sim::Loads;
 use crate::sim::integrators::VariationalSettings;
 use crate::sim::mechanism::stepper::SUPPORTED;
 use crate::sim::{Bodies, IntegratorKind};
@@ -68,13 +69,13 @@ fn run_to_end(
     steps: u64,
     t_end_secs: f64,
     variational: &VariationalSettings,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
 ) -> anyhow::Result<Bodies> {
     let mut bodies = Bodies::new(&world.bodies);
     let mut integrator = world.integrator(kind, t_end_secs / steps as f64, variational)?;
     integrator.init(&bodies);
     for _ in 0..steps {
-        integrator.step(&mut bodies, gravity);
+        integrator.step(&mut bodies, loads);
     }
     Ok(bodies)
 }
@@ -83,7 +84,7 @@ fn run_to_end(
 pub fn reference(
     world: &World,
     variational: &VariationalSettings,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
     t_end_secs: f64,
     finest_dt_secs: f64,
 ) -> anyhow::Result<Reference> {
@@ -91,14 +92,14 @@ pub fn reference(
     let coarse_steps = (t_end_secs / (finest_dt_secs / REFERENCE_REFINEMENT))
         .ceil()
         .max(1.0) as u64;
-    let coarse = run_to_end(world, kind, coarse_steps, t_end_secs, variational, gravity)?;
+    let coarse = run_to_end(world, kind, coarse_steps, t_end_secs, variational, loads)?;
     let fine = run_to_end(
         world,
         kind,
         2 * coarse_steps,
         t_end_secs,
         variational,
-        gravity,
+        loads,
     )?;
     let richardson = 1.0 / (2f64.powi(6) - 1.0);
     let mut own_error_m: f64 = 0.0;
@@ -133,12 +134,12 @@ pub fn reference(
 fn observe(
     frames: &mut FrameBuilder,
     bodies: &Bodies,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
     step: u64,
     dt: f64,
     angmom: &mut Vec<Vector3<f64>>,
 ) -> f64 {
-    frames.frame(bodies, gravity, step, dt);
+    frames.frame(bodies, loads, step, dt);
     frames.conserved_angmom(angmom);
     frames.total_energy()
 }
@@ -149,7 +150,7 @@ pub fn measure(
     kind: IntegratorKind,
     dt: f64,
     variational: &VariationalSettings,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
     settings: &TradeSettings,
     reference: &Reference,
 ) -> anyhow::Result<(TradeRow, EnergySeries)> {
@@ -162,12 +163,12 @@ pub fn measure(
     let mut bodies = start.clone();
     let mut integrator = world.integrator(kind, dt, variational)?;
     integrator.init(&bodies);
-    let e0 = observe(&mut frames, &bodies, gravity, 0, dt, &mut l0);
+    let e0 = observe(&mut frames, &bodies, loads, 0, dt, &mut l0);
     let mut energy_err_max: f64 = 0.0;
     let mut momentum_err: f64 = if l0.is_empty() { f64::NAN } else { 0.0 };
     for k in 1..=steps {
-        integrator.step(&mut bodies, gravity);
-        let e = observe(&mut frames, &bodies, gravity, k, dt, &mut l);
+        integrator.step(&mut bodies, loads);
+        let e = observe(&mut frames, &bodies, loads, k, dt, &mut l);
         energy_err_max = worst(energy_err_max, (e - e0).abs());
         for (a, b) in l.iter().zip(&l0) {
             momentum_err = worst(momentum_err, (a - b).norm());
@@ -193,9 +194,9 @@ pub fn measure(
     let mut fit = LineFit::default();
     let mut points = vec![(0.0, 0.0)];
     for k in 1..=drift_steps {
-        integrator.step(&mut bodies, gravity);
+        integrator.step(&mut bodies, loads);
         let t = k as f64 * dt;
-        let de = observe(&mut frames, &bodies, gravity, k, dt, &mut l) - e0;
+        let de = observe(&mut frames, &bodies, loads, k, dt, &mut l) - e0;
         fit.add(t, de);
         if k % every == 0 || k == drift_steps {
             points.push((t, de));
@@ -216,7 +217,7 @@ pub fn measure(
         integrator.init(&bodies);
         let started = Instant::now();
         for _ in 0..steps {
-            integrator.step(&mut bodies, gravity);
+            integrator.step(&mut bodies, loads);
         }
         std::hint::black_box(&bodies);
         started.elapsed().as_secs_f64()

@@ -2,10 +2,10 @@
 
 use super::TradeSettings;
 use super::reference::{Reference, rotation_error};
+use crate::sim::Loads;
 use crate::sim::integrators::VariationalSettings;
 use crate::sim::reference::parabola;
 use crate::sim::{Bodies, BodyInit, IntegratorKind};
-use nalgebra::Vector3;
 use std::time::Instant;
 
 /// One row of `trade.csv` (column order is the file's, see the module doc of [`crate::trade`]).
@@ -43,7 +43,7 @@ pub const SERIES_POINTS: u64 = 2000;
 /// Shortest timed sample; shorter runs are repeated within one sample, s.
 const MIN_SAMPLE_SECS: f64 = 0.002;
 
-fn total_energy(bodies: &Bodies, g: &Vector3<f64>) -> f64 {
+fn total_energy(bodies: &Bodies, g: &Loads) -> f64 {
     (0..bodies.len()).map(|i| bodies.energy(i, g)).sum()
 }
 
@@ -59,7 +59,7 @@ fn timed_partitions(
     kind: IntegratorKind,
     dt: f64,
     variational: &VariationalSettings,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
     steps: u64,
     parts: usize,
     threads: usize,
@@ -75,7 +75,7 @@ fn timed_partitions(
     let mut step = 0;
     while step < steps {
         let end = (step + 10).min(steps);
-        batch.advance(step, end, gravity);
+        batch.advance(step, end, loads);
         step = end;
     }
     std::hint::black_box(&batch.parts);
@@ -88,7 +88,7 @@ pub fn measure(
     kind: IntegratorKind,
     dt: f64,
     variational: &VariationalSettings,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
     settings: &TradeSettings,
     reference: &Reference,
 ) -> (TradeRow, EnergySeries) {
@@ -100,13 +100,13 @@ pub fn measure(
     let mut bodies = start.clone();
     let mut integrator = kind.build(dt, variational);
     integrator.init(&bodies);
-    let e0 = total_energy(&bodies, gravity);
+    let e0 = total_energy(&bodies, loads);
     let l0: Vec<_> = (0..bodies.len()).map(|i| bodies.angmom_world(i)).collect();
     let mut energy_err_max: f64 = 0.0;
     let mut momentum_err: f64 = 0.0;
     for _ in 0..steps {
-        integrator.step(&mut bodies, gravity);
-        energy_err_max = worst(energy_err_max, (total_energy(&bodies, gravity) - e0).abs());
+        integrator.step(&mut bodies, loads);
+        energy_err_max = worst(energy_err_max, (total_energy(&bodies, loads) - e0).abs());
         for (i, l0) in l0.iter().enumerate() {
             momentum_err = worst(momentum_err, (bodies.angmom_world(i) - l0).norm());
         }
@@ -117,7 +117,7 @@ pub fn measure(
         let (c_exact, _) = parabola(
             &b.world_from_body.translation.vector,
             &b.linvel_world,
-            gravity,
+            loads,
             t_end,
         );
         pos_err = worst(pos_err, (bodies.com_world[i] - c_exact).norm());
@@ -136,9 +136,9 @@ pub fn measure(
     let mut fit = LineFit::default();
     let mut points = vec![(0.0, 0.0)];
     for k in 1..=drift_steps {
-        integrator.step(&mut bodies, gravity);
+        integrator.step(&mut bodies, loads);
         let t = k as f64 * dt;
-        let de = total_energy(&bodies, gravity) - e0;
+        let de = total_energy(&bodies, loads) - e0;
         fit.add(t, de);
         if k % every == 0 || k == drift_steps {
             points.push((t, de));
@@ -154,7 +154,7 @@ pub fn measure(
                 kind,
                 dt,
                 variational,
-                gravity,
+                loads,
                 steps,
                 parts,
                 settings.threads,
@@ -165,7 +165,7 @@ pub fn measure(
             integrator.init(&bodies);
             let started = Instant::now();
             for _ in 0..steps {
-                integrator.step(&mut bodies, gravity);
+                integrator.step(&mut bodies, loads);
             }
             std::hint::black_box(&bodies);
             started.elapsed().as_secs_f64()

@@ -31,6 +31,7 @@ pub use measure::{EnergySeries, TradeRow, measure};
 
 use crate::scene::Scene;
 use crate::sim::IntegratorKind;
+use crate::sim::Loads;
 
 /// What `tumble trade` measures.
 #[derive(Debug, Clone, PartialEq)]
@@ -83,7 +84,7 @@ pub fn run(
     mut progress: impl FnMut(&TradeRow),
 ) -> anyhow::Result<TradeReport> {
     let world = scene.build()?;
-    let gravity = scene.gravity();
+    let loads = Loads::uniform_gravity(scene.gravity());
     let variational = scene.variational_settings();
     let series_dt = series_dt(&settings.dts);
     let mut skipped = Vec::new();
@@ -106,13 +107,7 @@ pub fn run(
         reference::Reference::compute(&world.bodies, settings.duration_secs)
     } else {
         let finest = settings.dts.iter().copied().fold(f64::INFINITY, f64::min);
-        articulated::reference(
-            &world,
-            &variational,
-            &gravity,
-            settings.duration_secs,
-            finest,
-        )?
+        articulated::reference(&world, &variational, &loads, settings.duration_secs, finest)?
     };
     let mut rows = Vec::new();
     let mut energy_series = Vec::new();
@@ -124,20 +119,12 @@ pub fn run(
                     kind,
                     dt,
                     &variational,
-                    &gravity,
+                    &loads,
                     settings,
                     &reference,
                 )
             } else {
-                articulated::measure(
-                    &world,
-                    kind,
-                    dt,
-                    &variational,
-                    &gravity,
-                    settings,
-                    &reference,
-                )?
+                articulated::measure(&world, kind, dt, &variational, &loads, settings, &reference)?
             };
             progress(&row);
             rows.push(row);

@@ -11,6 +11,7 @@ use crate::record::mcap::McapSink;
 use crate::record::rerun::{RerunOptions, RerunSink};
 use crate::record::{Frame, RecordingLayout, Sink, TopicGroup};
 use crate::scene::Scene;
+use crate::sim::Loads;
 use crate::sim::guard::{Divergence, Guard};
 use crate::sim::{Bodies, IntegratorKind};
 use crate::simulation::FrameBuilder;
@@ -93,7 +94,7 @@ pub fn record(
     let world = scene.build()?;
     crate::scene::triangles::check_recorded(&world, &scene.source)?;
     let layout = layout(&world, kinds, dt);
-    let gravity = scene.gravity();
+    let loads = Loads::uniform_gravity(scene.gravity());
     let steps = super::measure::steps_in(duration_secs, dt);
     let log_every = steps.div_ceil(MAX_FRAMES).max(1);
     // The integrators first (an unsupported one is an error before any file exists).
@@ -109,7 +110,7 @@ pub fn record(
                 run.divergence_energy_ratio,
                 run.stop_on_newton_failure,
             );
-            guard.watch_mechanisms(&world.mechanisms, &bodies, &gravity);
+            guard.watch_mechanisms(&world.mechanisms, &bodies, &loads);
             Ok((bodies, integrator, FrameBuilder::new(&world), guard))
         })
         .collect::<anyhow::Result<_>>()?;
@@ -130,7 +131,7 @@ pub fn record(
     for step in 0..=steps {
         if step > 0 {
             for (kind, (bodies, integrator, _, guard)) in kinds.iter().zip(&mut runs) {
-                let stats = integrator.step(bodies, &gravity);
+                let stats = integrator.step(bodies, &loads);
                 if let Some(d) = guard.check(bodies, &stats, step) {
                     let name = world.layout.bodies[d.body].name.clone();
                     stopped.get_or_insert((*kind, d, name));
@@ -149,7 +150,7 @@ pub fn record(
         mechanism_states.clear();
         let mut time_ns = 0;
         for (bodies, _, frames, _) in &mut runs {
-            let frame = frames.frame(bodies, &gravity, step, dt);
+            let frame = frames.frame(bodies, &loads, step, dt);
             time_ns = frame.time_ns;
             poses.extend_from_slice(frame.world_from_link);
             states.extend_from_slice(frame.bodies);

@@ -4,9 +4,9 @@
 
 use super::substeps::Substepped;
 use crate::sim::integrators::VariationalSettings;
+use crate::sim::loads::Loads;
 use crate::sim::reference::TorqueFree;
 use crate::sim::{Bodies, BodyInit, Integrator, IntegratorKind};
-use nalgebra::Vector3;
 
 /// Orientation samples taken over a run (at least; every step when the run is shorter).
 pub const SAMPLES: u64 = 256;
@@ -30,7 +30,7 @@ pub fn achieved_error(
     let every = (steps / SAMPLES).max(1);
     let mut worst: f64 = 0.0;
     for s in 1..=steps {
-        integrator.step(&mut bodies, &Vector3::zeros());
+        integrator.step(&mut bodies, &Loads::none());
         if s % every == 0 || s == steps {
             let t = s as f64 * dt_secs;
             worst = worst.max(bodies.world_from_body[0].angle_to(&exact.orientation(t)));

@@ -47,6 +47,7 @@
 
 use crate::sim::integrators::VariationalSettings;
 use crate::sim::limits::spin_rate_max;
+use crate::sim::loads::Loads;
 use crate::sim::reference::Asymmetric;
 use crate::sim::{Bodies, BodyInit, IntegratorKind};
 use nalgebra::{Isometry3, Vector3};
@@ -243,7 +244,7 @@ impl ErrorModel {
         let mut step_fine = kind.build(h1 / 2.0, settings);
         step_coarse.init(&coarse);
         step_fine.init(&fine);
-        let g = Vector3::zeros();
+        let g = Loads::none();
         let richardson = f64::from(1u32 << order) / (f64::from(1u32 << order) - 1.0);
         let whole_run = pilot_secs >= duration_secs;
         let mut estimate: f64 = 0.0;

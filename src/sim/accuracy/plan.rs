@@ -4,6 +4,7 @@
 use super::model::{Calibration, ErrorModel, Factor, factor_from};
 use super::substeps::Substepped;
 use crate::sim::integrators::VariationalSettings;
+use crate::sim::loads::Loads;
 use crate::sim::{Bodies, BodyInit, Integrator, IntegratorKind};
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -170,7 +171,7 @@ pub fn check(
             ia.init(&a);
             ib.init(&b);
             let every = (steps / 256).max(1);
-            let g = Vector3::zeros();
+            let g = Loads::none();
             let mut worst: f64 = 0.0;
             for s in 1..=steps {
                 ia.step(&mut a, &g);

@@ -18,6 +18,7 @@
 
 use super::model::{ErrorModel, Factor};
 use crate::sim::integrators::VariationalSettings;
+use crate::sim::loads::Loads;
 use crate::sim::{Bodies, Integrator, IntegratorKind, StepStats};
 use nalgebra::Vector3;
 
@@ -219,7 +220,7 @@ impl Integrator for Substepped {
             .collect();
     }
 
-    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
+    fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
         if self.factors.len() != bodies.len() {
             self.init(bodies);
         }
@@ -231,7 +232,7 @@ impl Integrator for Substepped {
                 &mut group.bodies
             };
             for _ in 0..group.k {
-                let mut s = group.integrator.step(target, gravity);
+                let mut s = group.integrator.step(target, loads);
                 if !self.in_place {
                     s.failed_body = s.failed_body.map(|b| group.indices[b]);
                 }

@@ -31,7 +31,7 @@
 
 use super::{Integrator, StepStats, Variational, VariationalSettings};
 use crate::sim::Bodies;
-use nalgebra::Vector3;
+use crate::sim::loads::Loads;
 
 /// Yoshida's triple-jump coefficients `[γ_1, γ_2, γ_3]` (order 4 from order 2).
 pub fn triple_jump() -> [f64; 3] {
@@ -123,10 +123,10 @@ impl Integrator for Composition {
         }
     }
 
-    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
+    fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
         let mut stats = StepStats::default();
         for &k in &self.substeps {
-            stats = stats.merge(self.stages[k].step(bodies, gravity));
+            stats = stats.merge(self.stages[k].step(bodies, loads));
         }
         stats
     }

@@ -19,7 +19,8 @@
 
 use super::{Integrator, StepStats};
 use crate::sim::Bodies;
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use crate::sim::loads::Loads;
+use nalgebra::{Quaternion, UnitQuaternion};
 
 /// Explicit (forward) Euler on `(q, M, c, v)`, quaternion renormalised after each step. Order 1.
 #[derive(Debug, Clone)]
@@ -44,7 +45,7 @@ impl Integrator for ExplicitEuler {
 
     fn init(&mut self, _bodies: &Bodies) {}
 
-    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
+    fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
         let h = self.dt_secs;
         for i in 0..bodies.len() {
             let m = bodies.angmom_body[i];
@@ -54,7 +55,7 @@ impl Integrator for ExplicitEuler {
             bodies.world_from_body[i] = UnitQuaternion::new_normalize(q + dq);
             bodies.angmom_body[i] = m + m.cross(&omega) * h;
         }
-        let dv = gravity * h;
+        let dv = loads.gravity() * h;
         for (c, v) in bodies
             .com_world
             .iter_mut()
@@ -90,7 +91,7 @@ impl Integrator for SemiImplicitEuler {
 
     fn init(&mut self, _bodies: &Bodies) {}
 
-    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
+    fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
         let h = self.dt_secs;
         for i in 0..bodies.len() {
             let m = bodies.angmom_body[i];
@@ -101,7 +102,7 @@ impl Integrator for SemiImplicitEuler {
             *q *= UnitQuaternion::from_scaled_axis(omega_new * h);
             q.renormalize();
         }
-        let dv = gravity * h;
+        let dv = loads.gravity() * h;
         for (c, v) in bodies
             .com_world
             .iter_mut()

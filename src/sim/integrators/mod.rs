@@ -30,7 +30,7 @@ pub use variational::{Jacobian, Variational, VariationalSettings};
 
 use super::Bodies;
 use super::guard::Watch;
-use nalgebra::Vector3;
+use crate::sim::loads::Loads;
 
 /// What one step did, summed or maximised over the batch.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -76,7 +76,8 @@ impl StepStats {
     }
 }
 
-/// A time-stepping scheme for a batch of free rigid bodies in uniform gravity.
+/// A time-stepping scheme for a batch of free rigid bodies under [`Loads`] (today uniform
+/// gravity).
 pub trait Integrator: Send {
     /// The name used in scenes and on the command line.
     fn name(&self) -> &'static str;
@@ -84,7 +85,7 @@ pub trait Integrator: Send {
     /// Legendre transform). Called once before the first step, and again whenever bodies change.
     fn init(&mut self, bodies: &Bodies);
     /// Advances every body by one step.
-    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats;
+    fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats;
     /// [`Integrator::step`], then the run guard's per-body test ([`Watch::any_suspect`]) over
     /// the batch: whether any body is suspect. An integrator that can run the test on each
     /// block of bodies right after stepping it, while the block is in cache, overrides this;
@@ -92,10 +93,10 @@ pub trait Integrator: Send {
     fn step_watched(
         &mut self,
         bodies: &mut Bodies,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         watch: &Watch,
     ) -> (StepStats, bool) {
-        let stats = self.step(bodies, gravity);
+        let stats = self.step(bodies, loads);
         (stats, watch.any_suspect(bodies, 0..bodies.len()))
     }
     /// The step size, s.
@@ -264,7 +265,7 @@ mod tests {
     #[test]
     fn every_watched_step_flags_what_the_guard_pass_flags() {
         use crate::sim::guard::Guard;
-        let g = Vector3::new(0.0, 0.0, -9.81);
+        let g = Loads::uniform_gravity(nalgebra::Vector3::new(0.0, 0.0, -9.81));
         let inits = crate::sim::workload::free_body_batch(150);
         let cases: [&[usize]; 10] = [
             &[],

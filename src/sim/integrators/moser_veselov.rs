@@ -63,6 +63,7 @@ use super::translation::step_translation;
 use super::{Integrator, StepStats, VariationalSettings, step_blocks_watched};
 use crate::sim::Bodies;
 use crate::sim::guard::Watch;
+use crate::sim::loads::Loads;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use std::ops::Range;
 
@@ -236,12 +237,7 @@ impl MoserVeselov {
     }
 
     /// One step of the bodies `range` of the batch (after [`Integrator::init`] of the batch).
-    fn step_range(
-        &mut self,
-        bodies: &mut Bodies,
-        range: Range<usize>,
-        gravity: &Vector3<f64>,
-    ) -> StepStats {
+    fn step_range(&mut self, bodies: &mut Bodies, range: Range<usize>, loads: &Loads) -> StepStats {
         let mut stats = StepStats::default();
         for i in range.clone() {
             let pi = bodies.angmom_body[i];
@@ -277,7 +273,7 @@ impl MoserVeselov {
             &mut bodies.com_world[range.clone()],
             &mut bodies.linvel_world[range],
             self.dt_secs,
-            gravity,
+            loads,
             self.settings.potential,
         );
         stats
@@ -300,24 +296,24 @@ impl Integrator for MoserVeselov {
             .collect();
     }
 
-    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
+    fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
         if self.f.len() != bodies.len() {
             self.init(bodies);
         }
-        self.step_range(bodies, 0..bodies.len(), gravity)
+        self.step_range(bodies, 0..bodies.len(), loads)
     }
 
     fn step_watched(
         &mut self,
         bodies: &mut Bodies,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         watch: &Watch,
     ) -> (StepStats, bool) {
         if self.f.len() != bodies.len() {
             self.init(bodies);
         }
         step_blocks_watched(bodies, watch, |bodies, range| {
-            self.step_range(bodies, range, gravity)
+            self.step_range(bodies, range, loads)
         })
     }
 }

@@ -15,6 +15,7 @@
 use super::translation::{Potential, step_translation};
 use super::{Integrator, StepStats};
 use crate::sim::Bodies;
+use crate::sim::loads::Loads;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 
 /// The right-hand side of the rotational equations at `(q, M)`: `(dq/dt, dM/dt)`.
@@ -77,7 +78,7 @@ impl Integrator for Rk4 {
 
     fn init(&mut self, _bodies: &Bodies) {}
 
-    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
+    fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
         let h = self.dt_secs;
         for i in 0..bodies.len() {
             let (q, m) = rk4_rotation(
@@ -94,7 +95,7 @@ impl Integrator for Rk4 {
             &mut bodies.com_world,
             &mut bodies.linvel_world,
             h,
-            gravity,
+            loads,
             Potential::Symmetric,
         );
         StepStats::default()

@@ -8,6 +8,7 @@
 //! - end-point potential `V_d = V(c1)` (the seed's choice): `α = 0`, so every position lags the
 //!   parabola by `t h g / 2` (0.049 m after 1 s at h = 0.01 s).
 
+use crate::sim::loads::Loads;
 use nalgebra::Vector3;
 
 /// Quadrature of the potential in the discrete Lagrangian.
@@ -43,11 +44,11 @@ pub fn step_translation(
     com_world: &mut [Vector3<f64>],
     linvel_world: &mut [Vector3<f64>],
     dt_secs: f64,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
     potential: Potential,
 ) {
-    let dc_gravity = gravity * (potential.alpha() * dt_secs * dt_secs);
-    let dv = gravity * dt_secs;
+    let dc_gravity = loads.gravity() * (potential.alpha() * dt_secs * dt_secs);
+    let dv = loads.gravity() * dt_secs;
     for (c, v) in com_world.iter_mut().zip(linvel_world.iter_mut()) {
         *c += *v * dt_secs + dc_gravity;
         *v += dv;

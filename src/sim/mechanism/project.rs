@@ -21,6 +21,7 @@ use super::rows::{BodyPose, RowJacobian, RowValues};
 use super::tree::{Compliance, ExtraRow, Jacobians, TreeSolver};
 use super::{CoordinateKind, Mechanism};
 use crate::sim::Bodies;
+use crate::sim::loads::Loads;
 use nalgebra::{Isometry3, Matrix3, SVector, Translation3, UnitQuaternion, Vector3};
 
 /// A mechanism's totals at one instant (projected momenta).
@@ -135,7 +136,7 @@ impl Reporter {
         &mut self,
         model: &Mechanism,
         bodies: &Bodies,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         time_secs: f64,
     ) -> &Report {
         let first = model.first_body;
@@ -294,7 +295,7 @@ impl Reporter {
             mass += mi;
             totals.kinetic_energy += 0.5 * mi * v.norm_squared()
                 + 0.5 * m.dot(&m.component_mul(&bodies.inv_inertia_body[gi]));
-            totals.potential_energy -= mi * gravity.dot(&c);
+            totals.potential_energy -= mi * loads.gravity().dot(&c);
         }
         totals.com /= mass;
         for i in 0..n {

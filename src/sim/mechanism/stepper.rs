@@ -16,7 +16,7 @@ use crate::sim::integrators::composition::{triple_jump, yoshida6_solution_a};
 use crate::sim::integrators::{
     Integrator, IntegratorKind, StepStats, Variational, VariationalSettings,
 };
-use nalgebra::Vector3;
+use crate::sim::loads::Loads;
 use std::ops::Range;
 use std::sync::Arc;
 
@@ -161,11 +161,11 @@ impl Integrator for Articulated {
         }
     }
 
-    fn step(&mut self, bodies: &mut Bodies, gravity: &Vector3<f64>) -> StepStats {
+    fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
         let mut stats = StepStats::default();
         for &k in &self.substeps {
             for (range, stages) in &mut self.free {
-                stats = stats.merge(stages[k].step_range(bodies, range.clone(), gravity));
+                stats = stats.merge(stages[k].step_range(bodies, range.clone(), loads));
             }
             for slot in &mut self.mechanisms {
                 stats = stats.merge(step::step(
@@ -174,7 +174,7 @@ impl Integrator for Articulated {
                     &mut slot.warm[k],
                     bodies,
                     self.stage_dt[k],
-                    gravity,
+                    loads,
                     &self.settings,
                 ));
             }

@@ -11,6 +11,7 @@
 //! round-off noise of the same size as the true error.
 
 use crate::sim::integrators::{IntegratorKind, VariationalSettings};
+use crate::sim::loads::Loads;
 use crate::sim::{Bodies, BodyInit};
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -52,7 +53,7 @@ pub fn high_accuracy(
         let mut bodies = Bodies::new(std::slice::from_ref(init));
         let mut integrator = kind.build(dt, &settings);
         integrator.init(&bodies);
-        let g = Vector3::zeros();
+        let g = Loads::none();
         for _ in 0..steps {
             integrator.step(&mut bodies, &g);
         }

@@ -20,6 +20,7 @@ pub use asymmetric::Asymmetric;
 pub use high_accuracy::{HighAccuracy, high_accuracy};
 pub use torque_free::TorqueFree;
 
+use crate::sim::loads::Loads;
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// Torque-free axisymmetric body: principal moments `(ip, ip, i3)`, initial orientation
@@ -58,17 +59,17 @@ impl Axisymmetric {
         0.5 * j.component_mul(&self.omega_body_0).dot(&self.omega_body_0)
     }
 }
-
+/// Uniform gravity `g` (`loads.gravity()`): `c(t) = c0 + v0 t + g t^2 / 2`, `v(t) = v0 + g t`.
 /// Uniform gravity: `c(t) = c0 + v0 t + g t^2 / 2`, `v(t) = v0 + g t`.
 pub fn parabola(
     c0: &Vector3<f64>,
     v0: &Vector3<f64>,
-    gravity: &Vector3<f64>,
+    loads: &Loads,
     t_secs: f64,
 ) -> (Vector3<f64>, Vector3<f64>) {
     (
-        c0 + v0 * t_secs + gravity * (0.5 * t_secs * t_secs),
-        v0 + gravity * t_secs,
+        c0 + v0 * t_secs + loads.gravity() * (0.5 * t_secs * t_secs),
+        v0 + loads.gravity() * t_secs,
     )
 }
 

@@ -1,0 +1,287 @@
+//! [`Variational`], the [`Integrator`] over a batch: its state (the per-body `ξ`), the stepping
+//! of a range block by block (rotation in lanes of [`LANES`] bodies, then translation, then the
+//! guard's test), and the step of one lane group ([`step_bodies`]: predict, Newton, rotate,
+//! substep when needed).
+
+use super::VariationalSettings;
+use super::lanes::{LANES, Lanes, Quat, V3};
+use super::newton::{NewtonOut, advance, newton, newton_one_update, predict};
+use super::one_body::solve_xi;
+use super::substep::substep_unconverged;
+use crate::sim::Bodies;
+use crate::sim::guard::Watch;
+use crate::sim::integrators::translation::step_translation;
+use crate::sim::integrators::{BLOCK_BODIES, Integrator, StepStats};
+use crate::sim::loads::Loads;
+use crate::sim::so3::Real;
+use nalgebra::{UnitQuaternion, Vector3};
+
+/// The exponential-map variational integrator over a batch.
+#[derive(Debug, Clone)]
+pub struct Variational {
+    pub settings: VariationalSettings,
+    dt_secs: f64,
+    /// Per body: the last solved `ξ` (state, and the base of the next warm start).
+    xi: Vec<Vector3<f64>>,
+    /// `xi` was just solved by [`Integrator::init`] for the current momenta: the next step's
+    /// solution is `xi` itself, so it is used as the warm start without extrapolation.
+    fresh: bool,
+}
+
+impl Variational {
+    pub fn new(dt_secs: f64, settings: VariationalSettings) -> Self {
+        Self {
+            settings,
+            dt_secs,
+            xi: Vec::new(),
+            fresh: false,
+        }
+    }
+
+    /// The per-body `ξ` of the next step (after [`Integrator::init`]).
+    pub fn xi(&self) -> &[Vector3<f64>] {
+        &self.xi
+    }
+}
+
+impl Integrator for Variational {
+    fn name(&self) -> &'static str {
+        "variational"
+    }
+
+    fn dt(&self) -> f64 {
+        self.dt_secs
+    }
+
+    fn init(&mut self, bodies: &Bodies) {
+        self.init_range(bodies, 0..bodies.len());
+    }
+
+    fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
+        if self.xi.len() != bodies.len() {
+            self.init(bodies);
+        }
+        self.step_range(bodies, 0..bodies.len(), loads)
+    }
+
+    fn step_watched(
+        &mut self,
+        bodies: &mut Bodies,
+        loads: &Loads,
+        watch: &Watch,
+    ) -> (StepStats, bool) {
+        if self.xi.len() != bodies.len() {
+            self.init(bodies);
+        }
+        self.step_range_watched(bodies, 0..bodies.len(), loads, Some(watch))
+    }
+}
+
+impl Variational {
+    /// [`Integrator::init`] for the bodies `range` of the batch only (the articulated stepper
+    /// steps free bodies between mechanisms this way).
+    pub fn init_range(&mut self, bodies: &Bodies, range: std::ops::Range<usize>) {
+        self.xi = range
+            .map(|i| {
+                let guess = bodies.angvel_body(i) * self.dt_secs;
+                solve_xi(
+                    &bodies.inertia_body[i],
+                    &bodies.angmom_body[i],
+                    self.dt_secs,
+                    &guess,
+                    &self.settings,
+                )
+                .xi
+            })
+            .collect();
+        self.fresh = true;
+    }
+
+    /// [`Integrator::step`] for the bodies `range` of the batch only, after
+    /// [`Variational::init_range`] with the same range (failed bodies are reported by their
+    /// batch index).
+    pub fn step_range(
+        &mut self,
+        bodies: &mut Bodies,
+        range: std::ops::Range<usize>,
+        loads: &Loads,
+    ) -> StepStats {
+        self.step_range_watched(bodies, range, loads, None).0
+    }
+
+    /// [`Variational::step_range`], block by block of [`BLOCK_BODIES`] bodies (rotation, then
+    /// translation), and with `watch` the guard's per-body test of each block right after its
+    /// step, while its state is in cache; returns the statistics and whether any body is
+    /// suspect. Every body steps from its own state alone (the 4-body lanes round as one body
+    /// does), and the blocks start at `range.start` in multiples of [`LANES`], so the lanes
+    /// and the bits are those of one pass over the range.
+    pub fn step_range_watched(
+        &mut self,
+        bodies: &mut Bodies,
+        range: std::ops::Range<usize>,
+        loads: &Loads,
+        watch: Option<&Watch>,
+    ) -> (StepStats, bool) {
+        let offset = range.start;
+        let predict_xi = !std::mem::replace(&mut self.fresh, false);
+        let dt = self.dt_secs;
+        let mut stats = StepStats::default();
+        let mut any_suspect = false;
+        let mut start = range.start;
+        while start < range.end {
+            let block = start..(start + BLOCK_BODIES).min(range.end);
+            rotate_block(
+                bodies,
+                &mut self.xi[block.start - offset..block.end - offset],
+                block.clone(),
+                dt,
+                predict_xi,
+                &self.settings,
+                &mut stats,
+            );
+            step_translation(
+                &mut bodies.com_world[block.clone()],
+                &mut bodies.linvel_world[block.clone()],
+                dt,
+                loads,
+                self.settings.potential,
+            );
+            if let Some(watch) = watch {
+                any_suspect |= watch.any_suspect(bodies, block.clone());
+            }
+            start = block.end;
+        }
+        (stats, any_suspect)
+    }
+}
+
+// The blocks start in multiples of the lanes, so the lanes are those of one pass.
+const _: () = assert!(BLOCK_BODIES.is_multiple_of(LANES));
+
+/// The rotation step of the bodies `block` (batch indices; `xi` is theirs), in lanes of
+/// [`LANES`] bodies and the rest one by one.
+fn rotate_block(
+    bodies: &mut Bodies,
+    xi: &mut [Vector3<f64>],
+    block: std::ops::Range<usize>,
+    dt: f64,
+    predict_xi: bool,
+    settings: &VariationalSettings,
+    stats: &mut StepStats,
+) {
+    let first = block.start;
+    let (j_l, j_r) = bodies.inertia_body[block.clone()].as_chunks::<LANES>();
+    let (ij_l, ij_r) = bodies.inv_inertia_body[block.clone()].as_chunks::<LANES>();
+    let (m_l, m_r) = bodies.angmom_body[block.clone()].as_chunks_mut::<LANES>();
+    let (q_l, q_r) = bodies.world_from_body[block].as_chunks_mut::<LANES>();
+    let (xi_l, xi_r) = xi.as_chunks_mut::<LANES>();
+    let chunks = j_l.iter().zip(ij_l).zip(m_l).zip(q_l).zip(xi_l);
+    for (c, ((((j, ij), m), q), xi)) in chunks.enumerate() {
+        step_bodies(
+            j,
+            ij,
+            m,
+            q,
+            xi,
+            dt,
+            predict_xi,
+            settings,
+            first + c * LANES,
+            stats,
+        );
+    }
+    let rest = j_r.iter().zip(ij_r).zip(m_r).zip(q_r).zip(xi_r);
+    for (r, ((((j, ij), m), q), xi)) in rest.enumerate() {
+        step_bodies::<1>(
+            std::array::from_ref(j),
+            std::array::from_ref(ij),
+            std::array::from_mut(m),
+            std::array::from_mut(q),
+            std::array::from_mut(xi),
+            dt,
+            predict_xi,
+            settings,
+            first + j_l.len() * LANES + r,
+            stats,
+        );
+    }
+}
+
+/// Steps `N` bodies: predict `ξ` (unless `predict_xi` is false), Newton, rotate `q` and `M`.
+/// `first_body` is the batch index of lane 0 (for [`StepStats::failed_body`]).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn step_bodies<const N: usize>(
+    inertia: &[Vector3<f64>; N],
+    inv_inertia: &[Vector3<f64>; N],
+    angmom: &mut [Vector3<f64>; N],
+    q: &mut [UnitQuaternion<f64>; N],
+    xi: &mut [Vector3<f64>; N],
+    dt_secs: f64,
+    predict_xi: bool,
+    settings: &VariationalSettings,
+    first_body: usize,
+    stats: &mut StepStats,
+) {
+    let m = V3::gather(angmom);
+    let mut xi0 = V3::gather(xi);
+    if predict_xi {
+        xi0 = predict(V3::gather(inv_inertia), m, xi0, Lanes::splat(dt_secs));
+    }
+    let j_over_h = V3::gather(inertia).scale(Lanes::splat(1.0 / dt_secs));
+    let threshold = Lanes::splat(settings.newton_tol) * m.amax();
+    // Two inlined copies of `finish`: the common path keeps everything in registers.
+    match newton_one_update(j_over_h, m, xi0, threshold, settings) {
+        Some(out) => finish(&out, m, angmom, q, xi, first_body, stats),
+        None => {
+            let out = newton(j_over_h, m, xi0, threshold, settings);
+            if settings.substep && !out.converged.iter().all(|&c| c) {
+                let start = (*angmom, *q);
+                finish(
+                    &out,
+                    m,
+                    angmom,
+                    q,
+                    xi,
+                    first_body,
+                    &mut StepStats::default(),
+                );
+                substep_unconverged(
+                    &out,
+                    start,
+                    inertia,
+                    inv_inertia,
+                    angmom,
+                    q,
+                    xi,
+                    dt_secs,
+                    settings,
+                    first_body,
+                    stats,
+                );
+            } else {
+                finish(&out, m, angmom, q, xi, first_body, stats);
+            }
+        }
+    }
+}
+
+/// Rotates `q` and `M` by the solved `ξ`, stores `ξ`, and adds the Newton statistics.
+#[inline(always)]
+pub(super) fn finish<const N: usize>(
+    out: &NewtonOut<N>,
+    m: V3<Lanes<N>>,
+    angmom: &mut [Vector3<f64>; N],
+    q: &mut [UnitQuaternion<f64>; N],
+    xi: &mut [Vector3<f64>; N],
+    first_body: usize,
+    stats: &mut StepStats,
+) {
+    let (q_next, m_next) = advance(Quat::gather(q), m, out.xi, &out.eval);
+    q_next.scatter(q);
+    m_next.scatter(angmom);
+    out.xi.scatter(xi);
+    for i in 0..N {
+        stats.add_solve(first_body + i, out.iterations[i], out.converged[i]);
+    }
+}
