@@ -4,11 +4,12 @@
 //! discarded and recomputed.
 
 use super::manifest::ChunkRecord;
-use super::parquet::{FileInfo, PartWriter, recording_info, write_file};
+use super::runs::{RunRow, runs_batch};
 use super::sample::{ModelCache, RunParams, draw, run_scene};
 use super::spec::{DatasetSpec, RecordFormat};
-use super::tables::{RowsSink, RunRow, TrajectoryColumns, runs_batch, trajectories_schema};
 use crate::record::mcap::McapSink;
+use crate::record::parquet::files::{FileInfo, PartWriter, recording_info, write_file};
+use crate::record::parquet::tables::{RowsSink, TrajectoryColumns, trajectories_schema};
 use crate::record::rerun::{RerunOptions, RerunSink};
 use crate::record::ros2::Ros2Sink;
 use crate::record::{RecordingLayout, Sink};

@@ -5,7 +5,7 @@
 //! Flow: [`spec`] parses the TOML (template, `[vary]` distributions, run count, master seed);
 //! run `i` draws its parameters from [`rng`] streams seeded by (seed, i) alone ([`sample`]);
 //! runs are grouped into chunks of `runs_per_file`, each simulated by one thread in run order
-//! ([`chunk`]) into Parquet part files ([`tables`], [`parquet`]); [`generate`] runs the chunks
+//! ([`chunk`]) into Parquet part files ([`crate::record::parquet`], [`runs`]); [`generate`] runs the chunks
 //! in parallel, resumes and stops cleanly, keeping [`manifest`] up to date; [`shard`] splits the
 //! chunks among machines and [`merge`] joins their folders.
 //!
@@ -24,12 +24,11 @@ pub mod distribution;
 pub mod generate;
 pub mod manifest;
 pub mod merge;
-pub mod parquet;
 pub mod rng;
+pub mod runs;
 pub mod sample;
 pub mod shard;
 pub mod spec;
-pub mod tables;
 
 pub use generate::{Options, Summary, generate};
 pub use manifest::Manifest;

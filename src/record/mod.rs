@@ -4,21 +4,14 @@
 //! A recorder receives a [`RecordingLayout`] once (what frames exist, what they look like, the
 //! metadata) and then one [`Frame`] per recorded step. It knows nothing of integrators.
 
-pub mod cdr;
 pub mod layout_json;
 pub mod mcap;
-pub mod mcap_encode;
-pub mod mcap_writer;
-pub mod mechanism_proto;
+pub mod names;
 pub mod owned_frame;
 pub mod parquet;
 pub mod pipelined;
 pub mod rerun;
-pub mod rerun_batched;
-pub mod rerun_blueprint;
 pub mod ros2;
-pub mod ros2_msgs;
-pub mod rrd_footer;
 pub mod scene_update;
 pub mod writeback;
 

@@ -3,7 +3,7 @@
 //!
 //! `ros2 bag play` refuses a file whose channels mix message encodings, so the ROS 2 recording
 //! is a file of its own next to the protobuf `.mcap`: header profile `ros2`, every channel `cdr`
-//! ([`super::cdr`]), every schema `ros2msg` ([`super::ros2_msgs`]), every channel with the
+//! ([`cdr`]), every schema `ros2msg` ([`msgs`]), every channel with the
 //! `offered_qos_profiles` metadata `rosbag2` writes (and reads back to create its publishers).
 //!
 //! | topic                 | type                          | QoS (durability, depth) | messages |
@@ -21,7 +21,7 @@
 //! group under its prefix, as in the `.mcap`.
 //!
 //! Joint states of articulated models (`bodies = "articulated"`) go on `/joint_states` as
-//! `sensor_msgs/msg/JointState` ([`super::ros2_msgs::joint_state`], QoS as `/bodies`): one
+//! `sensor_msgs/msg/JointState` ([`msgs::joint_state`], QoS as `/bodies`): one
 //! message per recorded step and topic group that holds joints, `name` = the joint names
 //! prefixed as the frame ids are (`name/joint`, as the rewritten `/robot_description` names
 //! them), `position` in rad or m, `velocity` in rad/s or m/s, `effort` empty. Only the joints
@@ -35,26 +35,22 @@
 //! chunk holds messages and lists message indexes (Foxglove refuses chunks without them). The
 //! file is written under `<path>.part` and renamed onto `path` only once complete.
 
-use super::ros2_msgs::{self, Stamp};
+pub mod cdr;
+pub mod msgs;
+
+use super::names::{
+    BODIES_TOPIC, JOINT_STATES_TOPIC, METADATA_NAME, ROBOT_DESCRIPTION_TOPIC, TF_TOPIC, WORLD_FRAME,
+};
 use super::{Frame, RecordingLayout, Sink, TopicGroup};
 use crate::fsutil::part_path;
 use anyhow::Context;
+use msgs::Stamp;
 use std::collections::BTreeMap;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
 /// File name suffix of ROS 2 recordings: `STEM.ros2.mcap`.
 pub const EXTENSION: &str = "ros2.mcap";
-/// Topic of the link transforms.
-pub const TF_TOPIC: &str = "/tf";
-/// Topic of the per-body velocities, energies and momenta.
-pub const BODIES_TOPIC: &str = "/bodies";
-/// Topic of the articulated models' joint positions and velocities.
-pub const JOINT_STATES_TOPIC: &str = "/joint_states";
-/// Topic of a scene's single model description (per-model topics end with it).
-pub const ROBOT_DESCRIPTION_TOPIC: &str = "/robot_description";
-/// Parent frame of every transform.
-pub const WORLD_FRAME: &str = "world";
 /// Queue depth offered on `/tf` (what tf2's listener asks for).
 pub const TF_DEPTH: u32 = 100;
 /// Queue depth offered on `/bodies` and `/joint_states`.
@@ -126,7 +122,7 @@ struct ChannelGroup {
 
 /// Writes a ROS 2 MCAP file; see the module documentation for its layout.
 pub struct Ros2Sink {
-    writer: super::mcap::McapFileWriter,
+    writer: super::mcap::file::McapFileWriter,
     path: PathBuf,
     part: PathBuf,
     groups: Vec<ChannelGroup>,
@@ -164,7 +160,7 @@ impl Ros2Sink {
         let mut writer = mcap::WriteOptions::new()
             .profile("ros2")
             .library(format!("tumble {}", crate::VERSION))
-            .chunk_size(Some(super::mcap::CHUNK_BYTES))
+            .chunk_size(Some(super::mcap::file::CHUNK_BYTES))
             .create(BufWriter::new(super::writeback::WritebackFile::new(file)))
             .with_context(|| format!("cannot write {}", part.display()))?;
         // First, before any schema or channel (see the module documentation).
@@ -174,29 +170,21 @@ impl Ros2Sink {
             super::layout_json::to_json(layout),
         );
         writer.write_metadata(&mcap::records::Metadata {
-            name: super::mcap::METADATA_NAME.into(),
+            name: METADATA_NAME.into(),
             metadata,
         })?;
         let schema = |writer: &mut mcap::Writer<_>, name: &str, text: String| {
             writer.add_schema(name, "ros2msg", text.as_bytes())
         };
-        let tf_schema = schema(
-            &mut writer,
-            ros2_msgs::TF_MESSAGE,
-            ros2_msgs::tf_message_schema(),
-        )?;
-        let bodies_schema = schema(
-            &mut writer,
-            ros2_msgs::BODY_STATES,
-            ros2_msgs::body_states_schema(),
-        )?;
+        let tf_schema = schema(&mut writer, msgs::TF_MESSAGE, msgs::tf_message_schema())?;
+        let bodies_schema = schema(&mut writer, msgs::BODY_STATES, msgs::body_states_schema())?;
         let joints_schema = if layout.joints.is_empty() {
             None
         } else {
             Some(schema(
                 &mut writer,
-                ros2_msgs::JOINT_STATE,
-                ros2_msgs::joint_state_schema(),
+                msgs::JOINT_STATE,
+                msgs::joint_state_schema(),
             )?)
         };
         let qos = |durability, depth| {
@@ -237,7 +225,7 @@ impl Ros2Sink {
         }
         let mut buf = Vec::new();
         if !descriptions.is_empty() {
-            let string_schema = schema(&mut writer, ros2_msgs::STRING, ros2_msgs::string_schema())?;
+            let string_schema = schema(&mut writer, msgs::STRING, msgs::string_schema())?;
             for (topic, urdf) in description_topics(layout).iter().zip(descriptions) {
                 let channel = writer.add_channel(
                     string_schema,
@@ -245,7 +233,7 @@ impl Ros2Sink {
                     "cdr",
                     &qos(Durability::TransientLocal, 1),
                 )?;
-                ros2_msgs::string_message(&mut buf, urdf)?;
+                msgs::string_message(&mut buf, urdf)?;
                 let header = mcap::records::MessageHeader {
                     channel_id: channel,
                     sequence: 0,
@@ -295,9 +283,9 @@ impl Sink for Ros2Sink {
                 .iter()
                 .map(String::as_str)
                 .zip(&frame.world_from_link[frames]);
-            ros2_msgs::tf_message(&mut self.buf, stamp, WORLD_FRAME, transforms)?;
+            msgs::tf_message(&mut self.buf, stamp, WORLD_FRAME, transforms)?;
             self.write_message(tf_channel, time_ns)?;
-            ros2_msgs::body_states(
+            msgs::body_states(
                 &mut self.buf,
                 stamp,
                 frame.step,
@@ -318,7 +306,7 @@ impl Sink for Ros2Sink {
                 self.positions.extend(states.iter().map(|j| j.position));
                 self.velocities.clear();
                 self.velocities.extend(states.iter().map(|j| j.velocity));
-                ros2_msgs::joint_state(
+                msgs::joint_state(
                     &mut self.buf,
                     stamp,
                     &self.joint_names[joints],
@@ -337,7 +325,7 @@ impl Sink for Ros2Sink {
         let Ros2Sink {
             writer, part, path, ..
         } = *self;
-        super::mcap::finish_file(writer, &part, &path)
+        super::mcap::file::finish_file(writer, &part, &path)
     }
 
     fn path(&self) -> Option<PathBuf> {
@@ -346,7 +334,7 @@ impl Sink for Ros2Sink {
 
     fn complete(self: Box<Self>) -> anyhow::Result<()> {
         let Ros2Sink { writer, part, .. } = *self;
-        super::mcap::complete_file(writer, &part)
+        super::mcap::file::complete_file(writer, &part)
     }
 }
 

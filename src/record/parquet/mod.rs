@@ -1,0 +1,9 @@
+//! Parquet: the tables of recorded steps and bodies ([`tables`]), the part files they are
+//! written to so that the same rows always give the same bytes ([`files`]), and the sinks of
+//! `simulate --format parquet` ([`sink`]). The dataset writes its tables with these too.
+
+pub mod files;
+pub mod sink;
+pub mod tables;
+
+pub use sink::{BodiesSink, TrajectorySink};
