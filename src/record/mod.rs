@@ -4,6 +4,7 @@
 //! A recorder receives a [`RecordingLayout`] once (what frames exist, what they look like, the
 //! metadata) and then one [`Frame`] per recorded step. It knows nothing of integrators.
 
+pub mod format;
 pub mod layout_json;
 pub mod mcap;
 pub mod names;
@@ -19,6 +20,7 @@ use crate::model::Visual;
 use nalgebra::{Isometry3, Vector3};
 use std::collections::BTreeMap;
 
+pub use format::{Format, FormatSet, OutputFile, SinkOptions, open, open_file};
 pub use owned_frame::{FramePool, OwnedFrame};
 
 /// Everything a recorder needs to know before the first frame.

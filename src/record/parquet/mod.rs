@@ -7,3 +7,7 @@ pub mod sink;
 pub mod tables;
 
 pub use sink::{BodiesSink, TrajectorySink};
+
+/// `STEM.trajectories.parquet` and `STEM.bodies.parquet` (`simulate --format parquet`).
+pub const TRAJECTORIES_EXTENSION: &str = "trajectories.parquet";
+pub const BODIES_EXTENSION: &str = "bodies.parquet";
