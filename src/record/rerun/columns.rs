@@ -2,12 +2,12 @@
 //! [`batch_frames`]) and their sending as one chunk per entity on both timelines
 //! ([`RerunSink::flush_buffer`], [`RerunSink::write_series`]).
 
+use super::chunks::static_chunk;
 use super::paths::{
     SIM_TIME_TIMELINE, STEP_TIMELINE, scene_angmom_change_entity_path,
     scene_energy_change_entity_path, scene_energy_entity_path,
 };
 use super::sink::RerunSink;
-use super::statics::static_chunk;
 use super::writer::ChunkWriter;
 use crate::record::names::WORLD_FRAME;
 use anyhow::{Result, bail};
@@ -27,18 +27,6 @@ pub const BATCH_FRAMES_MAX: usize = 65_536;
 pub fn batch_frames(frames: usize, bodies: usize) -> usize {
     let row_bytes = 16 + 28 * frames + 32 * bodies + 24;
     (BATCH_BYTES / row_bytes).clamp(BATCH_FRAMES_MIN, BATCH_FRAMES_MAX)
-}
-
-/// Per link frame: where its transforms go.
-pub(super) struct FrameTrack {
-    pub(super) entity: EntityPath,
-    pub(super) frame_id: String,
-}
-
-/// Per body: where its plots go.
-pub(super) struct BodyTrack {
-    pub(super) energy: EntityPath,
-    pub(super) angular_momentum: EntityPath,
 }
 
 /// Columns of the frames not yet sent.

@@ -32,8 +32,8 @@
 //! (a mechanism's bodies exchange momentum through their joints; a fixed base takes some).
 
 use super::blueprint::PlotView;
+use super::chunks::static_chunk;
 use super::paths::ENERGY_SERIES;
-use super::statics::static_chunk;
 use super::values::nonzero;
 use super::writer::ChunkWriter;
 use crate::record::{Frame, RecordingLayout};

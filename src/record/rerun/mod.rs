@@ -88,7 +88,7 @@
 //! # Files
 //!
 //! [`paths`] the entity paths, timelines and ids; [`values`] the f32 conversions and colours;
-//! [`writer`] the file writer (the [`rerun::sink::LogSink`] renumbering ids, and
+//! [`chunks`] the static chunks; [`writer`] the file writer (the [`rerun::sink::LogSink`] renumbering ids, and
 //! [`writer::ChunkWriter`]); [`statics`] the static layout (geometry, inertia, metadata, series
 //! names); [`columns`] the buffered time-varying columns and their sending; [`sink`] the
 //! [`RerunSink`] itself; [`joints`] the series of articulated models; [`batched`] the layout of
@@ -96,6 +96,7 @@
 
 pub mod batched;
 pub mod blueprint;
+pub mod chunks;
 pub mod columns;
 pub mod footer;
 pub mod joints;

@@ -1,5 +1,6 @@
 //! Where things go in a Rerun recording: the entity paths (the table in [`super`]), the names
-//! of the two timelines and of the energy series, and the recording's deterministic ids.
+//! of the two timelines and of the energy series, the entities of each frame and body
+//! ([`FrameTrack`], [`BodyTrack`]), and the recording's deterministic ids.
 
 use crate::record::RecordingLayout;
 use rerun::{EntityPath, EntityPathPart};
@@ -117,6 +118,18 @@ pub(super) fn recording_seed(info: &rerun::external::re_log_types::StoreInfo) ->
         hash = hash.wrapping_mul(0x0100_0000_01b3);
     }
     hash
+}
+
+/// Per link frame: where its transforms go.
+pub(super) struct FrameTrack {
+    pub(super) entity: EntityPath,
+    pub(super) frame_id: String,
+}
+
+/// Per body: where its plots go.
+pub(super) struct BodyTrack {
+    pub(super) energy: EntityPath,
+    pub(super) angular_momentum: EntityPath,
 }
 
 #[cfg(test)]

@@ -6,9 +6,10 @@ use super::batched::{Batches, is_batched};
 use super::blueprint::{
     PlotView, SceneBounds, blueprint_chunks, blueprint_messages, default_plot_views,
 };
-use super::columns::{BodyTrack, Buffer, FrameTrack, batch_frames};
+use super::columns::{Buffer, batch_frames};
 use super::footer::{FooterHold, FooterWriter};
 use super::joints;
+use super::paths::{BodyTrack, FrameTrack};
 use super::paths::{application_id, recording_id, recording_seed};
 use super::statics::frame_reach;
 use super::values::{f32x3, f64c, nonzero, quat_xyzw};

@@ -3,7 +3,8 @@
 //! (or the batched layout's shapes), and the series names of the plots.
 
 use super::batched::Content;
-use super::columns::{BodyTrack, FrameTrack};
+use super::chunks::{static_batches_chunk, static_chunk};
+use super::paths::{BodyTrack, FrameTrack};
 use super::paths::{
     ENERGY_SERIES, angular_momentum_entity_path, energy_entity_path, entity, inertia_entity_path,
     scene_angmom_change_entity_path, scene_energy_change_entity_path, scene_energy_entity_path,
@@ -17,28 +18,8 @@ use crate::record::names::WORLD_FRAME;
 use crate::record::{BodyLayout, FrameLayout, RecordingLayout};
 use anyhow::{Context, Result, anyhow, bail};
 use nalgebra::Isometry3;
-use rerun::log::{Chunk, RowId};
-use rerun::{AsComponents, EntityPath, EntityPathPart, SerializedComponentBatch, TimePoint};
+use rerun::{AsComponents, EntityPath, EntityPathPart, SerializedComponentBatch};
 use std::collections::BTreeSet;
-
-/// A static chunk with one row holding all the given archetypes.
-pub fn static_chunk(entity: EntityPath, archetypes: &[&dyn AsComponents]) -> Result<Chunk> {
-    let batches: Vec<SerializedComponentBatch> = archetypes
-        .iter()
-        .flat_map(|a| a.as_serialized_batches())
-        .collect();
-    static_batches_chunk(entity, batches)
-}
-
-/// A static chunk with one row holding the given component batches.
-pub fn static_batches_chunk(
-    entity: EntityPath,
-    batches: Vec<SerializedComponentBatch>,
-) -> Result<Chunk> {
-    Ok(Chunk::builder(entity)
-        .with_serialized_batches(RowId::new(), TimePoint::default(), batches)
-        .build()?)
-}
 
 /// A visual's shape ([`RerunSink::visual_shape`]).
 pub(super) struct Shape {
