@@ -4,8 +4,8 @@
 //! - **Parallel, bounded**: a rayon pool of `threads` workers takes chunks in increasing order
 //!   from a shared counter; each worker simulates its chunk's runs one after the other and
 //!   streams their rows into the chunk's Parquet file (row groups of
-//!   [`crate::record::parquet::files::ROW_GROUP_ROWS`]). Memory is `threads` × one chunk's row group and runs
-//!   table, whatever the run count.
+//!   [`crate::record::parquet::files::ROW_GROUP_ROWS`]). Memory is `threads` × one chunk's row
+//!   group and runs table, whatever the run count.
 //! - **Deterministic**: a chunk's files depend on (spec, chunk index) only; the manifest lists
 //!   chunks sorted; so any thread count, order or shard split gives the same bytes.
 //! - **Interruption** (SIGINT/SIGTERM, [`crate::interrupt`]): no new chunk is started; chunks in

@@ -5,9 +5,9 @@
 //! Flow: [`spec`] parses the TOML (template, `[vary]` distributions, run count, master seed);
 //! run `i` draws its parameters from [`rng`] streams seeded by (seed, i) alone ([`sample`]);
 //! runs are grouped into chunks of `runs_per_file`, each simulated by one thread in run order
-//! ([`chunk`]) into Parquet part files ([`crate::record::parquet`], [`runs`]); [`generate`] runs the chunks
-//! in parallel, resumes and stops cleanly, keeping [`manifest`] up to date; [`shard`] splits the
-//! chunks among machines and [`merge`] joins their folders.
+//! ([`chunk`]) into Parquet part files ([`crate::record::parquet`], the runs table [`runs`]);
+//! [`generate`] runs the chunks in parallel, resumes and stops cleanly, keeping [`manifest`] up
+//! to date; [`shard`] splits the chunks among machines and [`merge`] joins their folders.
 //!
 //! Folder layout:
 //!

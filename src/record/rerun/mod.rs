@@ -79,8 +79,8 @@
 //! properties chunk holds `Timestamp::now()`, rows logged with `log` are grouped into chunks by a
 //! timer, and the RRD footer lists its columns in hash-map order. So this module (1) writes every
 //! chunk itself, never row by row, (2) records the name but no start time in the properties,
-//! (3) writes through its own [`rerun::sink::LogSink`] that renumbers TUIDs with a counter (time part 0,
-//! increasing in send order, so Rerun's ordering semantics are kept) before encoding, and (4)
+//! (3) writes through its own [`rerun::sink::LogSink`] that renumbers TUIDs with a counter (time
+//! part 0, increasing in send order, so Rerun's ordering semantics are kept) before encoding, and (4)
 //! rewrites the footer with its columns sorted ([`footer`]). The recording id is the
 //! layout name plus a hash of the name and metadata: the same inputs give the same id, different
 //! scenes or settings do not get merged by the viewer.
@@ -88,11 +88,12 @@
 //! # Files
 //!
 //! [`paths`] the entity paths, timelines and ids; [`values`] the f32 conversions and colours;
-//! [`chunks`] the static chunks; [`writer`] the file writer (the [`rerun::sink::LogSink`] renumbering ids, and
-//! [`writer::ChunkWriter`]); [`statics`] the static layout (geometry, inertia, metadata, series
-//! names); [`columns`] the buffered time-varying columns and their sending; [`sink`] the
-//! [`RerunSink`] itself; [`joints`] the series of articulated models; [`batched`] the layout of
-//! big scenes; [`blueprint`] the viewer's blueprint; [`footer`] the sorted `.rrd` footer.
+//! [`chunks`] the static chunks; [`writer`] the file writer (the [`rerun::sink::LogSink`]
+//! renumbering ids, and [`writer::ChunkWriter`]); [`statics`] the static layout (geometry,
+//! inertia, metadata, series names); [`columns`] the buffered time-varying columns and their
+//! sending; [`sink`] the [`RerunSink`] itself; [`joints`] the series of articulated models;
+//! [`batched`] the layout of big scenes; [`blueprint`] the viewer's blueprint; [`footer`] the
+//! sorted `.rrd` footer.
 
 pub mod batched;
 pub mod blueprint;
