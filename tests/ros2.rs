@@ -399,7 +399,7 @@ fn simulate_ros2_refuses_to_overwrite_without_force() {
 
 /// A JointState: stamp, names, positions, velocities, efforts.
 type JointCase = (
-    tumble::record::ros2_msgs::Stamp,
+    tumble::record::ros2::msgs::Stamp,
     Vec<String>,
     Vec<f64>,
     Vec<f64>,
@@ -417,7 +417,7 @@ fn hex(bytes: &[u8]) -> String {
 #[test]
 fn cdr_encoders_write_the_bytes_of_rosbags_serializer() {
     use nalgebra::{Isometry3, Translation3, UnitQuaternion};
-    use tumble::record::ros2_msgs::{Stamp, joint_state, tf_message};
+    use tumble::record::ros2::msgs::{Stamp, joint_state, tf_message};
     let joint_cases: Vec<JointCase> = vec![
         (Stamp { sec: 0, nanosec: 0 }, vec![], vec![], vec![], vec![]),
         (

@@ -3,12 +3,11 @@
 
 use crate::budget::{Estimate, human_bytes, peak_memory_bytes};
 use crate::fsutil::check_not_overwriting;
-use crate::record::Sink;
-use crate::record::mcap::{ChunkCompression, McapOptions, McapSink};
-use crate::record::parquet::{BodiesSink, TrajectorySink};
+use crate::record::format::with_extension;
+use crate::record::mcap::{ChunkCompression, McapOptions};
 use crate::record::pipelined::Pipelined;
-use crate::record::rerun::{RerunOptions, RerunSink};
-use crate::record::ros2::Ros2Sink;
+use crate::record::rerun::RerunOptions;
+use crate::record::{Format, FormatSet, OutputFile, Sink, SinkOptions};
 use crate::scene::{Scene, SimOverrides};
 use crate::sim::integrators::{Jacobian, Potential};
 use crate::sim::{Bodies, limits};
@@ -112,8 +111,8 @@ pub struct SimulateArgs {
     /// Which files to write, comma-separated: mcap (STEM.mcap), rrd (STEM.rrd), parquet
     /// (STEM.trajectories.parquet and STEM.bodies.parquet, the dataset's tables for this run),
     /// ros2 (STEM.ros2.mcap, as --ros2).
-    #[arg(long, default_value = "mcap,rrd", value_parser = Formats::parse)]
-    pub format: Formats,
+    #[arg(long, default_value = "mcap,rrd", value_parser = FormatSet::parse)]
+    pub format: FormatSet,
     /// MCAP chunk compression: auto (default: lz4 from 1000 bodies up, else zstd), zstd
     /// (smallest), lz4 (faster, a few per cent larger) or none.
     #[arg(long, default_value = "auto", value_parser = ChunkCompression::parse)]
@@ -141,53 +140,6 @@ pub struct SimulateArgs {
     pub strict: bool,
 }
 
-/// The files `simulate` writes (`--format`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Formats {
-    pub mcap: bool,
-    pub rrd: bool,
-    pub parquet: bool,
-    pub ros2: bool,
-}
-
-impl Default for Formats {
-    /// `mcap,rrd`.
-    fn default() -> Self {
-        Self {
-            mcap: true,
-            rrd: true,
-            parquet: false,
-            ros2: false,
-        }
-    }
-}
-
-impl Formats {
-    /// `mcap,rrd,parquet,ros2`: a comma-separated list, at least one.
-    pub fn parse(s: &str) -> Result<Self, String> {
-        let mut f = Self {
-            mcap: false,
-            rrd: false,
-            parquet: false,
-            ros2: false,
-        };
-        for name in s.split(',').map(str::trim) {
-            match name {
-                "mcap" => f.mcap = true,
-                "rrd" => f.rrd = true,
-                "parquet" => f.parquet = true,
-                "ros2" => f.ros2 = true,
-                other => {
-                    return Err(format!(
-                        "unknown format {other:?} (expected a comma-separated list of mcap, rrd, parquet, ros2)"
-                    ));
-                }
-            }
-        }
-        Ok(f)
-    }
-}
-
 /// The number of stepping threads: `requested`, else every core.
 pub fn thread_count(requested: Option<usize>) -> anyhow::Result<usize> {
     match requested {
@@ -201,7 +153,7 @@ pub fn thread_count(requested: Option<usize>) -> anyhow::Result<usize> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SimulateOptions {
     pub rerun: RerunOptions,
-    pub formats: Formats,
+    pub formats: FormatSet,
     /// Stepping threads (>= 1; the files do not depend on it).
     pub threads: usize,
     pub mcap_compression: ChunkCompression,
@@ -398,7 +350,7 @@ pub fn simulate(
 ) -> anyhow::Result<Outputs> {
     let options = SimulateOptions {
         rerun: *rerun_options,
-        formats: Formats::default(),
+        formats: FormatSet::default(),
         threads: 1,
         mcap_compression: ChunkCompression::Zstd,
         accuracy_model: Default::default(),
@@ -407,27 +359,9 @@ pub fn simulate(
 }
 
 /// The files `formats` names for `stem`, in the order of [`Outputs::written`].
-pub fn output_paths(stem: &Path, formats: &Formats) -> Vec<PathBuf> {
-    let mut paths = Vec::new();
-    if formats.mcap {
-        paths.push(with_extension(stem, "mcap"));
-    }
-    if formats.rrd {
-        paths.push(with_extension(stem, "rrd"));
-    }
-    if formats.ros2 {
-        paths.push(with_extension(stem, crate::record::ros2::EXTENSION));
-    }
-    if formats.parquet {
-        paths.push(with_extension(stem, TRAJECTORIES_EXTENSION));
-        paths.push(with_extension(stem, BODIES_EXTENSION));
-    }
-    paths
+pub fn output_paths(stem: &Path, formats: &FormatSet) -> Vec<PathBuf> {
+    formats.paths(stem)
 }
-
-/// `STEM.trajectories.parquet` and `STEM.bodies.parquet` (`--format parquet`).
-pub const TRAJECTORIES_EXTENSION: &str = "trajectories.parquet";
-pub const BODIES_EXTENSION: &str = "bodies.parquet";
 
 /// The warning for a step too large for some body's spin ([`crate::sim::limits`]), if any.
 pub fn step_warning(scene: &Scene, world: &World) -> Option<String> {
@@ -527,7 +461,7 @@ pub fn simulate_world(
         )?
     };
     let formats = options.formats;
-    if formats.mcap || formats.rrd {
+    if formats.contains(Format::Mcap) || formats.contains(Format::Rrd) {
         // Both draw every recorded link's visual meshes: bounded per scene before any file.
         crate::scene::triangles::check_recorded(world, &scene.source)?;
     }
@@ -535,11 +469,11 @@ pub fn simulate_world(
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create the output folder {}", dir.display()))?;
     }
-    let mcap = with_extension(stem, "mcap");
-    let rrd = with_extension(stem, "rrd");
+    let mcap = OutputFile::Mcap.path(stem);
+    let rrd = OutputFile::Rrd.path(stem);
     let ros2 = formats
-        .ros2
-        .then(|| with_extension(stem, crate::record::ros2::EXTENSION));
+        .contains(Format::Ros2)
+        .then(|| OutputFile::Ros2.path(stem));
     let written = output_paths(stem, &formats);
     let outputs: Vec<&Path> = written.iter().map(PathBuf::as_path).collect();
     // Each file is encoded on its own thread, beside the stepping; the threads share one copy
@@ -564,41 +498,18 @@ pub fn simulate_world(
             Err(e) => crate::record::finish_all(std::mem::take(sinks), Err(e), &outputs),
         }
     };
-    if formats.mcap {
-        let sink = McapSink::create_with(
-            &mcap,
-            &world.layout,
-            &McapOptions {
-                ellipsoids: options.rerun.ellipsoids,
-                compression: options.mcap_compression.resolve(body_count),
-            },
-        )
-        .map(|sink| {
-            for warning in sink.warnings() {
-                eprintln!("warning: {warning}");
-            }
-            Box::new(sink) as Box<dyn Sink + Send>
-        });
-        add(&mut sinks, sink, "tumble-mcap")?;
-    }
-    if formats.rrd {
-        let sink = RerunSink::create(&rrd, &world.layout, &options.rerun)
-            .map(|sink| Box::new(sink) as Box<dyn Sink + Send>);
-        add(&mut sinks, sink, "tumble-rrd")?;
-    }
-    if let Some(path) = &ros2 {
-        let sink = Ros2Sink::create(path, &world.layout)
-            .map(|sink| Box::new(sink) as Box<dyn Sink + Send>);
-        add(&mut sinks, sink, "tumble-ros2")?;
-    }
-    if formats.parquet {
-        let sink =
-            TrajectorySink::create(&with_extension(stem, TRAJECTORIES_EXTENSION), &world.layout)
-                .map(|sink| Box::new(sink) as Box<dyn Sink + Send>);
-        add(&mut sinks, sink, "tumble-parquet")?;
-        let sink = BodiesSink::new(&with_extension(stem, BODIES_EXTENSION), &world.layout)
-            .map(|sink| Box::new(sink) as Box<dyn Sink + Send>);
-        add(&mut sinks, sink, "tumble-bodies")?;
+    let sink_options = SinkOptions {
+        mcap: McapOptions {
+            ellipsoids: options.rerun.ellipsoids,
+            compression: options.mcap_compression.resolve(body_count),
+        },
+        rerun: options.rerun,
+        print_mcap_warnings: true,
+    };
+    for format in formats.iter() {
+        for (file, _, sink) in crate::record::open(format, stem, &world.layout, &sink_options) {
+            add(&mut sinks, sink, file.thread_name())?;
+        }
     }
     sim.attach_all(sinks)?;
     let stepping_threads = sim.partitions().threads();
@@ -762,24 +673,16 @@ fn print_accuracy(
     Ok(())
 }
 
-/// `stem` with `.ext` appended (a stem may itself contain dots).
-fn with_extension(stem: &Path, ext: &str) -> PathBuf {
-    let mut s = stem.as_os_str().to_owned();
-    s.push(".");
-    s.push(ext);
-    PathBuf::from(s)
-}
-
 pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     let scene = scene_from_args(args)?;
     let stem = args.out.clone().unwrap_or_else(|| {
         let name = scene.source.file_stem().unwrap_or_default();
         Path::new("logs").join(name)
     });
-    let formats = Formats {
-        ros2: args.format.ros2 || args.ros2,
-        ..args.format
-    };
+    let mut formats = args.format;
+    if args.ros2 {
+        formats.insert(Format::Ros2);
+    }
     for path in output_paths(&stem, &formats) {
         check_not_overwriting(&path, args.force)?;
     }
@@ -896,23 +799,23 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         println!("  {}", path.display());
     }
     println!("view them with:");
-    if formats.rrd {
+    if formats.contains(Format::Rrd) {
         println!(
             "  rerun {}        (Rerun viewer 0.36/0.37: pip install rerun-sdk==0.36.3)",
             out.rrd.display()
         );
     }
-    if formats.mcap {
+    if formats.contains(Format::Mcap) {
         println!(
             "  Foxglove: open {}, then import the layout {} (Layouts > Import): a 3D panel on \"world\" showing /scene, energy and momentum plots",
             out.mcap.display(),
             foxglove_layout_path().display()
         );
     }
-    if formats.parquet {
+    if formats.contains(Format::Parquet) {
         println!(
             "  pandas: pd.read_parquet(\"{}\")   (columns: docs/scale.md, the dataset's trajectories table)",
-            with_extension(&stem, TRAJECTORIES_EXTENSION).display()
+            OutputFile::Trajectories.path(&stem).display()
         );
     }
     if let Some(ros2) = &out.ros2 {

@@ -4,14 +4,12 @@
 //! discarded and recomputed.
 
 use super::manifest::ChunkRecord;
-use super::parquet::{FileInfo, PartWriter, recording_info, write_file};
+use super::runs::{RunRow, runs_batch};
 use super::sample::{ModelCache, RunParams, draw, run_scene};
-use super::spec::{DatasetSpec, RecordFormat};
-use super::tables::{RowsSink, RunRow, TrajectoryColumns, runs_batch, trajectories_schema};
-use crate::record::mcap::McapSink;
-use crate::record::rerun::{RerunOptions, RerunSink};
-use crate::record::ros2::Ros2Sink;
-use crate::record::{RecordingLayout, Sink};
+use super::spec::DatasetSpec;
+use crate::record::parquet::files::{FileInfo, PartWriter, recording_info, write_file};
+use crate::record::parquet::tables::{RowsSink, TrajectoryColumns, trajectories_schema};
+use crate::record::{OutputFile, RecordingLayout, Sink, SinkOptions};
 use crate::simulation::{Inits, Simulation};
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
@@ -29,8 +27,8 @@ pub fn runs_name(chunk: u64) -> String {
 }
 
 /// `recordings/run-NNNNNN.<ext>`.
-pub fn recording_name(run: u64, format: RecordFormat) -> String {
-    format!("recordings/run-{run:06}.{}", format.extension())
+pub fn recording_name(run: u64, file: OutputFile) -> String {
+    format!("recordings/run-{run:06}.{}", file.extension())
 }
 
 /// Trajectory rows are handed to the Parquet writer in batches of at least this many rows
@@ -181,24 +179,13 @@ fn simulate_run(
         rec_layout
             .metadata
             .insert("dataset_run_seed".into(), params.seed.to_string());
-        for &format in &spec.record {
-            let name = recording_name(params.run, format);
+        for file in spec.record.iter().flat_map(|format| format.files()) {
+            let name = recording_name(params.run, *file);
             let path = ctx.dir.join(&name);
             if let Some(parent) = path.parent() {
                 std::fs::create_dir_all(parent)?;
             }
-            let sink: anyhow::Result<Box<dyn Sink>> = match format {
-                RecordFormat::Mcap => {
-                    McapSink::create(&path, &rec_layout).map(|s| Box::new(s) as _)
-                }
-                RecordFormat::Rrd => {
-                    RerunSink::create(&path, &rec_layout, &RerunOptions::default())
-                        .map(|s| Box::new(s) as _)
-                }
-                RecordFormat::Ros2 => {
-                    Ros2Sink::create(&path, &rec_layout).map(|s| Box::new(s) as _)
-                }
-            };
+            let sink = crate::record::open_file(*file, &path, &rec_layout, &SinkOptions::default());
             outputs.push(path);
             match sink {
                 Ok(sink) => sinks.push(sink),

@@ -4,8 +4,8 @@
 //! - **Parallel, bounded**: a rayon pool of `threads` workers takes chunks in increasing order
 //!   from a shared counter; each worker simulates its chunk's runs one after the other and
 //!   streams their rows into the chunk's Parquet file (row groups of
-//!   [`super::parquet::ROW_GROUP_ROWS`]). Memory is `threads` × one chunk's row group and runs
-//!   table, whatever the run count.
+//!   [`crate::record::parquet::files::ROW_GROUP_ROWS`]). Memory is `threads` × one chunk's row
+//!   group and runs table, whatever the run count.
 //! - **Deterministic**: a chunk's files depend on (spec, chunk index) only; the manifest lists
 //!   chunks sorted; so any thread count, order or shard split gives the same bytes.
 //! - **Interruption** (SIGINT/SIGTERM, [`crate::interrupt`]): no new chunk is started; chunks in
@@ -20,12 +20,12 @@
 
 use super::chunk::{ChunkStats, Context, run_chunk};
 use super::manifest::{FORMAT, MANIFEST, Manifest, sha256_hex, verify_file};
-use super::parquet::{file_digest, write_file};
 use super::sample::ModelCache;
 use super::shard::Shard;
 use super::spec::DatasetSpec;
-use super::tables::bodies_batch;
 use crate::interrupt;
+use crate::record::parquet::files::{file_digest, write_file};
+use crate::record::parquet::tables::bodies_batch;
 use anyhow::{Context as _, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::collections::BTreeMap;

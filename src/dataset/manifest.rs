@@ -23,8 +23,8 @@
 //! time or the machine, so a dataset's manifest is as reproducible as its files. It is rewritten
 //! atomically (`manifest.json.part`, renamed) as chunks complete and at the end.
 
-use super::parquet::{FileInfo, file_digest};
 use super::shard::Shard;
+use crate::record::parquet::files::{FileInfo, file_digest};
 use anyhow::Context;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -159,5 +159,5 @@ pub fn verify_file(dir: &Path, file: &FileInfo) -> anyhow::Result<()> {
 /// SHA-256 hex of a string.
 pub fn sha256_hex(text: &str) -> String {
     use sha2::Digest;
-    super::parquet::hex(&sha2::Sha256::digest(text.as_bytes()))
+    crate::record::parquet::files::hex(&sha2::Sha256::digest(text.as_bytes()))
 }

@@ -11,8 +11,8 @@
 
 use super::generate::OUTPUTS;
 use super::manifest::{MANIFEST, Manifest, verify_file};
-use super::parquet::{FileInfo, hidden_part_path};
 use super::shard::shard_of;
+use crate::record::parquet::files::{FileInfo, hidden_part_path};
 use anyhow::{Context, bail};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

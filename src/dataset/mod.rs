@@ -5,9 +5,9 @@
 //! Flow: [`spec`] parses the TOML (template, `[vary]` distributions, run count, master seed);
 //! run `i` draws its parameters from `crate::scene::placement::rng` streams seeded by (seed, i) alone ([`sample`]);
 //! runs are grouped into chunks of `runs_per_file`, each simulated by one thread in run order
-//! ([`chunk`]) into Parquet part files ([`tables`], [`parquet`]); [`generate`] runs the chunks
-//! in parallel, resumes and stops cleanly, keeping [`manifest`] up to date; [`shard`] splits the
-//! chunks among machines and [`merge`] joins their folders.
+//! ([`chunk`]) into Parquet part files ([`crate::record::parquet`], the runs table [`runs`]);
+//! [`generate`] runs the chunks in parallel, resumes and stops cleanly, keeping [`manifest`] up
+//! to date; [`shard`] splits the chunks among machines and [`merge`] joins their folders.
 //!
 //! Folder layout:
 //!
@@ -23,11 +23,10 @@ pub mod chunk;
 pub mod generate;
 pub mod manifest;
 pub mod merge;
-pub mod parquet;
+pub mod runs;
 pub mod sample;
 pub mod shard;
 pub mod spec;
-pub mod tables;
 
 pub use generate::{Options, Summary, generate};
 pub use manifest::Manifest;

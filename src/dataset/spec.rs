@@ -29,6 +29,7 @@
 //! Distributions: [`super::distribution`]. Unknown keys and bad values are errors naming the
 //! spec file and the key.
 
+use crate::record::Format;
 use crate::scene::Scene;
 use crate::scene::placement::Orientation;
 use crate::scene::placement::distribution::{Dist, parse_string_choice};
@@ -37,22 +38,23 @@ use anyhow::{Context, bail};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
-/// Per-run recordings besides the Parquet rows.
+/// The per-run recordings `dataset.record` can name, besides the Parquet rows: the
+/// [`Format`]s with one file per run (`run-NNNNNN.ros2.mcap` for a ROS 2 recording,
+/// [`crate::record::ros2`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum RecordFormat {
+enum RecordName {
     Mcap,
     Rrd,
-    /// `run-NNNNNN.ros2.mcap`, a ROS 2 recording ([`crate::record::ros2`]).
     Ros2,
 }
 
-impl RecordFormat {
-    pub fn extension(self) -> &'static str {
+impl RecordName {
+    fn format(self) -> Format {
         match self {
-            RecordFormat::Mcap => "mcap",
-            RecordFormat::Rrd => "rrd",
-            RecordFormat::Ros2 => crate::record::ros2::EXTENSION,
+            RecordName::Mcap => Format::Mcap,
+            RecordName::Rrd => Format::Rrd,
+            RecordName::Ros2 => Format::Ros2,
         }
     }
 }
@@ -71,7 +73,7 @@ struct DatasetTable {
     #[serde(default)]
     runs_per_file: Option<i64>,
     #[serde(default)]
-    record: Vec<RecordFormat>,
+    record: Vec<RecordName>,
     #[serde(default)]
     record_runs: Option<i64>,
 }
@@ -115,7 +117,7 @@ pub struct DatasetSpec {
     pub runs: u64,
     pub seed: u64,
     pub runs_per_file: u64,
-    pub record: Vec<RecordFormat>,
+    pub record: Vec<Format>,
     pub record_runs: u64,
     /// The `[scene]` template, validated (relative paths anchored at the spec file). Its one
     /// `[[model]]` names the first `vary.model` choice when the template gives no `urdf`.
@@ -215,7 +217,7 @@ impl DatasetSpec {
                 "{file}: dataset.record_runs is set but dataset.record names no format (\"mcap\", \"rrd\")"
             );
         }
-        let mut record = dataset.record.clone();
+        let mut record: Vec<Format> = dataset.record.iter().map(|r| r.format()).collect();
         record.dedup();
         let models = match &vary.model {
             Some(choices) => choices.clone(),

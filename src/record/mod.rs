@@ -1,24 +1,25 @@
-//! Where results go. One [`Sink`] trait; implementations for MCAP ([`mcap`]), Rerun ([`rerun`])
-//! and ROS 2 MCAP ([`ros2`]).
+//! Where results go. One [`Sink`] trait; implementations for MCAP ([`mcap`]), Rerun ([`rerun`]),
+//! ROS 2 MCAP ([`ros2`]) and Parquet tables ([`parquet`]), one folder per format.
 //!
 //! A recorder receives a [`RecordingLayout`] once (what frames exist, what they look like, the
 //! metadata) and then one [`Frame`] per recorded step. It knows nothing of integrators.
+//!
+//! Shared by the formats: [`format`] the formats, their files and the one place their sinks
+//! are opened ([`open`], [`open_file`]); [`names`] the topics and frame ids; [`pipelined`] a
+//! sink on its own thread; [`owned_frame`] the frames such sinks share; [`writeback`] files
+//! handed to the disk's writeback as they grow; [`layout_json`] the layout stored in the MCAP
+//! files; [`scene_update`] the visual geometry (MCAP `/scene`, and the meshes Rerun embeds).
+//! [`finish_all`] ends a run's sinks and publishes all their files or none.
 
-pub mod cdr;
+pub mod format;
 pub mod layout_json;
 pub mod mcap;
-pub mod mcap_encode;
-pub mod mcap_writer;
-pub mod mechanism_proto;
+pub mod names;
 pub mod owned_frame;
 pub mod parquet;
 pub mod pipelined;
 pub mod rerun;
-pub mod rerun_batched;
-pub mod rerun_blueprint;
 pub mod ros2;
-pub mod ros2_msgs;
-pub mod rrd_footer;
 pub mod scene_update;
 pub mod writeback;
 
@@ -26,6 +27,7 @@ use crate::model::Visual;
 use nalgebra::{Isometry3, Vector3};
 use std::collections::BTreeMap;
 
+pub use format::{Format, FormatSet, OutputFile, SinkOptions, open, open_file};
 pub use owned_frame::{FramePool, OwnedFrame};
 
 /// Everything a recorder needs to know before the first frame.

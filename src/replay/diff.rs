@@ -32,9 +32,9 @@
 
 use super::stream::{Item, McapStream, Message, StreamEnd};
 use crate::record::layout_json::{LAYOUT_KEY, from_json};
-use crate::record::mcap::METADATA_NAME;
+use crate::record::names::METADATA_NAME;
+use crate::record::rerun::blueprint::PlotView;
 use crate::record::rerun::{RerunOptions, RerunSink};
-use crate::record::rerun_blueprint::PlotView;
 use crate::record::{Frame, FrameLayout, RecordingLayout, Sink};
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};

@@ -2,7 +2,7 @@
 
 use super::stream::{Item, McapStream, StreamEnd};
 use crate::record::layout_json::{LAYOUT_KEY, from_json};
-use crate::record::mcap::{BODIES_TOPIC, METADATA_NAME, TF_TOPIC};
+use crate::record::names::{BODIES_TOPIC, METADATA_NAME, TF_TOPIC};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -93,7 +93,7 @@ const LONG_KEYS: [&str; 3] = ["scene", "settings_json", LAYOUT_KEY];
 /// Topics with one message per recorded step: every group's `/tf` and `/bodies` (a step is
 /// complete, and replayable by [`super::steps::StepReader`], when all of them hold it).
 fn is_step_topic(topic: &str) -> bool {
-    use crate::record::mechanism_proto::{JOINTS_TOPIC, MECHANISMS_TOPIC};
+    use crate::record::names::{JOINTS_TOPIC, MECHANISMS_TOPIC};
     topic.ends_with(TF_TOPIC)
         || topic.ends_with(BODIES_TOPIC)
         || topic.ends_with(JOINTS_TOPIC)

@@ -1,7 +1,7 @@
 //! A tumble MCAP recording read back step by step: the layout from the `tumble` metadata record
 //! ([`crate::record::layout_json`]), then one [`RecordedStep`] per recorded step, rebuilt from the
 //! `/tf` and `/bodies` messages of every topic group (see [`crate::record::mcap`]), and with
-//! articulated models their `/joints` and `/mechanisms` ([`crate::record::mechanism_proto`]).
+//! articulated models their `/joints` and `/mechanisms` ([`crate::record::mcap::mechanism_proto`]).
 //!
 //! A step is handed out only when every frame's pose and every body's state at that time were
 //! read; a step missing some (the file was cut between its messages) is dropped and counted in
@@ -9,8 +9,9 @@
 
 use super::stream::{Item, McapStream, Message, StreamEnd};
 use crate::record::layout_json::{LAYOUT_KEY, from_json};
-use crate::record::mcap::{BODIES_TOPIC, METADATA_NAME, TF_TOPIC, proto};
-use crate::record::mechanism_proto as mp;
+use crate::record::mcap::mechanism_proto as mp;
+use crate::record::mcap::proto;
+use crate::record::names::{BODIES_TOPIC, JOINTS_TOPIC, MECHANISMS_TOPIC, METADATA_NAME, TF_TOPIC};
 use crate::record::{BodyState, JointState, MechanismState, RecordingLayout};
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
@@ -323,7 +324,7 @@ impl StepReader {
                     potential_energy: b.potential_energy,
                 });
             }
-        } else if topic.ends_with(mp::JOINTS_TOPIC) {
+        } else if topic.ends_with(JOINTS_TOPIC) {
             let message = mp::JointStates::decode(data).with_context(|| {
                 format!(
                     "{}: a {topic} message is not a {}",
@@ -345,7 +346,7 @@ impl StepReader {
                     velocity: j.velocity,
                 });
             }
-        } else if topic.ends_with(mp::MECHANISMS_TOPIC) {
+        } else if topic.ends_with(MECHANISMS_TOPIC) {
             let message = mp::MechanismStates::decode(data).with_context(|| {
                 format!(
                     "{}: a {topic} message is not a {}",

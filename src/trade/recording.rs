@@ -7,9 +7,8 @@
 //! (`/rk4/tf`, `/rk4/bodies`). All copies start from the same state; where they part is what
 //! the integrators disagree on.
 
-use crate::record::mcap::McapSink;
-use crate::record::rerun::{RerunOptions, RerunSink};
-use crate::record::{Frame, RecordingLayout, Sink, TopicGroup};
+use crate::record::rerun::RerunOptions;
+use crate::record::{Frame, OutputFile, RecordingLayout, Sink, SinkOptions, TopicGroup};
 use crate::scene::Scene;
 use crate::sim::Loads;
 use crate::sim::guard::{Divergence, Guard};
@@ -114,13 +113,15 @@ pub fn record(
             Ok((bodies, integrator, FrameBuilder::new(&world), guard))
         })
         .collect::<anyhow::Result<_>>()?;
+    // The MCAP file keeps its inertia ellipsoids (the default options); the Rerun one leaves
+    // them out.
+    let options = SinkOptions {
+        rerun: RerunOptions { ellipsoids: false },
+        ..SinkOptions::default()
+    };
     let mut sinks: Vec<Box<dyn Sink>> = vec![
-        Box::new(McapSink::create(mcap, &layout)?),
-        Box::new(RerunSink::create(
-            rrd,
-            &layout,
-            &RerunOptions { ellipsoids: false },
-        )?),
+        crate::record::open_file(OutputFile::Mcap, mcap, &layout, &options)?,
+        crate::record::open_file(OutputFile::Rrd, rrd, &layout, &options)?,
     ];
     let mut stopped = None;
     let mut poses = Vec::with_capacity(layout.frames.len());

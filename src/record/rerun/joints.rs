@@ -31,9 +31,15 @@
 //! that are conserved: every free body's angular momentum and every floating model's total
 //! (a mechanism's bodies exchange momentum through their joints; a fixed base takes some).
 
-use super::{ENERGY_SERIES, EntityPath, EntityPathPart, Frame, RecordingLayout, Result};
-use super::{PlotView, TimeColumn, nonzero, static_chunk};
+use super::blueprint::PlotView;
+use super::chunks::static_chunk;
+use super::paths::ENERGY_SERIES;
+use super::values::nonzero;
+use super::writer::ChunkWriter;
+use crate::record::{Frame, RecordingLayout};
+use anyhow::Result;
 use rerun::log::Chunk;
+use rerun::{EntityPath, EntityPathPart, TimeColumn};
 
 fn path(parts: &[&str], name: &str) -> EntityPath {
     let mut p: Vec<EntityPathPart> = parts.iter().map(|s| EntityPathPart::new(*s)).collect();
@@ -271,7 +277,7 @@ impl JointPlots {
     /// Sends the buffered rows (`times` builds the two time columns) and clears them.
     pub(super) fn send(
         &mut self,
-        rec: &super::ChunkWriter<'_>,
+        rec: &ChunkWriter<'_>,
         times: &dyn Fn() -> [TimeColumn; 2],
         rows: usize,
     ) -> Result<()> {

@@ -1,34 +1,17 @@
-//! MCAP recordings with Foxglove's well-known protobuf schemas.
-//!
-//! Layout of a file written by [`McapSink`]:
-//!
-//! | topic      | schema (protobuf)          | one message per recorded step holding                      |
-//! |------------|----------------------------|------------------------------------------------------------|
-//! | `/tf`      | `foxglove.FrameTransforms` | one `FrameTransform` per link frame: `parent_frame_id = "world"`, `child_frame_id` = frame id, the pose `world_from_link` |
-//! | `/bodies`  | `tumble.BodyStates`        | per body: linear and angular velocity (world), angular momentum about the centre of mass (world), kinetic and potential energy; plus the totals |
-//! | `/joints`  | `tumble.JointStates`       | articulated models only: per joint its name, position and velocity ([`super::mechanism_proto`]) |
-//! | `/mechanisms` | `tumble.MechanismStates` | articulated models only: per model its momenta, centre of mass, energies and constraint residual |
-//!
-//! With [`RecordingLayout::topic_groups`] the two topics are repeated per group under its prefix
-//! (`/rk4/tf`, `/rk4/bodies`, ...), each holding only the group's frames and bodies.
-//!
-//! Every message's `timestamp` = log time = publish time = simulation time in integer ns.
-//! The schema of `/bodies` is a self-contained `FileDescriptorSet` (it includes
-//! `google/protobuf/timestamp.proto`), so generic protobuf readers decode it.
-//! A metadata record named `tumble` holds the scene, integrator settings and tool version
-//! (see [`RecordingLayout::metadata`]) and, under `layout_json`, the recording layout (frames,
-//! visuals, bodies, topic groups; [`super::layout_json`]) from which `tumble convert` replays the
-//! file into Rerun. The file is written by [`super::mcap_writer`]; chunks are zstd-compressed,
-//! or LZ4 or uncompressed ([`ChunkCompression`]); the summary and indexes are written when the
-//! sink finishes, which is always explicit. The file is written under `<path>.part` (its bytes
-//! handed to the disk's writeback as they are written, [`super::writeback`]) and renamed onto
-//! `path` only once it is complete.
+//! [`McapSink`]: writes a recording as MCAP with Foxglove's well-known protobuf schemas (the
+//! file layout is in [`super`]), and its options ([`McapOptions`], [`ChunkCompression`]).
 
-use super::mcap_writer::{Codec, McapWriter};
-use super::scene_update::{MeshCache, geometry_update, inertia_update};
-use super::writeback::WritebackFile;
-use super::{Frame, RecordingLayout, Sink};
+use super::file::{CHUNK_BYTES, sync_file};
+use super::proto::{BODY_STATES_SCHEMA, body_states_descriptor};
+use super::writer::{Codec, McapWriter};
 use crate::fsutil::part_path;
+use crate::record::names::{
+    BODIES_TOPIC, INERTIA_TOPIC, JOINTS_TOPIC, MECHANISMS_TOPIC, METADATA_NAME, SCENE_TOPIC,
+    TF_TOPIC, WORLD_FRAME,
+};
+use crate::record::scene_update::{MeshCache, geometry_update, inertia_update};
+use crate::record::writeback::WritebackFile;
+use crate::record::{Frame, RecordingLayout, Sink};
 use anyhow::Context;
 use foxglove::Encode;
 use foxglove::messages::{FrameTransforms, SceneUpdate, Timestamp};
@@ -37,214 +20,8 @@ use std::collections::BTreeMap;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
-/// The mcap writer of a recording file: buffered, its bytes handed to the disk's writeback as
-/// they are written ([`WritebackFile`]).
-pub type McapFileWriter = mcap::Writer<BufWriter<WritebackFile>>;
-
-/// Target chunk size, bytes (the mcap writer closes a chunk once it is this big). Small enough
-/// that a file cut short (a killed process, a full disk) loses little: every complete chunk is
-/// readable (`tumble convert`, `tumble info`); large enough that zstd still compresses well.
-pub const CHUNK_BYTES: u64 = 64 * 1024;
-
 /// Frames (or bodies) per slice of the `/scene` (`/inertia`) message built at a time.
 const SCENE_SLICE: usize = 1024;
-
-/// zstd level of the chunks: -1, the first of zstd's fast levels (`zstd --fast=1`). On
-/// tumble's chunks (64 KiB of poses and velocities: doubles that barely compress, frame ids and
-/// protobuf tags that do) it takes about half the CPU time of level 1 for files about 5 % larger
-/// (measured on the 10 000-body swarm: 0.45 s against 0.86 s for 226 MB, 163 MB against
-/// 154 MB; docs/scale.md).
-pub const ZSTD_LEVEL: i32 = -1;
-
-/// LZ4 level of the chunks: -7, LZ4's fast mode with acceleration 8 (liblz4 `lz4frame.c`:
-/// a level below zero compresses with `LZ4_compress_fast_continue` at acceleration
-/// `-level + 1`). The acceleration makes the match search skip ahead faster after misses; on
-/// tumble's chunks the misses are the doubles of poses and velocities, which no level
-/// compresses, and the matches the frame ids, names and protobuf tags, which every level finds.
-/// Measured on the 10 000-body swarm (1 s, 224 MB uncompressed): level 0 (acceleration 1)
-/// 175.0 MB with LZ4 at 22.7 % of all the run's CPU samples, level -7 176.2 MB at 10.7 %
-/// (docs/scale.md "MCAP at scale"). The lz4 crate takes the level as a `u32` and stores
-/// it in liblz4's `int compressionLevel` unchanged, so the negative level goes through as its
-/// two's complement ([`lz4_level_u32`]).
-pub const LZ4_LEVEL: i32 = -7;
-
-/// [`LZ4_LEVEL`] as the `u32` the lz4 crate's `EncoderBuilder::level` takes.
-pub const fn lz4_level_u32() -> u32 {
-    LZ4_LEVEL as u32
-}
-
-/// Topic of the link transforms.
-pub const TF_TOPIC: &str = "/tf";
-/// Topic of the per-body velocities, energies and momenta.
-pub const BODIES_TOPIC: &str = "/bodies";
-/// Topic of the geometry (`foxglove.SceneUpdate`, one message at the first recorded step).
-pub const SCENE_TOPIC: &str = "/scene";
-/// Topic of the inertia ellipsoids (`foxglove.SceneUpdate`, one message at the first step).
-pub const INERTIA_TOPIC: &str = "/inertia";
-/// Name of the MCAP metadata record holding the scene and settings.
-pub const METADATA_NAME: &str = "tumble";
-/// Schema name of the `/bodies` messages.
-pub const BODY_STATES_SCHEMA: &str = "tumble.BodyStates";
-
-/// Protobuf messages of the `/bodies` topic (`package tumble`).
-pub mod proto {
-    /// `tumble.Vector3`
-    #[derive(Clone, PartialEq, prost::Message)]
-    pub struct Vector3 {
-        #[prost(double, tag = "1")]
-        pub x: f64,
-        #[prost(double, tag = "2")]
-        pub y: f64,
-        #[prost(double, tag = "3")]
-        pub z: f64,
-    }
-
-    /// `tumble.BodyState`: one body at one instant, world frame, SI units.
-    #[derive(Clone, PartialEq, prost::Message)]
-    pub struct BodyState {
-        /// The body's frame id (as in `/tf`).
-        #[prost(string, tag = "1")]
-        pub name: String,
-        /// Velocity of the centre of mass, m/s.
-        #[prost(message, optional, tag = "2")]
-        pub linear_velocity: Option<Vector3>,
-        /// Angular velocity, rad/s.
-        #[prost(message, optional, tag = "3")]
-        pub angular_velocity: Option<Vector3>,
-        /// Angular momentum about the centre of mass, kg m^2/s.
-        #[prost(message, optional, tag = "4")]
-        pub angular_momentum: Option<Vector3>,
-        /// J
-        #[prost(double, tag = "5")]
-        pub kinetic_energy: f64,
-        /// J, zero at the world origin.
-        #[prost(double, tag = "6")]
-        pub potential_energy: f64,
-    }
-
-    /// `tumble.BodyStates`: every body at one recorded step.
-    #[derive(Clone, PartialEq, prost::Message)]
-    pub struct BodyStates {
-        #[prost(message, optional, tag = "1")]
-        pub timestamp: Option<prost_types::Timestamp>,
-        /// Integrator step index.
-        #[prost(uint64, tag = "2")]
-        pub step: u64,
-        #[prost(message, repeated, tag = "3")]
-        pub bodies: Vec<BodyState>,
-        /// Sum of kinetic and potential energy over all bodies, J.
-        #[prost(double, tag = "4")]
-        pub total_energy: f64,
-    }
-}
-
-/// The `FileDescriptorSet` describing [`proto::BodyStates`], built from the message definitions
-/// above (kept in one place: the field numbers here must match the `prost` tags).
-pub fn body_states_descriptor() -> Vec<u8> {
-    use prost_types::FileDescriptorSet;
-    FileDescriptorSet {
-        file: body_states_files().to_vec(),
-    }
-    .encode_to_vec()
-}
-
-/// The files of [`body_states_descriptor`]: `google/protobuf/timestamp.proto` and
-/// `tumble/BodyStates.proto` (which defines `tumble.Vector3`; other tumble schemas depend on
-/// it rather than define it again, so one descriptor pool can hold them all).
-pub fn body_states_files() -> [prost_types::FileDescriptorProto; 2] {
-    use prost_types::field_descriptor_proto::{Label, Type};
-    use prost_types::{DescriptorProto, FieldDescriptorProto, FileDescriptorProto};
-
-    fn field(
-        name: &str,
-        number: i32,
-        ty: Type,
-        label: Label,
-        type_name: Option<&str>,
-    ) -> FieldDescriptorProto {
-        FieldDescriptorProto {
-            name: Some(name.into()),
-            number: Some(number),
-            label: Some(label as i32),
-            r#type: Some(ty as i32),
-            type_name: type_name.map(str::to_string),
-            json_name: None,
-            ..Default::default()
-        }
-    }
-    fn message(name: &str, fields: Vec<FieldDescriptorProto>) -> DescriptorProto {
-        DescriptorProto {
-            name: Some(name.into()),
-            field: fields,
-            ..Default::default()
-        }
-    }
-    let one = Label::Optional;
-    let timestamp_file = FileDescriptorProto {
-        name: Some("google/protobuf/timestamp.proto".into()),
-        package: Some("google.protobuf".into()),
-        message_type: vec![message(
-            "Timestamp",
-            vec![
-                field("seconds", 1, Type::Int64, one, None),
-                field("nanos", 2, Type::Int32, one, None),
-            ],
-        )],
-        syntax: Some("proto3".into()),
-        ..Default::default()
-    };
-    let vec3 = |name: &str, n| field(name, n, Type::Message, one, Some(".tumble.Vector3"));
-    let tumble_file = FileDescriptorProto {
-        name: Some("tumble/BodyStates.proto".into()),
-        package: Some("tumble".into()),
-        dependency: vec!["google/protobuf/timestamp.proto".into()],
-        message_type: vec![
-            message(
-                "Vector3",
-                vec![
-                    field("x", 1, Type::Double, one, None),
-                    field("y", 2, Type::Double, one, None),
-                    field("z", 3, Type::Double, one, None),
-                ],
-            ),
-            message(
-                "BodyState",
-                vec![
-                    field("name", 1, Type::String, one, None),
-                    vec3("linear_velocity", 2),
-                    vec3("angular_velocity", 3),
-                    vec3("angular_momentum", 4),
-                    field("kinetic_energy", 5, Type::Double, one, None),
-                    field("potential_energy", 6, Type::Double, one, None),
-                ],
-            ),
-            message(
-                "BodyStates",
-                vec![
-                    field(
-                        "timestamp",
-                        1,
-                        Type::Message,
-                        one,
-                        Some(".google.protobuf.Timestamp"),
-                    ),
-                    field("step", 2, Type::Uint64, one, None),
-                    field(
-                        "bodies",
-                        3,
-                        Type::Message,
-                        Label::Repeated,
-                        Some(".tumble.BodyState"),
-                    ),
-                    field("total_energy", 4, Type::Double, one, None),
-                ],
-            ),
-        ],
-        syntax: Some("proto3".into()),
-        ..Default::default()
-    };
-    [timestamp_file, tumble_file]
-}
 
 /// Which geometry message a `SceneUpdate` channel carries.
 enum SceneKind {
@@ -263,9 +40,9 @@ struct ChannelGroup {
     joints_channel: Option<u16>,
     mechanisms_channel: Option<u16>,
     /// The group's `/tf` frame id fields and `/bodies` name fields, encoded once.
-    tf_ids: super::mcap_encode::EncodedFields,
-    body_names: super::mcap_encode::EncodedFields,
-    group: super::TopicGroup,
+    tf_ids: super::encode::EncodedFields,
+    body_names: super::encode::EncodedFields,
+    group: crate::record::TopicGroup,
 }
 
 /// What to write besides the trajectories, and how.
@@ -384,14 +161,14 @@ impl McapSink {
         // tumble MCAP has had; the writer keeps metadata, schemas and channels outside chunks,
         // so every chunk holds messages: Foxglove refuses chunks without message indexes,
         // tests/recordings.rs checks every chunk index). Keys in order, as a map gives them.
-        let layout_json = super::layout_json::to_json(layout);
+        let layout_json = crate::record::layout_json::to_json(layout);
         let mut entries: Vec<(&str, &str)> = layout
             .metadata
             .iter()
-            .filter(|(k, _)| k.as_str() != super::layout_json::LAYOUT_KEY)
+            .filter(|(k, _)| k.as_str() != crate::record::layout_json::LAYOUT_KEY)
             .map(|(k, v)| (k.as_str(), v.as_str()))
             .collect();
-        entries.push((super::layout_json::LAYOUT_KEY, &layout_json));
+        entries.push((crate::record::layout_json::LAYOUT_KEY, &layout_json));
         entries.sort_by(|a, b| a.0.cmp(b.0));
         writer.write_metadata(METADATA_NAME, &entries)?;
         drop(entries);
@@ -455,7 +232,6 @@ impl McapSink {
             }
             let (mut joints_channel, mut mechanisms_channel) = (None, None);
             if let Some((joints_schema, mechanisms_schema)) = articulated {
-                use super::mechanism_proto::{JOINTS_TOPIC, MECHANISMS_TOPIC};
                 if !group.joints.is_empty() {
                     let topic = format!("{}{JOINTS_TOPIC}", group.prefix);
                     joints_channel = Some(writer.add_channel(
@@ -484,8 +260,8 @@ impl McapSink {
                 bodies_channel,
                 joints_channel,
                 mechanisms_channel,
-                tf_ids: super::mcap_encode::EncodedFields::frame_ids("world", &frame_ids),
-                body_names: super::mcap_encode::EncodedFields::names(
+                tf_ids: super::encode::EncodedFields::frame_ids(WORLD_FRAME, &frame_ids),
+                body_names: super::encode::EncodedFields::names(
                     &layout.bodies[group.bodies.clone()]
                         .iter()
                         .map(|b| b.name.clone())
@@ -554,7 +330,7 @@ impl Sink for McapSink {
             let frames = self.groups[g].group.frames.clone();
             let bodies = self.groups[g].group.bodies.clone();
             self.buf.clear();
-            super::mcap_encode::frame_transforms_with(
+            super::encode::frame_transforms_with(
                 &mut self.buf,
                 time_ns,
                 &self.groups[g].tf_ids,
@@ -568,7 +344,7 @@ impl Sink for McapSink {
                 .map(|b| b.kinetic_energy + b.potential_energy)
                 .sum();
             self.buf.clear();
-            super::mcap_encode::body_states_with(
+            super::encode::body_states_with(
                 &mut self.buf,
                 time_ns,
                 frame.step,
@@ -634,32 +410,4 @@ fn complete_own_file(
         .finish()
         .with_context(|| format!("cannot finish {}", part.display()))?;
     sync_file(buffered, part)
-}
-
-/// Flushes `buffered`, the writer of the file `part`, and syncs the file.
-fn sync_file(buffered: BufWriter<WritebackFile>, part: &Path) -> anyhow::Result<()> {
-    let file = buffered
-        .into_inner()
-        .map_err(|e| e.into_error())
-        .with_context(|| format!("cannot write {}", part.display()))?
-        .finish()
-        .with_context(|| format!("cannot sync {}", part.display()))?;
-    file.sync_all()
-        .with_context(|| format!("cannot sync {}", part.display()))
-}
-
-/// Ends an MCAP file written under `part` (summary, indexes, footer), flushes and syncs it; it
-/// stays under `part` (the caller renames it). Shared by the MCAP sinks of the mcap crate's
-/// writer (the ROS 2 files).
-pub fn complete_file(mut writer: McapFileWriter, part: &Path) -> anyhow::Result<()> {
-    writer
-        .finish()
-        .with_context(|| format!("cannot finish {}", part.display()))?;
-    sync_file(writer.into_inner(), part)
-}
-
-/// [`complete_file`], then publishes `part` onto `path` ([`crate::fsutil::publish`]).
-pub fn finish_file(writer: McapFileWriter, part: &Path, path: &Path) -> anyhow::Result<()> {
-    complete_file(writer, part)?;
-    crate::fsutil::publish(&[path])
 }

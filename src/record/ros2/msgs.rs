@@ -15,11 +15,11 @@
 //! resolves them the same way.
 //!
 //! `tumble_msgs/msg/BodyStates` mirrors the protobuf `tumble.BodyStates` of the `.mcap` file
-//! ([`super::mcap::proto`]) field for field, with the same names; its `timestamp` is a
+//! ([`crate::record::mcap::proto`]) field for field, with the same names; its `timestamp` is a
 //! `builtin_interfaces/Time`.
 
-use super::BodyState;
 use super::cdr::CdrWriter;
+use crate::record::BodyState;
 use nalgebra::{Isometry3, Vector3};
 
 /// `tf2_msgs/msg/TFMessage`.

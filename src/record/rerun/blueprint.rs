@@ -15,7 +15,7 @@
 //! geometry, fit in view. The plots show the relative change of the conserved quantities (what
 //! the integrators are judged by; a raw |L| plot only shows round-off noise at full scale) and
 //! the scene's energies, each over the whole run (time axis from −∞ to +∞) on `sim_time`.
-//! Other recordings ([`super::rerun::RerunSink::set_plot_views`]) replace the plots.
+//! Other recordings ([`super::RerunSink::set_plot_views`]) replace the plots.
 //!
 //! Rerun's own blueprint API (`re_sdk::blueprint`) gives every view and container a random
 //! UUID and logs through a recording stream with a random store id, so two runs would write
@@ -270,7 +270,7 @@ pub fn blueprint_chunks(
     chunks.push(blueprint_chunk(
         "time_panel",
         &TimePanelBlueprint::new()
-            .with_timeline(super::rerun::SIM_TIME_TIMELINE)
+            .with_timeline(super::paths::SIM_TIME_TIMELINE)
             .with_state(PanelState::Collapsed),
     )?);
     Ok(chunks)

@@ -8,7 +8,7 @@
 //! present sub-message is written even when empty), lengths as varints. Wire format:
 //! <https://protobuf.dev/programming-guides/encoding/>.
 
-use super::BodyState;
+use crate::record::BodyState;
 use nalgebra::Isometry3;
 
 fn varint_len(mut v: u64) -> usize {
@@ -296,7 +296,7 @@ pub fn frame_transforms_with(
     });
 }
 
-/// Appends `tumble.BodyStates` to `buf` (see [`super::mcap::proto::BodyStates`])
+/// Appends `tumble.BodyStates` to `buf` (see [`super::proto::BodyStates`])
 /// ([`body_states_with`] with the name fields encoded on the spot).
 pub fn body_states(
     buf: &mut Vec<u8>,

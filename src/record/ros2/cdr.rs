@@ -12,7 +12,7 @@
 //! - a nested struct: its fields in order, with no alignment or padding of its own.
 //!
 //! Written here rather than through `serde` so that the bytes of every message are spelled out
-//! next to its `.msg` definition ([`super::ros2_msgs`]); the tests decode them with two
+//! next to its `.msg` definition ([`super::msgs`]); the tests decode them with two
 //! independent readers (`mcap-ros2-support` and `rosbags`).
 
 /// The encapsulation header of little-endian plain CDR.

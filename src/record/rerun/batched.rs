@@ -1,7 +1,7 @@
 //! The big-scene layout of the Rerun recording: every copy of a shape in one entity.
 //!
 //! Rerun keeps per entity a set of chunks, columns and their indexes, in the viewer and in the
-//! `.rrd` footer (a manifest row per chunk and column): the per-body layout of [`super::rerun`]
+//! `.rrd` footer (a manifest row per chunk and column): the per-body layout of [`super`]
 //! (an entity per link frame, per visual, per ellipsoid, two per-body plots) has about six
 //! entities per body, so 10 000 bodies make 60 000 entities: the footer overflows the
 //! flatbuffer verifier's table limit (`TooManyTables`, the file is lost) and the viewer crawls.
@@ -28,7 +28,8 @@
 //! per-body series in `/bodies`. Entities are in member order, so the bytes depend on the
 //! layout and the frames alone, as in the per-body layout.
 
-use super::{BodyLayout, Frame, FrameLayout, RecordingLayout};
+use super::values::{f32x3, quat_xyzw};
+use crate::record::{BodyLayout, Frame, FrameLayout, RecordingLayout};
 use nalgebra::Isometry3;
 use rerun::{EntityPath, EntityPathPart};
 use std::collections::{BTreeSet, HashMap};
@@ -237,8 +238,8 @@ impl Batches {
                     Some(offset) => world_from_link * offset,
                     None => *world_from_link,
                 };
-                t.push(super::rerun::f32x3(&pose.translation.vector));
-                q.push(super::rerun::quat_xyzw(&pose));
+                t.push(f32x3(&pose.translation.vector));
+                q.push(quat_xyzw(&pose));
             }
         }
     }

@@ -1,22 +1,22 @@
-//! `simulate --format parquet`: the dataset's tables for this one run, so a big run can be read
-//! in pandas or DuckDB.
+//! The Parquet sinks of `simulate --format parquet`: the dataset's tables for this one run, so a
+//! big run can be read in pandas or DuckDB.
 //!
 //! | file | content |
 //! |---|---|
-//! | `STEM.trajectories.parquet` | the dataset's `trajectories` table ([`crate::dataset::tables`]): one row per recorded step and body, `run = 0` |
+//! | `STEM.trajectories.parquet` | the dataset's `trajectories` table ([`super::tables`]): one row per recorded step and body, `run = 0` |
 //! | `STEM.bodies.parquet` | the dataset's `bodies.parquet` table: one row per body; its `model` column holds the body's model label (`box_0042`, or the URDF robot name) |
 //!
-//! Same writer settings as the dataset's files ([`crate::dataset::parquet::writer_properties`]:
+//! Same writer settings as the dataset's files ([`super::files::writer_properties`]:
 //! zstd level 1, row groups of 128 Ki rows; same rows, same bytes). Both are written under
-//! `<path>.part` and published by [`super::finish_all`] with the other files of the run. The
+//! `<path>.part` and published by [`crate::record::finish_all`] with the other files of the run. The
 //! trajectories file is written back and synced while it grows, as the MCAP and Rerun files are
-//! ([`super::writeback`]).
+//! ([`crate::record::writeback`]).
 
-use super::writeback::WritebackFile;
-use super::{Frame, RecordingLayout, Sink};
-use crate::dataset::parquet::{ROW_GROUP_ROWS, writer_properties};
-use crate::dataset::tables::{TrajectoryColumns, bodies_rows, trajectories_schema};
+use super::files::{ROW_GROUP_ROWS, writer_properties};
+use super::tables::{TrajectoryColumns, bodies_rows, trajectories_schema};
 use crate::fsutil::part_path;
+use crate::record::writeback::WritebackFile;
+use crate::record::{Frame, RecordingLayout, Sink};
 use anyhow::Context;
 use nalgebra::Isometry3;
 use parquet::arrow::ArrowWriter;
@@ -179,7 +179,7 @@ impl Sink for BodiesSink {
         let file = self.file.take().context("the file is closed")?;
         let mut writer = ArrowWriter::try_new(
             BufWriter::new(file),
-            crate::dataset::tables::bodies_schema(),
+            super::tables::bodies_schema(),
             Some(writer_properties(false)?),
         )?;
         writer.write(&self.batch)?;

@@ -10,7 +10,7 @@
 //! SHA-256, so the hash is unchanged), and writes the footer again with fresh length, offsets
 //! and checksum. Same inputs, same bytes.
 
-use super::writeback::WritebackFile;
+use crate::record::writeback::WritebackFile;
 use anyhow::{Context, Result, anyhow};
 use re_protos::external::prost::Message as _;
 use rerun::external::arrow::datatypes::Schema as ArrowSchema;

@@ -26,10 +26,6 @@ use prost::Message as _;
 use prost_types::field_descriptor_proto::{Label, Type};
 use prost_types::{DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet};
 
-/// Topic of the joint coordinates.
-pub const JOINTS_TOPIC: &str = "/joints";
-/// Topic of the per-model totals.
-pub const MECHANISMS_TOPIC: &str = "/mechanisms";
 /// Schema names.
 pub const JOINT_STATES_SCHEMA: &str = "tumble.JointStates";
 pub const MECHANISM_STATES_SCHEMA: &str = "tumble.MechanismStates";
@@ -62,11 +58,11 @@ pub struct MechanismState {
     #[prost(string, tag = "1")]
     pub name: String,
     #[prost(message, optional, tag = "2")]
-    pub linear_momentum: Option<super::mcap::proto::Vector3>,
+    pub linear_momentum: Option<super::proto::Vector3>,
     #[prost(message, optional, tag = "3")]
-    pub angular_momentum: Option<super::mcap::proto::Vector3>,
+    pub angular_momentum: Option<super::proto::Vector3>,
     #[prost(message, optional, tag = "4")]
-    pub com: Option<super::mcap::proto::Vector3>,
+    pub com: Option<super::proto::Vector3>,
     #[prost(double, tag = "5")]
     pub kinetic_energy: f64,
     #[prost(double, tag = "6")]
@@ -117,7 +113,7 @@ fn message(name: &str, fields: Vec<FieldDescriptorProto>) -> DescriptorProto {
 }
 
 fn descriptor(file: &str, messages: Vec<DescriptorProto>) -> Vec<u8> {
-    let [timestamp, body_states] = super::mcap::body_states_files();
+    let [timestamp, body_states] = super::proto::body_states_files();
     let own = FileDescriptorProto {
         name: Some(file.into()),
         package: Some("tumble".into()),
@@ -211,8 +207,8 @@ pub fn timestamp(time_ns: u64) -> prost_types::Timestamp {
     }
 }
 
-fn vec3(v: &nalgebra::Vector3<f64>) -> Option<super::mcap::proto::Vector3> {
-    Some(super::mcap::proto::Vector3 {
+fn vec3(v: &nalgebra::Vector3<f64>) -> Option<super::proto::Vector3> {
+    Some(super::proto::Vector3 {
         x: v.x,
         y: v.y,
         z: v.z,
@@ -224,7 +220,7 @@ pub fn joint_states(
     time_ns: u64,
     step: u64,
     names: &[String],
-    states: &[super::JointState],
+    states: &[crate::record::JointState],
 ) -> JointStates {
     JointStates {
         timestamp: Some(timestamp(time_ns)),
@@ -246,7 +242,7 @@ pub fn mechanism_states(
     time_ns: u64,
     step: u64,
     names: &[String],
-    states: &[super::MechanismState],
+    states: &[crate::record::MechanismState],
 ) -> MechanismStates {
     MechanismStates {
         timestamp: Some(timestamp(time_ns)),
@@ -270,13 +266,13 @@ pub fn mechanism_states(
 }
 
 /// Back from a decoded message to the recorded state.
-pub fn from_proto(m: &MechanismState) -> super::MechanismState {
-    let v = |v: &Option<super::mcap::proto::Vector3>| {
+pub fn from_proto(m: &MechanismState) -> crate::record::MechanismState {
+    let v = |v: &Option<super::proto::Vector3>| {
         v.as_ref().map_or_else(nalgebra::Vector3::zeros, |v| {
             nalgebra::Vector3::new(v.x, v.y, v.z)
         })
     };
-    super::MechanismState {
+    crate::record::MechanismState {
         linear_momentum: v(&m.linear_momentum),
         angular_momentum: v(&m.angular_momentum),
         com: v(&m.com),

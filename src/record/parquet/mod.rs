@@ -1,0 +1,13 @@
+//! Parquet: the tables of recorded steps and bodies ([`tables`]), the part files they are
+//! written to so that the same rows always give the same bytes ([`files`]), and the sinks of
+//! `simulate --format parquet` ([`sink`]). The dataset writes its tables with these too.
+
+pub mod files;
+pub mod sink;
+pub mod tables;
+
+pub use sink::{BodiesSink, TrajectorySink};
+
+/// `STEM.trajectories.parquet` and `STEM.bodies.parquet` (`simulate --format parquet`).
+pub const TRAJECTORIES_EXTENSION: &str = "trajectories.parquet";
+pub const BODIES_EXTENSION: &str = "bodies.parquet";
