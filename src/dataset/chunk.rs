@@ -144,7 +144,7 @@ fn simulate_run(
 ) -> anyhow::Result<RunRow> {
     let spec = ctx.spec;
     let scene = run_scene(spec, params);
-    let world = ctx.cache.world(params);
+    let world = ctx.cache.world(spec, params)?;
     let layout = &ctx.layouts[params.model];
     let name_ids = {
         let mut rows = rows.borrow_mut();

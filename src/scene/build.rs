@@ -43,7 +43,10 @@ impl Scene {
     /// then [`Scene::assemble`] with each table's own placements ([`ModelEntry::placement`]).
     pub fn build(&self) -> anyhow::Result<World> {
         let loaded = self.load_models()?;
-        self.assemble(&loaded, &|table, copy| self.models[table].placement(copy))
+        let mut world =
+            self.assemble(&loaded, &|table, copy| self.models[table].placement(copy))?;
+        self.describe(&loaded, &mut world);
+        Ok(world)
     }
 
     /// Loads every table's model. Each distinct URDF with its loading settings (package paths,
@@ -156,9 +159,11 @@ impl Scene {
     }
 
     /// Places copy `copy` of every table `table` at `place(table, copy)`: the bodies' initial
-    /// states, the attachments of link frames to bodies, the mechanisms, and the recording
-    /// layout (frames, visuals, bodies, descriptions, metadata with the scene and URDF texts).
-    /// `loaded` is [`Scene::load_models`] of this scene (or of one with the same tables).
+    /// states, the attachments of link frames to bodies, the mechanisms, and the layout of
+    /// what is recorded (frames, visuals, bodies, joints). `loaded` is [`Scene::load_models`]
+    /// of this scene (or of one with the same tables). The layout's name, metadata and robot
+    /// descriptions are [`Scene::describe`]'s (a dataset run, which records through its
+    /// choice's layout, does not pay for them).
     pub fn assemble(
         &self,
         loaded: &LoadedModels,
@@ -255,19 +260,8 @@ impl Scene {
             }
             // Initial values the integrator cannot step (issue 28 item 8), named by table.
             bounds::check_initial_states(self, &world, i, entry, first_body..world.bodies.len())?;
-            world
-                .layout
-                .robot_descriptions
-                .push(table.description.clone());
         }
         bounds::check_total_energy(self, &world)?;
-        world.layout.name = self
-            .source
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "tumble".into());
-        world.layout.metadata = self.metadata();
-        world.layout.metadata.extend(loaded.urdf_texts.clone());
         // Grown one copy at a time, the per-frame vectors hold up to twice what they need
         // (10 000 bodies: 16 384 slots of frames and attachments, about 1 MB spare).
         world.bodies.shrink_to_fit();
@@ -275,6 +269,23 @@ impl Scene {
         world.layout.frames.shrink_to_fit();
         world.layout.bodies.shrink_to_fit();
         Ok(world)
+    }
+
+    /// The recording layout's name (the scene file's stem), metadata (the scene's settings
+    /// and each URDF's text) and one robot description per table.
+    pub fn describe(&self, loaded: &LoadedModels, world: &mut World) {
+        world.layout.name = self
+            .source
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "tumble".into());
+        world.layout.metadata = self.metadata();
+        world.layout.metadata.extend(loaded.urdf_texts.clone());
+        world.layout.robot_descriptions = loaded
+            .tables
+            .iter()
+            .map(|t| t.description.clone())
+            .collect();
     }
 }
 
