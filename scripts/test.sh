@@ -5,6 +5,8 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 echo "== cargo fmt --check"
 cargo fmt --check
+echo "== layering: no import cycle between top-level modules or folders (scripts/import_cycles.py)"
+python3 scripts/import_cycles.py
 echo "== one build for the binary and the tests (scripts/check_features.sh)"
 bash scripts/check_features.sh
 echo "== cargo clippy (release profile, all targets, -D warnings)"
