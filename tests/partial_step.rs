@@ -41,8 +41,7 @@ fn info_and_convert_agree_on_a_file_cut_inside_a_step() {
     .unwrap();
     let scene = tumble::scene::Scene::load(&scene_path).unwrap();
     let out =
-        tumble::commands::simulate::simulate(&scene, &d.join("run"), &RerunOptions::default())
-            .unwrap();
+        tumble::simulation::simulate(&scene, &d.join("run"), &RerunOptions::default()).unwrap();
     let bytes = std::fs::read(&out.mcap).unwrap();
     let (cut, tf_time) = cut_inside_a_step(&bytes).expect("a chunk ending on /tf");
     let cut_path = d.join("cut.mcap");

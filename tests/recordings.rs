@@ -46,8 +46,7 @@ fn mcap_and_rrd_read_back_by_independent_readers() {
     let scene = scene(dir.path());
     let stem = dir.path().join("out/run");
     let out =
-        tumble::commands::simulate::simulate(&scene, &stem, &RerunOptions { ellipsoids: true })
-            .unwrap();
+        tumble::simulation::simulate(&scene, &stem, &RerunOptions { ellipsoids: true }).unwrap();
     assert_eq!(out.mcap, dir.path().join("out/run.mcap"));
     assert!(!dir.path().join("out/run.mcap.part").exists());
     let (frame_ids, expected) = common::reference_frames(&scene);

@@ -17,9 +17,11 @@
 //! change a bit of what is recorded: the partitions step the same steps in the same order, and
 //! only the steps `log_every` names (and the last) are recorded.
 
+pub mod files;
 mod frames;
 mod summary;
 
+pub use files::{AccuracyReport, Outputs, SimulateOptions, output_paths, simulate, simulate_world};
 pub use frames::FrameBuilder;
 pub use summary::{Diverged, RunSummary, time_ns};
 
