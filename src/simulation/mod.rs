@@ -20,6 +20,8 @@
 pub mod files;
 mod frames;
 mod summary;
+#[cfg(test)]
+mod tests;
 
 pub use files::{AccuracyReport, Outputs, SimulateOptions, output_paths, simulate, simulate_world};
 pub use frames::FrameBuilder;
