@@ -376,11 +376,9 @@ impl Simulation {
     /// Ends a run that failed with `error`: nothing is published, the `.part` files of
     /// `outputs` are removed; returns `error`.
     pub fn discard(mut self, error: anyhow::Error, outputs: &[&std::path::Path]) -> anyhow::Error {
-        match crate::record::finish_all::<()>(std::mem::take(&mut self.sinks), Err(error), outputs)
-        {
-            Err(e) => e,
-            Ok(()) => unreachable!("finish_all returns the error it is given"),
-        }
+        crate::record::finish_all::<()>(std::mem::take(&mut self.sinks), Err(error), outputs)
+            .err()
+            .unwrap_or_else(|| anyhow::anyhow!("the run failed and its files were discarded"))
     }
 
     /// Runs every remaining step and finishes ([`Simulation::run`], then
