@@ -78,7 +78,7 @@ fn angmom_body(b: &BodyInit) -> Vector3<f64> {
 /// the pilot never saw (seed 2), `h W` = 0.01, 0.1, 0.5, `T` = 50 s. Prints one line per case
 /// (`kind r J_mid hW predicted achieved ratio`) and draws docs/accuracy/validation.png; not run
 /// by default (about a minute):
-/// `cargo test --release --test accuracy -- --ignored validation_table --nocapture`.
+/// `cargo test --release --test integrator accuracy::validation_table -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn validation_table() {

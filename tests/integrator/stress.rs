@@ -1,7 +1,7 @@
 //! The stress matrix of issue 4: every cell a test asserting a concrete outcome against a closed
 //! form, an independent reference or a conservation law, with the value measured when the bound
-//! was written beside it (release build, x86-64, Rust 1.95; `cargo test --release --test stress
-//! -- --nocapture` prints every measured value).
+//! was written beside it (release build, x86-64, Rust 1.95; `cargo test --release --test integrator
+//! stress:: -- --nocapture` prints every measured value).
 //!
 //! | row | tests |
 //! |---|---|
@@ -274,7 +274,7 @@ fn state_bits(b: &Bodies, i: usize) -> [u64; 13] {
 
 /// dt = 1e-7 s, 1e6 steps (t = 0.1 s), asymmetric body at |Ω| = 2.19 rad/s (h|Ω| = 2.2e-7).
 /// The order-2 truncation error is negligible here (the same body has a relative momentum error
-/// of 1.9e-6 at h = 0.005 s, t = 4 s in `tests/integrator_family.rs`; scaled by (h ratio)^2 and
+/// of 1.9e-6 at h = 0.005 s, t = 4 s in `tests/integrator/integrator_family.rs`; scaled by (h ratio)^2 and
 /// time: 1.9e-6 · (2e-5)^2 · 0.1/4 ≈ 2e-17), so every bound below is a round-off bound. One
 /// rounding of `EPS/2` per step, all of one sign, gives `N · EPS / 2 = 1.1e-10` over
 /// `N = 1e6` steps (a step makes a handful, so that is not the strict worst case, but it is

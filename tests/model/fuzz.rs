@@ -15,8 +15,8 @@
 //!
 //! ```sh
 //! for t in urdf scene stl obj; do
-//!   TUMBLE_FUZZ_CASES=1000000 TUMBLE_FUZZ_SEED=1 cargo test --release --test fuzz -- --nocapture fuzz_$t; done
-//! TUMBLE_FUZZ_CASES=200000 TUMBLE_FUZZ_SEED=1 cargo test --release --test fuzz -- --nocapture fuzz_dae
+//!   TUMBLE_FUZZ_CASES=1000000 TUMBLE_FUZZ_SEED=1 cargo test --release --test model fuzz::fuzz_$t -- --nocapture; done
+//! TUMBLE_FUZZ_CASES=200000 TUMBLE_FUZZ_SEED=1 cargo test --release --test model fuzz::fuzz_dae -- --nocapture
 //! ```
 //!
 //! Each target prints `fuzz <target>: N executions (A accepted, R refused with a message), 0 panics,

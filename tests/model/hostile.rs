@@ -164,7 +164,7 @@ fn check_case(case: &Case) -> Result<(), String> {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("out/rec");
     // The holder sits beside a copy of a mesh case: meshes are read only inside the URDF's
-    // folder (src/model/confine.rs; tests/mesh_paths.rs).
+    // folder (src/model/confine.rs; tests/model/mesh_paths.rs).
     let mesh = if case.file.starts_with("mesh/") {
         let beside = tmp.path().join(file.file_name().unwrap());
         std::fs::copy(&file, &beside).unwrap();

@@ -38,7 +38,7 @@ fn write_stl(dir: &Path) -> PathBuf {
 
 /// Three frames (one with a prefixed id, one without visuals), every primitive, a mesh, a DAE
 /// mesh whose file is missing and an unresolved mesh (both skipped), two bodies. (A DAE that
-/// exists becomes a `Mesh3D`: tests/viewers.rs.)
+/// exists becomes a `Mesh3D`: tests/recordings/viewers.rs.)
 fn layout(mesh_dir: &Path) -> RecordingLayout {
     let stl = write_stl(mesh_dir);
     let frames = vec![
