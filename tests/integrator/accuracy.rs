@@ -316,14 +316,6 @@ fn substeps_are_the_schemes_own_steps() {
     }
 }
 
-fn tumble(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_tumble"))
-        .args(args)
-        .current_dir(common::root())
-        .output()
-        .unwrap()
-}
-
 /// `simulate --accuracy` on the mixed scene: one body substepped, the others not, the summary
 /// and the JSON agree, the files are the same bytes on 1 and 2 threads; the hidden model scale
 /// makes the a posteriori check warn; an articulated scene is refused with exit 2.
@@ -349,7 +341,7 @@ fn simulate_accuracy_end_to_end() {
         }
         let out_stem = stem(threads);
         args.extend(["--out", &out_stem]);
-        let out = tumble(&args);
+        let out = common::tumble(&args, &common::root());
         let stdout = String::from_utf8_lossy(&out.stdout);
         assert!(
             out.status.success(),
@@ -391,30 +383,36 @@ fn simulate_accuracy_end_to_end() {
         mcaps[0] == mcaps[1],
         "--threads 1 and 2 differ with --accuracy"
     );
-    let out = tumble(&[
-        "simulate",
-        "models/accuracy_mixed.toml",
-        "--accuracy",
-        "1e-3",
-        "--format",
-        "mcap",
-        "--accuracy-model-scale",
-        "1e-4",
-        "--out",
-        &stem("loose"),
-    ]);
+    let out = common::tumble(
+        &[
+            "simulate",
+            "models/accuracy_mixed.toml",
+            "--accuracy",
+            "1e-3",
+            "--format",
+            "mcap",
+            "--accuracy-model-scale",
+            "1e-4",
+            "--out",
+            &stem("loose"),
+        ],
+        &common::root(),
+    );
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("a posteriori check estimates"));
-    let out = tumble(&[
-        "simulate",
-        "models/double_pendulum.toml",
-        "--accuracy",
-        "1e-3",
-        "--format",
-        "mcap",
-        "--out",
-        &stem("arm"),
-    ]);
+    let out = common::tumble(
+        &[
+            "simulate",
+            "models/double_pendulum.toml",
+            "--accuracy",
+            "1e-3",
+            "--format",
+            "mcap",
+            "--out",
+            &stem("arm"),
+        ],
+        &common::root(),
+    );
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(

@@ -1,21 +1,12 @@
 //! The variational integrator against closed forms and conservation laws.
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use crate::common::bodies::{body, tumbling_body};
+use nalgebra::{UnitQuaternion, Vector3};
 use tumble::sim::Loads;
 use tumble::sim::integrators::{Integrator, Potential, Variational, VariationalSettings};
 use tumble::sim::reference::{Axisymmetric, parabola, rotation_error};
 use tumble::sim::so3;
 use tumble::sim::{Bodies, BodyInit};
-
-fn body(moments: Vector3<f64>, q: UnitQuaternion<f64>, angvel_world: Vector3<f64>) -> BodyInit {
-    BodyInit {
-        mass: 2.0,
-        principal_moments: moments,
-        world_from_body: Isometry3::from_parts(Translation3::new(0.1, -0.2, 0.3), q),
-        linvel_world: Vector3::new(0.5, 0.0, 1.0),
-        angvel_world,
-    }
-}
 
 fn run(
     init: &BodyInit,
@@ -31,15 +22,6 @@ fn run(
         integ.step(&mut bodies, &Loads::uniform_gravity(g));
     }
     bodies
-}
-
-/// An asymmetric body spinning near its intermediate axis (it flips: Dzhanibekov).
-fn tumbling_body() -> BodyInit {
-    body(
-        Vector3::new(1.0, 2.0, 3.0),
-        UnitQuaternion::from_euler_angles(0.2, 0.4, -0.3),
-        Vector3::new(0.05, 3.0, 0.05),
-    )
 }
 
 /// Spatial angular momentum `R_k M_k` is conserved to round-off over 1e5 steps, and the energy

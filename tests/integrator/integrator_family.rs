@@ -5,32 +5,14 @@
 //!
 //! Every bound has the value measured when it was written beside it (release build, x86-64).
 
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use crate::common::bodies::{
+    AXI_OMEGA, asym_spin, asymmetric, axisymmetric_with, orders, tight, tumbling_body,
+};
+use nalgebra::Vector3;
 use tumble::sim::Loads;
 use tumble::sim::integrators::{IntegratorKind, VariationalSettings};
-use tumble::sim::reference::{Asymmetric, Axisymmetric, high_accuracy, parabola, rotation_error};
+use tumble::sim::reference::{Asymmetric, high_accuracy, parabola, rotation_error};
 use tumble::sim::{Bodies, BodyInit};
-
-fn body(moments: Vector3<f64>, q: UnitQuaternion<f64>, angvel_world: Vector3<f64>) -> BodyInit {
-    BodyInit {
-        mass: 2.0,
-        principal_moments: moments,
-        world_from_body: Isometry3::from_parts(Translation3::new(0.1, -0.2, 0.3), q),
-        linvel_world: Vector3::new(0.5, 0.0, 1.0),
-        angvel_world,
-    }
-}
-
-/// Tight Newton settings for convergence measurements (the Newton error must stay far below the
-/// truncation error, also for the order-6 composition; 1e-15 is below what round-off lets the
-/// residual reach).
-fn tight() -> VariationalSettings {
-    VariationalSettings {
-        newton_tol: 1e-15,
-        newton_max_iters: 50,
-        ..Default::default()
-    }
-}
 
 fn run(
     kind: IntegratorKind,
@@ -49,41 +31,6 @@ fn run(
     bodies
 }
 
-/// The axisymmetric reference and a body starting on it.
-fn axisymmetric() -> (Axisymmetric, BodyInit) {
-    let reference = Axisymmetric {
-        ip: 2.0,
-        i3: 0.6,
-        world_from_body_0: UnitQuaternion::from_euler_angles(0.3, -0.5, 0.8),
-        omega_body_0: Vector3::new(0.6, -0.3, 2.5),
-    };
-    let init = body(
-        Vector3::new(reference.ip, reference.ip, reference.i3),
-        reference.world_from_body_0,
-        reference.world_from_body_0 * reference.omega_body_0,
-    );
-    (reference, init)
-}
-
-/// An asymmetric body, moments (1, 2, 2.5), |Ω| ≈ 2.2 rad/s, circling the minor axis
-/// (`L^2 < 2 E J_2`).
-fn asymmetric() -> (Asymmetric, BodyInit) {
-    let moments = Vector3::new(1.0, 2.0, 2.5);
-    let omega_body_0 = Vector3::new(2.0, 0.8, -0.4);
-    let q0 = UnitQuaternion::from_euler_angles(-0.4, 0.2, 1.3);
-    let reference = Asymmetric::new(moments, omega_body_0).unwrap();
-    (reference, body(moments, q0, q0 * omega_body_0))
-}
-
-/// An asymmetric body spinning near its intermediate axis (it flips: Dzhanibekov).
-fn tumbling_body() -> BodyInit {
-    body(
-        Vector3::new(1.0, 2.0, 3.0),
-        UnitQuaternion::from_euler_angles(0.2, 0.4, -0.3),
-        Vector3::new(0.05, 3.0, 0.05),
-    )
-}
-
 /// Steps `dt, dt/2, dt/4` in the asymptotic regime of each scheme (and above round-off).
 fn step_sizes(kind: IntegratorKind) -> [f64; 3] {
     match kind.order() {
@@ -92,11 +39,6 @@ fn step_sizes(kind: IntegratorKind) -> [f64; 3] {
         4 => [0.04, 0.02, 0.01],
         _ => [0.1, 0.05, 0.025],
     }
-}
-
-/// `log2(e(h) / e(h/2))` for consecutive step sizes.
-fn orders(errors: &[f64]) -> Vec<f64> {
-    errors.windows(2).map(|w| (w[0] / w[1]).log2()).collect()
 }
 
 fn sci(v: &[f64]) -> String {
@@ -115,7 +57,7 @@ fn fixed(v: &[f64]) -> String {
 
 /// Orientation error against the axisymmetric closed form at t = 4 s.
 fn axisymmetric_errors(kind: IntegratorKind) -> Vec<f64> {
-    let (reference, init) = axisymmetric();
+    let (reference, init) = axisymmetric_with(2.0, 0.6, Vector3::from(AXI_OMEGA));
     let t_end = 4.0;
     let exact = reference.orientation(t_end);
     step_sizes(kind)
@@ -131,7 +73,7 @@ fn axisymmetric_errors(kind: IntegratorKind) -> Vec<f64> {
 /// Relative body-momentum error `|M_n - J Ω(t)| / |M|` against the Jacobi-elliptic closed form at
 /// t = 4 s.
 fn asymmetric_errors(kind: IntegratorKind) -> Vec<f64> {
-    let (reference, init) = asymmetric();
+    let (reference, init) = asymmetric(asym_spin());
     let t_end = 4.0;
     let exact = reference.angmom_body(t_end);
     step_sizes(kind)
@@ -262,7 +204,7 @@ fn jacobi_elliptic_reference_matches_fine_rk4() {
 /// step both are far below what the schemes are measured at.
 #[test]
 fn high_accuracy_estimates_its_own_error() {
-    let (reference, init) = axisymmetric();
+    let (reference, init) = axisymmetric_with(2.0, 0.6, Vector3::from(AXI_OMEGA));
     let t_end = 4.0;
     let exact = reference.orientation(t_end);
     for dt in [0.02, 0.01] {
@@ -286,7 +228,7 @@ fn high_accuracy_estimates_its_own_error() {
     assert!(ha.rotation_error_estimate < 1e-11 && true_err < 1e-11);
 
     // Asymmetric body: the momentum against the Jacobi-elliptic closed form.
-    let (asym, init) = asymmetric();
+    let (asym, init) = asymmetric(asym_spin());
     let ha = high_accuracy(&init, t_end, 0.01, IntegratorKind::Rk4);
     let true_err = (ha.angmom_body - asym.angmom_body(t_end)).norm();
     let ratio = true_err / ha.angmom_error_estimate;
@@ -305,7 +247,7 @@ fn high_accuracy_estimates_its_own_error() {
 /// 3.9994, 3.9998; `variational6` 6.0034, 5.9936; `rk4` 4.0077, 4.0041.
 #[test]
 fn asymmetric_orientation_converges_against_high_accuracy() {
-    let (_, init) = asymmetric();
+    let (_, init) = asymmetric(asym_spin());
     let t_end = 4.0;
     let reference = high_accuracy(&init, t_end, 1e-3, IntegratorKind::Rk4);
     let mut failures = Vec::new();

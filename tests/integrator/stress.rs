@@ -39,6 +39,9 @@
 //!   after 1000 steps (the worst case is 500).
 
 use crate::common;
+use crate::common::bodies::{
+    ASYM_MOMENTS, ASYM_OMEGA, asym_q0, asymmetric, axisymmetric, axisymmetric_with, tight,
+};
 
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use std::path::PathBuf;
@@ -90,58 +93,8 @@ fn spinning(moments: Vector3<f64>, q: UnitQuaternion<f64>, omega_body: Vector3<f
     )
 }
 
-/// The asymmetric test body: moments (1, 2, 2.5), circling the minor axis (`L^2 < 2 E J_2`).
-const ASYM_MOMENTS: [f64; 3] = [1.0, 2.0, 2.5];
-/// Its initial body angular velocity direction (|.| = 2.19 rad/s).
-const ASYM_OMEGA: [f64; 3] = [2.0, 0.8, -0.4];
-
-fn asym_q0() -> UnitQuaternion<f64> {
-    UnitQuaternion::from_euler_angles(-0.4, 0.2, 1.3)
-}
-
-/// The asymmetric body with `|Ω0| = spin` and its Jacobi-elliptic closed form.
-fn asymmetric(spin: f64) -> (Asymmetric, BodyInit) {
-    let moments = Vector3::from(ASYM_MOMENTS);
-    let omega = Vector3::from(ASYM_OMEGA);
-    let omega = omega * (spin / omega.norm());
-    let reference = Asymmetric::new(moments, omega).unwrap();
-    (reference, spinning(moments, asym_q0(), omega))
-}
-
-/// The axisymmetric closed form with moments (`ip`, `ip`, `i3`) and `Ω0`, and a body on it.
-fn axisymmetric_with(ip: f64, i3: f64, omega_body: Vector3<f64>) -> (Axisymmetric, BodyInit) {
-    let reference = Axisymmetric {
-        ip,
-        i3,
-        world_from_body_0: UnitQuaternion::from_euler_angles(0.3, -0.5, 0.8),
-        omega_body_0: omega_body,
-    };
-    let init = spinning(
-        Vector3::new(ip, ip, i3),
-        reference.world_from_body_0,
-        omega_body,
-    );
-    (reference, init)
-}
-
-/// Moments (2, 2, 0.6), `Ω0` along (0.6, -0.3, 2.5) scaled to `|Ω0| = spin`.
-fn axisymmetric(spin: f64) -> (Axisymmetric, BodyInit) {
-    let omega = Vector3::new(0.6, -0.3, 2.5);
-    axisymmetric_with(2.0, 0.6, omega * (spin / omega.norm()))
-}
-
 fn defaults() -> VariationalSettings {
     VariationalSettings::default()
-}
-
-/// Newton converged as far as round-off lets it (for references and for separating the Newton
-/// tolerance from truncation).
-fn tight() -> VariationalSettings {
-    VariationalSettings {
-        newton_tol: 1e-15,
-        newton_max_iters: 50,
-        ..Default::default()
-    }
 }
 
 /// Steps `inits` together `steps` times with gravity `g`, calling `each(k, bodies, stats)` after

@@ -2,7 +2,7 @@
 //! frame ids `<name>_<index>/<link>`, and each copy moving exactly as the same model run alone
 //! at that copy's placement.
 
-use crate::common;
+use crate::common::urdfs::models_scene as scene;
 
 use nalgebra::Vector3;
 use std::sync::Arc;
@@ -11,10 +11,6 @@ use tumble::sim::Bodies;
 use tumble::sim::Loads;
 use tumble::simulation::FrameBuilder;
 use tumble::world::World;
-
-fn scene(text: &str) -> Scene {
-    Scene::parse(text, &common::root().join("models/test_scene.toml")).expect("scene parses")
-}
 
 const SIM: &str = "[sim]\ndt = 0.002\nduration = 1.0\nintegrator = \"variational\"\n";
 

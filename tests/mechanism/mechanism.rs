@@ -5,6 +5,7 @@
 //! `run::FrameBuilder` (projected momenta, joint coordinates, per-model totals).
 
 use crate::common;
+use crate::common::urdfs::models_scene as scene;
 
 use nalgebra::{Matrix2, Vector3};
 use tumble::record::{JointState, MechanismState};
@@ -17,11 +18,6 @@ use tumble::simulation::FrameBuilder;
 use tumble::world::World;
 
 const G: f64 = 9.81;
-
-/// A scene whose paths resolve in `models/`.
-fn scene(text: &str) -> Scene {
-    Scene::parse(text, &common::root().join("models/test_scene.toml")).expect("scene parses")
-}
 
 /// A running simulation with its reporter.
 struct Sim {

@@ -3,19 +3,10 @@
 //! does not depend on N, bit for bit, including where the guard stops a diverging run.
 
 use crate::common;
+use crate::common::urdfs::copy_models;
 
 use common::{text, tumble};
 use std::path::Path;
-
-fn copy_models(dir: &Path) {
-    for name in ["double_pendulum", "chain3_free", "chain7", "box"] {
-        std::fs::copy(
-            common::root().join(format!("models/{name}.urdf")),
-            dir.join(format!("{name}.urdf")),
-        )
-        .unwrap();
-    }
-}
 
 /// Fixed-base pendulums, floating chains and free boxes in one scene: 40 x 2 + 20 x 3 + 200
 /// bodies, an estimated cost of 200 + 140 x 30 (`MECHANISM_BODY_COST`), enough for 3
@@ -85,7 +76,7 @@ fn run(d: &Path, scene: &str, threads: &str) -> (std::process::Output, Vec<Vec<u
 fn mechanisms_on_threads_write_the_same_bytes() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    copy_models(d);
+    copy_models(d, &["double_pendulum", "chain3_free", "chain7", "box"]);
     std::fs::write(d.join("mixed.toml"), MIXED).unwrap();
     let (one, reference) = run(d, "mixed.toml", "1");
     assert!(one.status.success(), "{}", text(&one.stderr));
@@ -122,7 +113,7 @@ fn mechanisms_on_threads_write_the_same_bytes() {
 fn a_mechanism_failing_on_a_later_partition_stops_every_thread_count_alike() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    copy_models(d);
+    copy_models(d, &["double_pendulum", "chain3_free", "chain7", "box"]);
     std::fs::write(
         d.join("whip.toml"),
         r#"[sim]

@@ -29,7 +29,7 @@ fn orders(rows: &[Vec<String>], integrator: &str, column: usize) -> Vec<f64> {
         .filter(|r| r[0] == integrator)
         .map(|r| r[column].parse().unwrap())
         .collect();
-    errs.windows(2).map(|w| (w[0] / w[1]).log2()).collect()
+    common::bodies::orders(&errs)
 }
 
 #[test]

@@ -7,6 +7,7 @@
 //! never print a number of more than 20 digits, and leave no recording behind.
 
 use crate::common;
+use crate::common::urdfs::write;
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -113,11 +114,6 @@ fn assert_refused(run: &Run, needles: &[&str], dir: &Path) {
             .collect();
         assert!(left.is_empty(), "a refused run left {left:?}");
     }
-}
-
-fn write(path: &Path, bytes: impl AsRef<[u8]>) {
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-    std::fs::write(path, bytes).unwrap();
 }
 
 const INERTIAL: &str = r#"<inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>"#;

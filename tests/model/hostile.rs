@@ -10,6 +10,7 @@
 //! detection: the child is killed and the test fails; not a speed test).
 
 use crate::common;
+use crate::common::urdfs::write;
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -315,11 +316,6 @@ fn the_manifest_covers_the_corpus() {
 
 // ------------------------------------------------------------------------------ made at run time
 
-fn write(path: &Path, text: &str) {
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-    std::fs::write(path, text).unwrap();
-}
-
 fn args(a: &[&str]) -> Vec<String> {
     a.iter().map(|s| s.to_string()).collect()
 }
@@ -352,7 +348,7 @@ fn chain_urdf(n: usize) -> String {
 fn a_hundred_thousand_links_in_a_chain() {
     let tmp = tempfile::tempdir().unwrap();
     let n = 100_000;
-    write(&tmp.path().join("chain.urdf"), &chain_urdf(n));
+    write(&tmp.path().join("chain.urdf"), chain_urdf(n));
     let run = run_with_limit(&args(&["inspect", "chain.urdf", "--json"]), tmp.path());
     assert_no_panic("inspect chain", &run);
     assert_eq!(run.status, Some(0), "{}", run.stderr);
@@ -360,7 +356,7 @@ fn a_hundred_thousand_links_in_a_chain() {
     assert_eq!(report["links"].as_array().unwrap().len(), n);
     assert_eq!(report["total_mass"].as_f64(), Some(n as f64));
     let n = 10_000;
-    write(&tmp.path().join("chain10k.urdf"), &chain_urdf(n));
+    write(&tmp.path().join("chain10k.urdf"), chain_urdf(n));
     let run = run_with_limit(
         &args(&[
             "simulate",
@@ -576,7 +572,7 @@ fn relative_parent_paths_inside_a_package_still_resolve() {
         let urdf = pkg.join("urdf/robot.urdf");
         write(
             &urdf,
-            &format!(
+            format!(
                 r#"<robot name="r"><link name="base">
                      <collision><geometry><mesh filename="{uri}"/></geometry></collision>
                    </link></robot>"#

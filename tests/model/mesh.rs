@@ -4,6 +4,7 @@
 //! closed forms or formulas implemented here independently of the library (Tonon's tetrahedron
 //! formulas, a naive origin-based integration, the regular-prism integrals).
 
+use crate::common::urdfs::rel;
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use std::collections::HashMap;
 use std::f64::consts::PI;
@@ -170,10 +171,6 @@ fn tetrahedron(p: [Vector3<f64>; 4]) -> TriangleMesh {
         vertices: p.to_vec(),
         triangles,
     }
-}
-
-fn rel(a: f64, b: f64) -> f64 {
-    (a - b).abs() / b.abs()
 }
 
 /// Largest entry difference of two tensors relative to the largest entry of the second.

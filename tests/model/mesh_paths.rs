@@ -7,6 +7,7 @@
 //! Every case runs the release binary and then looks for a marker string in every byte of every
 //! file under the output folder (`.part` leftovers included).
 
+use crate::common::urdfs::write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -22,11 +23,6 @@ const REJECTED: &str = "TUMBLE_REJECTED_CONTENT_e6b8";
 /// A one-triangle OBJ whose comment line holds `marker`.
 fn obj(marker: &str) -> String {
     format!("# {marker}\nv 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nf 1 2 3\n")
-}
-
-fn write(path: &Path, text: &str) {
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-    std::fs::write(path, text).unwrap();
 }
 
 /// A one-link URDF whose link has one visual per `meshes` entry.
@@ -58,12 +54,12 @@ fn fixture() -> (tempfile::TempDir, PathBuf) {
     let secret = format!("{SECRET}:/root:/bin/bash\n");
     write(&base.join("secret/secret.txt"), &secret);
     write(&base.join("secret/secret.obj"), &secret);
-    write(&base.join("secret/valid.obj"), &obj(OUTSIDE_MESH));
-    write(&base.join("robot/model/meshes/tri.obj"), &obj(INSIDE_MESH));
+    write(&base.join("secret/valid.obj"), obj(OUTSIDE_MESH));
+    write(&base.join("robot/model/meshes/tri.obj"), obj(INSIDE_MESH));
     for ext in ["obj", "stl", "glb"] {
         write(
             &base.join(format!("robot/model/notmesh.{ext}")),
-            &format!("{REJECTED} this is not a mesh\n"),
+            format!("{REJECTED} this is not a mesh\n"),
         );
     }
     std::os::unix::fs::symlink(
@@ -180,7 +176,7 @@ fn meshes_outside_the_model_folders_are_refused_and_never_embedded() {
     ];
     for (name, mesh, resolved, real) in &cases {
         let urdf_path = base.join(format!("robot/model/{name}.urdf"));
-        write(&urdf_path, &urdf(&[mesh]));
+        write(&urdf_path, urdf(&[mesh]));
         let (out, out_dir) = simulate(&base, &urdf_path, name, &[]);
         let stderr = text(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{name}: {stderr}");
@@ -250,7 +246,7 @@ fn meshes_outside_the_model_folders_are_refused_and_never_embedded() {
     // All four at once: the first is named, the others counted.
     let all = base.join("robot/model/all.urdf");
     let meshes: Vec<&str> = cases.iter().map(|c| c.1.as_str()).collect();
-    write(&all, &urdf(&meshes));
+    write(&all, urdf(&meshes));
     let (out, out_dir) = simulate(&base, &all, "all", &[]);
     let stderr = text(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
@@ -262,7 +258,7 @@ fn meshes_outside_the_model_folders_are_refused_and_never_embedded() {
     let scene = base.join("scenes/all.toml");
     write(
         &scene,
-        &format!(
+        format!(
             "[sim]\nduration = 0.01\n[[model]]\nurdf = {:?}\n",
             all.display().to_string()
         ),
@@ -316,7 +312,7 @@ fn meshes_outside_the_model_folders_are_refused_and_never_embedded() {
 fn allowed_folders_admit_a_mesh_outside_the_urdf_folder() {
     let (_tmp, base) = fixture();
     let urdf_path = base.join("robot/model/outside.urdf");
-    write(&urdf_path, &urdf(&["../../secret/valid.obj"]));
+    write(&urdf_path, urdf(&["../../secret/valid.obj"]));
     let rrd_holds_mesh = |out_dir: &Path| {
         let found = holding(out_dir, OUTSIDE_MESH);
         assert!(
@@ -374,7 +370,7 @@ fn allowed_folders_admit_a_mesh_outside_the_urdf_folder() {
     let scene = base.join("scenes/allowed.toml");
     write(
         &scene,
-        &format!(
+        format!(
             "[sim]\nduration = 0.01\n[[model]]\nurdf = {:?}\nallow_mesh_paths = [\"../secret\"]\n",
             urdf_path.display().to_string()
         ),
@@ -386,7 +382,7 @@ fn allowed_folders_admit_a_mesh_outside_the_urdf_folder() {
     let bare = base.join("scenes/bare.toml");
     write(
         &bare,
-        &format!(
+        format!(
             "[sim]\nduration = 0.01\n[[model]]\nurdf = {:?}\n",
             urdf_path.display().to_string()
         ),
@@ -401,7 +397,7 @@ fn allowed_folders_admit_a_mesh_outside_the_urdf_folder() {
     let beside = base.join("secret/scene.toml");
     write(
         &beside,
-        &format!(
+        format!(
             "[sim]\nduration = 0.01\n[[model]]\nurdf = {:?}\n",
             urdf_path.display().to_string()
         ),
@@ -432,7 +428,7 @@ fn allowed_folders_admit_a_mesh_outside_the_urdf_folder() {
 
     // Allowing a folder never lets a non-mesh through: the secret stays out.
     let secret_urdf = base.join("robot/model/secret_allowed.urdf");
-    write(&secret_urdf, &urdf(&["../../secret/secret.obj"]));
+    write(&secret_urdf, urdf(&["../../secret/secret.obj"]));
     let (out, out_dir) = simulate(
         &base,
         &secret_urdf,
@@ -452,7 +448,7 @@ fn allowed_folders_admit_a_mesh_outside_the_urdf_folder() {
 fn links_and_packages_inside_the_model_still_work() {
     let (_tmp, base) = fixture();
     let urdf_path = base.join("robot/model/inside.urdf");
-    write(&urdf_path, &urdf(&["tri_link.obj", "meshes/tri.obj"]));
+    write(&urdf_path, urdf(&["tri_link.obj", "meshes/tri.obj"]));
     let (out, out_dir) = simulate(&base, &urdf_path, "inside", &[]);
     assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
     assert!(!text(&out.stderr).contains("mesh"), "{}", text(&out.stderr));
@@ -487,10 +483,10 @@ fn links_and_packages_inside_the_model_still_work() {
     );
 
     // `../meshes` from a folder named `urdf`: the description layout, allowed.
-    write(&base.join("robot/meshes/up.obj"), &obj(INSIDE_MESH));
+    write(&base.join("robot/meshes/up.obj"), obj(INSIDE_MESH));
     let meshes = ["../meshes/up.obj", "package://robot/meshes/up.obj"];
     let layout = base.join("robot/urdf/layout.urdf");
-    write(&layout, &urdf(&meshes));
+    write(&layout, urdf(&meshes));
     let out = tumble(&["inspect", layout.to_str().unwrap()], &base, None);
     let stdout = text(&out.stdout);
     assert_eq!(out.status.code(), Some(0), "{stdout}");
@@ -503,14 +499,14 @@ fn links_and_packages_inside_the_model_still_work() {
     );
     // ... but not two levels up.
     let two_up = base.join("robot/urdf/two_up.urdf");
-    write(&two_up, &urdf(&["../../secret/valid.obj"]));
+    write(&two_up, urdf(&["../../secret/valid.obj"]));
     let out = tumble(&["inspect", two_up.to_str().unwrap()], &base, None);
     assert_eq!(out.status.code(), Some(1), "{}", text(&out.stdout));
 
     // From any other folder `../meshes` is outside the URDF's folder, unless a ROS package
     // (a `package.xml` above the URDF) holds both.
     let up = base.join("robot/model/up.urdf");
-    write(&up, &urdf(&meshes));
+    write(&up, urdf(&meshes));
     let out = tumble(&["inspect", up.to_str().unwrap()], &base, None);
     assert_eq!(out.status.code(), Some(1), "{}", text(&out.stdout));
     assert!(text(&out.stdout).contains("meshes (2, 2 refused)"));
@@ -530,7 +526,7 @@ fn links_and_packages_inside_the_model_still_work() {
     );
     // The package holds the link to the secret too, and still not the secret.
     let symlink = base.join("robot/model/symlink_pkg.urdf");
-    write(&symlink, &urdf(&["passwd.obj"]));
+    write(&symlink, urdf(&["passwd.obj"]));
     let (out, out_dir) = simulate(&base, &symlink, "symlink_pkg", &[]);
     let stderr = text(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
@@ -553,7 +549,7 @@ fn rejected_mesh_content_is_never_embedded() {
     let urdf_path = base.join("robot/model/rejected.urdf");
     write(
         &urdf_path,
-        &urdf(&[
+        urdf(&[
             "notmesh.obj",
             "notmesh.stl",
             "notmesh.glb",

@@ -7,9 +7,10 @@
 //! `m = ∫ ρ dV`, `I = ∫ ρ (|r|² E − r rᵀ) dV`, never from the closed forms under test. Every
 //! bound has the measured value beside it.
 
+use crate::common;
+use crate::common::urdfs::{link, rel};
 use clap::Parser;
 use nalgebra::{Matrix3, Vector3};
-use crate::common;
 
 use common::tumble;
 use std::f64::consts::PI;
@@ -19,19 +20,17 @@ use tumble::commands::inspect::{self, ReportOptions};
 use tumble::commands::simulate;
 use tumble::model::geometry::{self, primitives};
 use tumble::model::policy::{self, GeometrySource, InertiaPolicy, MassSettings, ModelMassSettings};
-use tumble::model::{InertiaSource, Link, MassProperties, Model, urdf};
+use tumble::model::{InertiaSource, MassProperties, Model};
 use tumble::scene::Scene;
 
 // ---------------------------------------------------------------- helpers
 
 fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/policy")
-        .join(name)
+    common::urdfs::data("policy", name)
 }
 
 fn load(name: &str) -> Model {
-    urdf::load(&data(name), &Default::default()).unwrap_or_else(|e| panic!("{e}"))
+    common::urdfs::load_urdf(&data(name))
 }
 
 fn settings(inertia: InertiaPolicy, density: f64, geometry: GeometrySource) -> ModelMassSettings {
@@ -53,17 +52,9 @@ fn applied(name: &str, inertia: InertiaPolicy, density: f64, geometry: GeometryS
     model
 }
 
-fn link<'a>(model: &'a Model, name: &str) -> &'a Link {
-    &model.links[model.link_index(name).expect(name)]
-}
-
 /// Largest relative difference of the entries, against the largest entry of `b`.
 fn rel_m(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
     (a - b).amax() / b.amax()
-}
-
-fn rel(a: f64, b: f64) -> f64 {
-    ((a - b) / b).abs()
 }
 
 /// Composite Simpson's rule on `[a, b]` with `n` (even) intervals: exact for cubics, error

@@ -5,28 +5,18 @@
 //! rotations and sums, so agreement is at the 1e-16..1e-15 level; bounds are set at 1e-12
 //! (absolute, on quantities of order 1e-5..1) unless stated, with the measured value beside.
 
+use crate::common;
+use crate::common::urdfs::{assert_pose, link, load_urdf, write};
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 use std::collections::HashMap;
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_6};
 use std::path::{Path, PathBuf};
 use tumble::commands::inspect::{self, InspectArgs};
 use tumble::model::urdf::{self, ModelError};
-use tumble::model::{Geometry, InertiaSource, MassProperties, Model, package};
-
-fn repo(path: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
-}
+use tumble::model::{Geometry, InertiaSource, MassProperties, package};
 
 fn data(name: &str) -> PathBuf {
-    repo("tests/data/urdf").join(name)
-}
-
-fn load(path: &Path) -> Model {
-    urdf::load(path, &Default::default()).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn link<'a>(model: &'a Model, name: &str) -> &'a tumble::model::Link {
-    &model.links[model.link_index(name).expect(name)]
+    common::urdfs::data("urdf", name)
 }
 
 fn assert_close_m(a: &Matrix3<f64>, b: &Matrix3<f64>, tol: f64) {
@@ -50,7 +40,7 @@ fn assert_close_v(a: &Vector3<f64>, b: &Vector3<f64>, tol: f64) {
 #[test]
 fn rotated_inertial_frame_is_r_i_rt() {
     // rpy (pi/2, 0, pi/2): x -> y, y -> z, z -> x (see the file's comment).
-    let model = load(&data("rotated_inertial.urdf"));
+    let model = load_urdf(&data("rotated_inertial.urdf"));
     let mp = link(&model, "body").inertial.expect("has inertial");
     assert_eq!(mp.mass, 5.0);
     assert_close_v(&mp.com, &Vector3::new(0.1, -0.2, 0.3), 0.0);
@@ -68,7 +58,7 @@ fn rotated_inertial_frame_is_r_i_rt() {
 #[test]
 fn arm_hand_inertia_in_link_frame() {
     // Box diag(5e-5, 1.7e-4, 2e-4) turned Rz(30 deg): hand computation in models/arm.urdf.
-    let model = load(&repo("models/arm.urdf"));
+    let model = load_urdf(&common::root().join("models/arm.urdf"));
     let hand = link(&model, "hand").inertial.unwrap();
     let ixy = -3e-5 * 3f64.sqrt();
     #[rustfmt::skip]
@@ -90,7 +80,7 @@ fn arm_hand_inertia_in_link_frame() {
 
 #[test]
 fn box_model_matches_closed_form() {
-    let model = load(&repo("models/box.urdf"));
+    let model = load_urdf(&common::root().join("models/box.urdf"));
     assert_eq!(model.name, "box");
     assert_eq!(model.links.len(), 1);
     let l = &model.links[0];
@@ -111,7 +101,7 @@ fn box_model_matches_closed_form() {
 
 #[test]
 fn t_handle_has_the_intermediate_axis_along_y() {
-    let model = load(&repo("models/t_handle.urdf"));
+    let model = load_urdf(&common::root().join("models/t_handle.urdf"));
     let l = &model.links[0];
     let mp = l.inertial.unwrap();
     assert!(l.problems.is_empty(), "{:?}", l.problems);
@@ -171,7 +161,7 @@ fn t_handle_has_the_intermediate_axis_along_y() {
 
 #[test]
 fn missing_inertial_is_not_an_explicit_zero() {
-    let model = load(&data("missing_and_zero.urdf"));
+    let model = load_urdf(&data("missing_and_zero.urdf"));
     let frame = link(&model, "frame");
     assert_eq!(frame.source, InertiaSource::Missing);
     assert!(frame.inertial.is_none());
@@ -204,7 +194,7 @@ fn every_validation_rule_names_file_link_and_rule() {
     ];
     for (file, rule) in cases {
         let path = data(file);
-        let model = load(&path);
+        let model = load_urdf(&path);
         let payload = link(&model, "payload");
         assert!(
             payload.problems.iter().any(|p| p.contains(rule)),
@@ -269,18 +259,13 @@ fn unreadable_file_is_an_error_naming_it() {
 
 #[test]
 fn texture_without_filename_is_accepted() {
-    let model = load(&data("texture.urdf"));
+    let model = load_urdf(&data("texture.urdf"));
     let v = &link(&model, "head").visuals[0];
     assert_eq!(v.rgba, Some([0.9, 0.8, 0.7, 1.0]));
     assert!(matches!(v.geometry, Geometry::Sphere { radius } if radius == 0.1));
 }
 
 // ---------------------------------------------------------------- package://
-
-fn write(path: &Path, text: &str) {
-    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-    std::fs::write(path, text).unwrap();
-}
 
 fn mesh_urdf(uri: &str) -> String {
     format!(
@@ -302,10 +287,10 @@ fn package_uris_with_hyphens_resolve_without_ros() {
 
     // (c) parent folders: the URDF sits inside the package.
     let inside = pkg.join("robots/ur/urdf/ur5.urdf");
-    write(&inside, &mesh_urdf(uri));
+    write(&inside, mesh_urdf(uri));
     let found = package::resolve_with(uri, &inside, &[], &[]).expect("via parent folders");
     assert_eq!(found.canonicalize().unwrap(), mesh.canonicalize().unwrap());
-    let model = load(&inside);
+    let model = load_urdf(&inside);
     match &model.links[0].visuals[0].geometry {
         Geometry::Mesh {
             uri: u,
@@ -327,7 +312,7 @@ fn package_uris_with_hyphens_resolve_without_ros() {
     // (a) search paths: the URDF elsewhere; the folder holding the package, or the package
     // folder itself.
     let outside = tmp.path().join("elsewhere/robot.urdf");
-    write(&outside, &mesh_urdf(uri));
+    write(&outside, mesh_urdf(uri));
     assert_eq!(package::resolve_with(uri, &outside, &[], &[]), None);
     for search in [ws.clone(), pkg.clone()] {
         let found = package::resolve_with(uri, &outside, std::slice::from_ref(&search), &[])
@@ -348,7 +333,7 @@ fn package_uris_with_hyphens_resolve_without_ros() {
     assert!(package::resolve_with(uri, &outside, &[], std::slice::from_ref(&ws)).is_some());
 
     // Unresolved: a problem on the link, not an error, no panic.
-    let model = load(&outside);
+    let model = load_urdf(&outside);
     let problems = &model.links[0].problems;
     assert!(
         problems
@@ -386,17 +371,9 @@ fn file_uris_and_relative_paths_resolve() {
 
 // ---------------------------------------------------------------- kinematics
 
-fn assert_pose(pose: &Isometry3<f64>, translation: Vector3<f64>, rotation: UnitQuaternion<f64>) {
-    // Rounding of cos(pi/2) through up to three compositions: measured 5.6e-17 on the
-    // translations and 6e-33 rad on the rotations; bound 1e-12.
-    assert_close_v(&pose.translation.vector, &translation, 1e-12);
-    let angle = pose.rotation.angle_to(&rotation);
-    assert!(angle < 1e-12, "rotation off by {angle} rad");
-}
-
 #[test]
 fn arm_forward_kinematics_matches_hand_computation() {
-    let model = load(&repo("models/arm.urdf"));
+    let model = load_urdf(&common::root().join("models/arm.urdf"));
     let names: Vec<&str> = model.links.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, ["base", "upper_arm", "forearm", "hand", "tool0"]);
     assert_eq!(model.links[model.root].name, "base");
@@ -404,11 +381,16 @@ fn arm_forward_kinematics_matches_hand_computation() {
     let rx = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), FRAC_PI_2);
     let id = UnitQuaternion::identity();
     let pose = |n: &str| link(&model, n).model_from_link;
-    assert_pose(&pose("base"), Vector3::zeros(), id);
-    assert_pose(&pose("upper_arm"), Vector3::new(0.0, 0.0, 0.1), id);
-    assert_pose(&pose("forearm"), Vector3::new(0.0, 0.0, 0.4), rz);
-    assert_pose(&pose("hand"), Vector3::new(0.0, 0.25, 0.4), rz * rx);
-    assert_pose(&pose("tool0"), Vector3::new(0.08, 0.25, 0.4), rz * rx);
+    assert_pose(&pose("base"), Vector3::zeros(), id, 1e-12);
+    assert_pose(&pose("upper_arm"), Vector3::new(0.0, 0.0, 0.1), id, 1e-12);
+    assert_pose(&pose("forearm"), Vector3::new(0.0, 0.0, 0.4), rz, 1e-12);
+    assert_pose(&pose("hand"), Vector3::new(0.0, 0.25, 0.4), rz * rx, 1e-12);
+    assert_pose(
+        &pose("tool0"),
+        Vector3::new(0.08, 0.25, 0.4),
+        rz * rx,
+        1e-12,
+    );
     assert_eq!(link(&model, "tool0").source, InertiaSource::Missing);
     for l in &model.links {
         assert!(l.problems.is_empty(), "{}: {:?}", l.name, l.problems);
@@ -438,7 +420,7 @@ fn arm_forward_kinematics_at_a_bent_elbow() {
     // down (0, 0, -1), so the hand sits 0.25 m below the elbow at z = 0.15.
     let q = HashMap::from([("elbow".to_string(), FRAC_PI_2)]);
     let model = urdf::load(
-        &repo("models/arm.urdf"),
+        &common::root().join("models/arm.urdf"),
         &urdf::LoadOptions {
             joint_positions: q,
             ..Default::default()
@@ -449,11 +431,11 @@ fn arm_forward_kinematics_at_a_bent_elbow() {
     let ry = UnitQuaternion::from_axis_angle(&Vector3::y_axis(), FRAC_PI_2);
     let rx = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), FRAC_PI_2);
     let hand = link(&model, "hand").model_from_link;
-    assert_pose(&hand, Vector3::new(0.0, 0.0, 0.15), rz * ry * rx);
+    assert_pose(&hand, Vector3::new(0.0, 0.0, 0.15), rz * ry * rx, 1e-12);
     // An unknown joint name is an error naming the file and joint.
     let q = HashMap::from([("knee".to_string(), 1.0)]);
     let msg = urdf::load(
-        &repo("models/arm.urdf"),
+        &common::root().join("models/arm.urdf"),
         &urdf::LoadOptions {
             joint_positions: q,
             ..Default::default()
@@ -468,7 +450,7 @@ fn arm_forward_kinematics_at_a_bent_elbow() {
 
 #[test]
 fn two_link_total_matches_hand_computation() {
-    let model = load(&data("two_links.urdf"));
+    let model = load_urdf(&data("two_links.urdf"));
     let total = model.total_mass_properties().unwrap();
     // By hand: a (1 kg at 0, diag(0.01, 0.02, 0.03)); b (3 kg at (1, 0.5, 0), diag(0.2, 0.1, 0.3)
     // in model axes). Two bodies about their common centre: sum of own inertias plus the
@@ -497,7 +479,7 @@ fn two_link_total_matches_hand_computation() {
 #[test]
 fn total_is_invariant_under_moving_the_parts_together() {
     // Combining then moving equals moving then combining (rotation and translation).
-    let model = load(&repo("models/arm.urdf"));
+    let model = load_urdf(&common::root().join("models/arm.urdf"));
     let total = model.total_mass_properties().unwrap();
     let world_from_model = Isometry3::from_parts(
         Translation3::new(3.0, -1.0, 2.0),
@@ -526,7 +508,7 @@ fn total_is_invariant_under_moving_the_parts_together() {
 
 #[test]
 fn inspect_json_structure() {
-    let model = load(&data("missing_and_zero.urdf"));
+    let model = load_urdf(&data("missing_and_zero.urdf"));
     let r = inspect::report(&model);
     assert_eq!(r["model"], "missing_and_zero");
     assert_eq!(r["root"], "frame");
@@ -578,7 +560,7 @@ fn inspect_json_structure() {
     assert_eq!(r["inertia_about_com"][2][2], 0.02);
 
     // A NaN mass becomes null, not a broken document.
-    let r = inspect::report(&load(&data("nan_mass.urdf")));
+    let r = inspect::report(&load_urdf(&data("nan_mass.urdf")));
     assert!(r["links"][1]["mass"].is_null());
     serde_json::to_string(&r).unwrap();
 }
@@ -591,7 +573,7 @@ fn inspect_run_and_text() {
         #[command(flatten)]
         args: InspectArgs,
     }
-    let arm = repo("models/arm.urdf");
+    let arm = common::root().join("models/arm.urdf");
     let cli = Cli::try_parse_from([
         "inspect",
         arm.to_str().unwrap(),
@@ -631,7 +613,7 @@ fn inspect_run_and_text() {
     let err = inspect::run(&missing).unwrap_err();
     assert!(format!("{err:#}").contains("/nonexistent.urdf"));
 
-    let text = inspect::render_text(&load(&arm));
+    let text = inspect::render_text(&load_urdf(&arm));
     for needle in [
         "link `hand`",
         "link `tool0` (no <inertial>",

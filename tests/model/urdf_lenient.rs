@@ -10,6 +10,7 @@
 //! 1.7e-16 relative), primitive boxes are closed forms evaluated the same way (measured 0).
 
 use crate::common;
+use crate::common::urdfs::{assert_pose, link};
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use std::collections::HashMap;
@@ -56,10 +57,6 @@ fn only_warning(model: &Model, oddity: Oddity) -> String {
     model.warnings[0].to_string()
 }
 
-fn link<'a>(model: &'a Model, name: &str) -> &'a tumble::model::Link {
-    &model.links[model.link_index(name).expect(name)]
-}
-
 /// Mass properties from collision geometry at 1000 kg/m^3.
 fn from_geometry(model: &mut Model) {
     let settings = ModelMassSettings {
@@ -71,15 +68,6 @@ fn from_geometry(model: &mut Model) {
         links: Default::default(),
     };
     policy::apply(model, &settings).unwrap_or_else(|e| panic!("{e}"));
-}
-
-fn assert_pose(actual: &Isometry3<f64>, expected: &Isometry3<f64>, tol: f64) {
-    let dt = (actual.translation.vector - expected.translation.vector).amax();
-    let dr = actual.rotation.angle_to(&expected.rotation);
-    assert!(
-        dt <= tol && dr <= tol,
-        "{actual} vs {expected}: {dt:e} m, {dr:e} rad"
-    );
 }
 
 // ---------------------------------------------------------------- one test per oddity
@@ -306,7 +294,12 @@ fn identical_repeated_axes_use_the_first() {
         Translation3::new(0.0, 0.0, 1.0),
         UnitQuaternion::from_axis_angle(&Vector3::y_axis(), FRAC_PI_2),
     );
-    assert_pose(&link(&model, "arm").model_from_link, &expected, 1e-15);
+    assert_pose(
+        &link(&model, "arm").model_from_link,
+        expected.translation.vector,
+        expected.rotation,
+        1e-15,
+    );
     let e = strict_error(&path);
     assert!(
         e.contains(

@@ -2,6 +2,7 @@
 //! rerun-sdk 0.36.3 dataframe API (`tests/py/read_rrd.py`), both from the venv that
 //! `scripts/pyenv.sh` creates. These tests fail (they do not skip) when that venv cannot be made.
 
+use crate::common;
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -218,17 +219,13 @@ fn write_recording(path: &Path, mesh_dir: &Path, options: &RerunOptions) -> Vec<
     warnings
 }
 
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
 /// The venv's python (created on first use by `scripts/pyenv.sh`). Panics with a clear message
 /// when it cannot be made: these tests must not pass silently without their readers.
 fn python() -> &'static Path {
     static PYTHON: OnceLock<PathBuf> = OnceLock::new();
     PYTHON.get_or_init(|| {
         let out = Command::new("bash")
-            .arg(repo().join("scripts/pyenv.sh"))
+            .arg(common::root().join("scripts/pyenv.sh"))
             .output()
             .unwrap_or_else(|err| panic!("cannot run bash scripts/pyenv.sh: {err}"));
         assert!(
@@ -273,7 +270,7 @@ fn rrd_verify(path: &Path) {
 }
 
 fn read_rrd(path: &Path) -> serde_json::Value {
-    let script = repo().join("tests/py/read_rrd.py");
+    let script = common::root().join("tests/py/read_rrd.py");
     let stdout = run(python(), &[script.as_os_str(), path.as_os_str()]);
     serde_json::from_str(&stdout).expect("read_rrd.py prints JSON")
 }

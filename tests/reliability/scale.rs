@@ -2,6 +2,7 @@
 //! 10 000-body file valid, byte identity across `--threads`, and `--format`.
 
 use crate::common;
+use crate::common::urdfs::copy_models;
 
 use common::{text, tumble};
 use std::collections::BTreeSet;
@@ -9,16 +10,6 @@ use std::path::Path;
 use tumble::dataset::DatasetSpec;
 use tumble::dataset::sample::draw;
 use tumble::scene::Scene;
-
-fn copy_models(dir: &Path) {
-    for name in ["box", "t_handle", "disc"] {
-        std::fs::copy(
-            common::root().join(format!("models/{name}.urdf")),
-            dir.join(format!("{name}.urdf")),
-        )
-        .unwrap();
-    }
-}
 
 /// Regression test for the lost 10 000-body run ("writing the footer of ….rrd.part: Parser
 /// error: Unable to get root as message: TooManyTables", nothing written): the bundled swarm
@@ -143,7 +134,7 @@ fn ten_thousand_bodies_record_verify_and_replay() {
 fn copies_draw_what_the_dataset_draws() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    copy_models(d);
+    copy_models(d, &["box", "t_handle", "disc"]);
     let dists = r#"position = { uniform = [[-3.0, -2.0, 0.0], [3.0, 2.0, 5.0]] }
 orientation = "uniform"
 linvel = { normal = { mean = [0.0, 0.0, 1.0], std = [0.5, 0.5, 0.5] } }
@@ -200,7 +191,7 @@ angvel = { choice = [[1.0, 2.0, 3.0], [0.0, -4.0, 0.5]] }
 fn bad_copies_and_draws_are_refused_with_the_key() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    copy_models(d);
+    copy_models(d, &["box", "t_handle", "disc"]);
     for (keys, needle) in [
         ("copies = 0", "model[0].copies must be between 1 and"),
         (
@@ -233,7 +224,7 @@ fn bad_copies_and_draws_are_refused_with_the_key() {
 }
 
 fn big_scene(d: &Path, copies: u32) {
-    copy_models(d);
+    copy_models(d, &["box", "t_handle", "disc"]);
     std::fs::write(
         d.join("big.toml"),
         format!(
@@ -309,7 +300,7 @@ fn threads_write_the_same_bytes() {
 fn format_writes_exactly_what_it_names() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    copy_models(d);
+    copy_models(d, &["box", "t_handle", "disc"]);
     std::fs::write(
         d.join("s.toml"),
         "[sim]\nduration = 0.02\n[[model]]\nurdf = \"box.urdf\"\nname = \"b\"\ncopies = 3\nangvel = [0.0, 3.0, 0.1]\n",
@@ -526,7 +517,7 @@ fn pipelined_sinks_take_the_frames_without_a_copy() {
 fn the_run_summary_measures_the_recorded_energy_and_momentum() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    copy_models(d);
+    copy_models(d, &["box", "t_handle", "disc"]);
     let swarm = std::fs::read_to_string(common::root().join("models/swarm.toml"))
         .unwrap()
         .replace("copies = 4000", "copies = 400")
