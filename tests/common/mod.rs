@@ -1,6 +1,9 @@
 //! Shared helpers of the integration tests.
 #![allow(dead_code)]
 
+pub mod bodies;
+pub mod urdfs;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

@@ -1,5 +1,5 @@
 """Link poses and total mass of a URDF as Pinocchio reads it (urdfdom underneath): the reference
-for the URDFs tumble loads leniently (tests/corpus.rs, docs/urdf.md).
+for the URDFs tumble loads leniently (tests/model/corpus.rs, docs/urdf.md).
 
 Usage: pin_poses.py URDF JOINTS_JSON
 

@@ -1,0 +1,15 @@
+//! Articulated mechanisms.
+//!
+//! One test binary (it links the library once); each module is a former `tests/<name>.rs`, its
+//! tests named `<module>::<test>` (`cargo test --release --test mechanism <module>::`).
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod copies;
+mod hostile;
+mod mechanism;
+mod recordings;
+mod robot;
+mod threads;
+mod trade;

@@ -1,0 +1,281 @@
+//! `tumble trade` and `tumble stability --scene` on articulated scenes: the orders of the
+//! variational family measured from trade's own CSV, exact momenta of a floating chain, the
+//! skip lines and refusals for integrators without a constrained form, and the stability rows.
+
+use crate::common;
+
+use common::{root, text, tumble};
+
+/// The rows of a CSV file: header, then one map per line.
+fn read_csv(path: &std::path::Path) -> (String, Vec<Vec<String>>) {
+    let csv = std::fs::read_to_string(path).unwrap();
+    let mut lines = csv.lines();
+    let header = lines.next().unwrap().to_string();
+    let rows = lines
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    (header, rows)
+}
+
+fn model(name: &str) -> String {
+    root().join("models").join(name).display().to_string()
+}
+
+/// `log2(err(h) / err(h/2))` for consecutive step sizes of one integrator (rows in dt order,
+/// halving).
+fn orders(rows: &[Vec<String>], integrator: &str, column: usize) -> Vec<f64> {
+    let errs: Vec<f64> = rows
+        .iter()
+        .filter(|r| r[0] == integrator)
+        .map(|r| r[column].parse().unwrap())
+        .collect();
+    common::bodies::orders(&errs)
+}
+
+#[test]
+fn trade_measures_orders_two_four_six_on_the_double_pendulum() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tumble(
+        &[
+            "trade",
+            &model("double_pendulum.toml"),
+            "--out",
+            "t",
+            "--dt",
+            "0.01,0.005,0.0025",
+            "--duration",
+            "2",
+            "--drift-horizon",
+            "2",
+            "--repeats",
+            "1",
+        ],
+        dir.path(),
+    );
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // The default list: every integrator without a constrained form is skipped, one line each.
+    for skipped in ["moser-veselov", "euler", "semi-implicit", "rk4"] {
+        assert!(
+            stdout.lines().any(|l| l.starts_with(&format!(
+                "skipped {skipped}: model `double_pendulum` is articulated"
+            ))),
+            "{stdout}"
+        );
+    }
+    let t = dir.path().join("t");
+    let (_, rows) = read_csv(&t.join("trade.csv"));
+    let names: std::collections::BTreeSet<&str> = rows.iter().map(|r| r[0].as_str()).collect();
+    assert_eq!(
+        names.into_iter().collect::<Vec<_>>(),
+        ["variational", "variational4", "variational6"]
+    );
+    assert_eq!(rows.len(), 9);
+    // Columns: 3 pos_err, 4 rot_err. Measured orders (pos, rot) over 2 s of a chaotic swing:
+    // variational 2.01, 2.00 / 2.01, 2.01; variational4 4.07, 4.02 / 4.05, 4.00;
+    // variational6 6.30, 6.04 / 6.25, 6.10. Bounds: the order ± 0.35 (pre-asymptotic
+    // constants at the coarsest step, ~4 % of a doubling).
+    for (integrator, p) in [
+        ("variational", 2.0),
+        ("variational4", 4.0),
+        ("variational6", 6.0),
+    ] {
+        for column in [3, 4] {
+            for order in orders(&rows, integrator, column) {
+                assert!(
+                    (order - p).abs() < 0.35,
+                    "{integrator} column {column}: measured order {order}, expected {p}"
+                );
+            }
+        }
+        // A fixed-base model conserves no angular momentum: NaN, never a made-up 0.
+        assert!(
+            rows.iter()
+                .filter(|r| r[0] == integrator)
+                .all(|r| r[6] == "NaN")
+        );
+    }
+    // The reference resolves the smallest error measured (3.8e-10 m) with room to spare: its
+    // own error estimate is 2.0e-13 m.
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(t.join("trade.json")).unwrap()).unwrap();
+    let own = json["reference"]["own_error_m"].as_f64().unwrap();
+    let smallest = rows
+        .iter()
+        .map(|r| r[3].parse::<f64>().unwrap())
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        own < smallest / 100.0,
+        "reference {own} m vs smallest error {smallest} m"
+    );
+    assert_eq!(json["skipped"].as_array().unwrap().len(), 4);
+    // The side-by-side recording carries each integrator's joints.
+    let info = tumble(
+        &["info", &t.join("trade.mcap").display().to_string()],
+        dir.path(),
+    );
+    let info = text(&info.stdout);
+    for topic in ["/variational/joints", "/variational4/mechanisms"] {
+        assert!(info.contains(topic), "{info}");
+    }
+}
+
+#[test]
+fn trade_keeps_a_floating_chain_momentum_exact() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tumble(
+        &[
+            "trade",
+            &model("chain3_free.toml"),
+            "--out",
+            "t",
+            "--integrators",
+            "variational,variational4",
+            "--dt",
+            "0.02,0.01",
+            "--duration",
+            "2",
+            "--drift-horizon",
+            "2",
+            "--repeats",
+            "1",
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let (_, rows) = read_csv(&dir.path().join("t/trade.csv"));
+    assert_eq!(rows.len(), 4);
+    for r in &rows {
+        // The change of L about the chain's centre of mass is round-off at any step (measured
+        // 1.8e-15 .. 4.5e-15 kg m²/s).
+        let dl: f64 = r[6].parse().unwrap();
+        assert!(dl < 1e-12, "{r:?}");
+        // Energy is not exact, only bounded: a non-zero error proves the column is measured.
+        let de: f64 = r[5].parse().unwrap();
+        assert!(de > 0.0 && de < 1e-2, "{r:?}");
+    }
+}
+
+#[test]
+fn trade_refuses_a_named_integrator_without_a_constrained_form() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tumble(
+        &[
+            "trade",
+            &model("double_pendulum.toml"),
+            "--out",
+            "t",
+            "--integrators",
+            "variational,rk4",
+            "--dt",
+            "0.01",
+            "--duration",
+            "1",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = text(&out.stderr);
+    assert!(
+        stderr.contains("model `double_pendulum` is articulated")
+            && stderr.contains("`rk4`")
+            && stderr.contains("`variational4`"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("t/trade.csv").exists());
+    assert!(!dir.path().join("t/trade.mcap").exists());
+}
+
+#[test]
+fn stability_maps_an_articulated_scene_along_dt() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = tumble(
+        &[
+            "stability",
+            "--scene",
+            &model("double_pendulum.toml"),
+            "--out",
+            "s",
+            "--dt",
+            "0.001,0.002,0.064",
+            "--duration",
+            "4",
+        ],
+        dir.path(),
+    );
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        stdout.contains("skipped rk4: model `double_pendulum` is articulated"),
+        "{stdout}"
+    );
+    let (header, rows) = read_csv(&dir.path().join("s/stability_scene.csv"));
+    assert_eq!(
+        header,
+        "integrator,dt,steps,steps_done,newton_iters_max,substeps,substep_factor_max,energy_err_max,residual_m_max,residual_rad_max,status"
+    );
+    assert_eq!(rows.len(), 9);
+    let row = |integrator: &str, dt: &str| {
+        rows.iter()
+            .find(|r| r[0] == integrator && r[1] == dt)
+            .unwrap_or_else(|| panic!("{integrator} {dt}: {rows:?}"))
+    };
+    let err = |r: &Vec<String>| r[7].parse::<f64>().unwrap();
+    for integrator in ["variational", "variational4", "variational6"] {
+        let fine = row(integrator, "0.001");
+        assert_eq!(fine[10], "ok", "{fine:?}");
+        assert_eq!(fine[3], "4000");
+        // Joint gap at round-off of the Newton tolerance (1e-12 x the 0.5 m length scale):
+        // measured 5.0e-13 m; axis misalignment 5e-16 rad.
+        assert!(fine[8].parse::<f64>().unwrap() < 2e-12, "{fine:?}");
+        assert!(fine[9].parse::<f64>().unwrap() < 1e-13, "{fine:?}");
+        // 64 ms is past every scheme's reach on this swing (measured: diverged for all three).
+        let coarse = row(integrator, "0.064");
+        assert_ne!(coarse[10], "ok", "{coarse:?}");
+    }
+    // The energy error follows the order: doubling dt multiplies it by ~2^p (measured over
+    // 4 s: 4.0 for variational, 16.1 for variational4, 61 for variational6).
+    let ratio = |i: &str| err(row(i, "0.002")) / err(row(i, "0.001"));
+    assert!(
+        (3.0..5.5).contains(&ratio("variational")),
+        "{}",
+        ratio("variational")
+    );
+    assert!(
+        (10.0..24.0).contains(&ratio("variational4")),
+        "{}",
+        ratio("variational4")
+    );
+    assert!(ratio("variational6") > 30.0, "{}", ratio("variational6"));
+    assert!(
+        stdout.contains(
+            "variational: ok (energy error <= 0.01, no substeps, no failure) up to dt = 0.002 s"
+        ),
+        "{stdout}"
+    );
+
+    // Named integrators without a constrained form: one error, nothing written.
+    let out = tumble(
+        &[
+            "stability",
+            "--scene",
+            &model("double_pendulum.toml"),
+            "--out",
+            "s2",
+            "--integrators",
+            "euler",
+            "--dt",
+            "0.001",
+            "--duration",
+            "1",
+        ],
+        dir.path(),
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("`euler` cannot step"),
+        "{}",
+        text(&out.stderr)
+    );
+    assert!(!dir.path().join("s2").exists());
+}

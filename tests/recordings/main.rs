@@ -1,0 +1,15 @@
+//! Recordings out and back: MCAP, Rerun, ROS 2, Parquet datasets, readers we did not write.
+//!
+//! One test binary (it links the library once); each module is a former `tests/<name>.rs`, its
+//! tests named `<module>::<test>` (`cargo test --release --test recordings <module>::`).
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod dataset;
+mod partial_step;
+mod recordings;
+mod replay;
+mod rerun_sink;
+mod ros2;
+mod viewers;
