@@ -5,7 +5,7 @@
 //! the map's grid up to which every cell (every inertia ratio from 1 to 1e-6, the flat disk,
 //! both spin axes) runs about 10 turns (at most 20 000 steps) without substepping or failure
 //! and keeps the rotational energy within [`ENERGY_ERROR_BOUND`] of its initial value.
-//! `tests/stability.rs` recomputes the map and checks these numbers against it. Past a limit a
+//! `tests/integrator/stability.rs` recomputes the map and checks these numbers against it. Past a limit a
 //! run still proceeds (the variational family substeps where Newton needs it; the guard stops
 //! diverging runs), but `tumble simulate` warns and names the largest safe step.
 
@@ -41,7 +41,7 @@ pub fn h_omega_limit(kind: IntegratorKind) -> f64 {
 /// Rows of the stability map: inertia ratio `J_min / J_max`, then the limit of each integrator
 /// (in [`IntegratorKind::ALL`] order: variational, moser-veselov, variational4, variational6,
 /// euler, semi-implicit, rk4) over the map's cells of that ratio (both spin axes; at 0.5 the
-/// flat disk and the asymmetric body together). `tests/stability.rs` checks every entry against
+/// flat disk and the asymmetric body together). `tests/integrator/stability.rs` checks every entry against
 /// a freshly computed map ([`crate::stability::derived_limit_at_ratio`]).
 pub const LIMITS_BY_RATIO: [(f64, [f64; 7]); 7] = [
     (1.0, [6.0, 0.7, 6.0, 6.0, 6.0, 6.0, 6.0]),

@@ -12,13 +12,13 @@
 //! merged as one batch would report it: [`StepStats`] merged over the partitions (counts add,
 //! maxima, the lowest failing body), and the run's [`Divergence`] is the earliest step's lowest
 //! body, as the one-batch [`Guard::check`] picks. So the recordings are byte-identical for every
-//! thread count (tested by `tests/scale.rs`).
+//! thread count (tested by `tests/reliability/scale.rs`).
 //!
 //! A batch holding mechanisms is cut only between mechanisms ([`ranges`]): a mechanism's bodies
 //! are coupled by its joint rows, so each mechanism lies whole in one partition, whose
 //! integrator and guard see it re-based to the partition's indices ([`rebase`]). The
 //! constrained step of a mechanism reads and writes that mechanism's bodies alone, so its
-//! trajectory too is the same bits however the batch is cut (`tests/mechanism_threads.rs`).
+//! trajectory too is the same bits however the batch is cut (`tests/mechanism/threads.rs`).
 
 use super::guard::{Divergence, Guard};
 use super::mechanism::Mechanism;

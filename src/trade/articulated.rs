@@ -20,7 +20,7 @@
 //! # The reference
 //!
 //! `variational6` (Yoshida's solution A on the constrained step, order 6, measured in
-//! `tests/mechanism.rs`) at `h_ref = h_min / REFERENCE_REFINEMENT` (rounded so that it divides
+//! `tests/mechanism/mechanism.rs`) at `h_ref = h_min / REFERENCE_REFINEMENT` (rounded so that it divides
 //! the horizon) and at `h_ref / 2`; the finer run is the reference, and Richardson's estimate of
 //! its own error for an order-6 method is `|x(h_ref) − x(h_ref/2)| / (2⁶ − 1)` (reported as
 //! `own_error_m` and `own_error_rad`). It is the same scheme family as the measured runs (the

@@ -160,7 +160,7 @@ impl McapSink {
         // The metadata record goes first, before the schemas and channels (the order every
         // tumble MCAP has had; the writer keeps metadata, schemas and channels outside chunks,
         // so every chunk holds messages: Foxglove refuses chunks without message indexes,
-        // tests/recordings.rs checks every chunk index). Keys in order, as a map gives them.
+        // tests/recordings/recordings.rs checks every chunk index). Keys in order, as a map gives them.
         let layout_json = crate::record::layout_json::to_json(layout);
         let mut entries: Vec<(&str, &str)> = layout
             .metadata

@@ -265,7 +265,7 @@ mod tests {
     /// header: stamp 0..8, frame_id "" (length 1 + NUL) 8..13, pad to 16, name count 16..20,
     /// "j" (length 2, 'j', NUL) 20..26, pad to 28, position count 28..32, the f64 at 32 (already
     /// 8-aligned) 32..40, then the empty velocity and effort counts. (rosbags' serializer writes
-    /// the same bytes; tests/ros2.rs checks longer messages against it.)
+    /// the same bytes; tests/recordings/ros2.rs checks longer messages against it.)
     #[test]
     fn joint_state_bytes_follow_the_cdr_alignment_rules() {
         let mut buf = Vec::new();

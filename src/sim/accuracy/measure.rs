@@ -1,6 +1,6 @@
 //! The achieved orientation error of one body, against its exact torque-free motion
 //! ([`TorqueFree`]): what the error model ([`super::model`]) is fitted to and validated on, and
-//! what `tests/accuracy.rs` checks the chosen substep factors with.
+//! what `tests/integrator/accuracy.rs` checks the chosen substep factors with.
 
 use super::substeps::Substepped;
 use crate::sim::integrators::VariationalSettings;

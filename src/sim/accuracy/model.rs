@@ -40,7 +40,7 @@
 //! Validity: the `h^p` law holds in the asymptotic range; up to `h ν` = [`H_OMEGA_VALID`] it
 //! overestimates (the error grows more slowly than `h^p` there, and saturates at O(1) rad), and
 //! no factor is chosen with `h ν / k` above it. Validation on states no pilot saw
-//! (`tests/accuracy.rs`, docs/accuracy.md, `docs/accuracy/validation.png`): achieved over
+//! (`tests/integrator/accuracy.rs`, docs/accuracy.md, `docs/accuracy/validation.png`): achieved over
 //! predicted error 0.63-1.34 wherever the prediction is below 0.1 rad, for the three orders.
 //! Bodies breaking the triangle inequality (`J_i > J_j + J_k`, not physical) get pessimistic
 //! predictions.

@@ -23,7 +23,7 @@
 //! conserved to round-off, whatever the Newton tolerance. Energy is bounded with no drift only
 //! while the Newton error stays below the truncation error: with the default tolerance 1e-12,
 //! `variational6` at h = 0.05 s (error 3e-10) drifts to 3.9e-9 over 5e4 s; with 1e-15 it does
-//! not (`tests/integrator_family.rs`; since the predicted warm start meets the tolerance with one
+//! not (`tests/integrator/integrator_family.rs`; since the predicted warm start meets the tolerance with one
 //! Newton update, 1e-14 is no longer enough: +14 % over 1e6 steps). Use `newton_tol <= 1e-15`
 //! with `variational6`.
 //! Negative substeps (`γ_2` above) are steps backwards in time: the

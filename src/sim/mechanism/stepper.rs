@@ -6,7 +6,7 @@
 //! the free bodies and every mechanism. The constrained step is symmetric (its discrete
 //! Lagrangian is, and the constraint is imposed at both ends alike: `L_d(q₁, q₀, −h) =
 //! −L_d(q₀, q₁, h)` with `λ ↦ −λ`), so the compositions have orders 4 and 6
-//! (`tests/mechanism.rs` measures them). One warm start per distinct substep size.
+//! (`tests/mechanism/mechanism.rs` measures them). One warm start per distinct substep size.
 //! Other integrators have no constrained form: [`Articulated::new`] refuses them.
 
 use super::Mechanism;

@@ -21,7 +21,7 @@
 //!   remainder of `t`. `W = R_0 P^T (Rx(θ_0) Rz(ψ_0))^T` makes `φ(0) = 0`.
 //!
 //! Accuracy: the elliptic functions to a few ulp, `φ` to 1e-15 relative per period, so the
-//! orientation is good to about `1e-15 (1 + t/period)` rad (`tests/accuracy.rs` checks it against
+//! orientation is good to about `1e-15 (1 + t/period)` rad (`tests/integrator/accuracy.rs` checks it against
 //! [`super::high_accuracy`] and by finite differences). Orbits within `1e-14` of the separatrix
 //! are refused by [`Asymmetric::new`]; [`TorqueFree::new`] then returns `None`.
 

@@ -25,7 +25,7 @@
 //! exactly or to one rounding, and every product is of mesh-sized numbers. Integrating about a
 //! far origin instead (a mesh at distance `d`, size `L`) makes `C_p` of order `V d²` and the
 //! shift `C_p − V c cᵀ` cancels `(d/L)²` of the digits: 2e-4 relative at 1 km for a centimetre
-//! part (`tests/mesh.rs` measures both).
+//! part (`tests/model/mesh.rs` measures both).
 
 use super::topology::is_kept;
 use super::{MeshError, TriangleMesh};
