@@ -400,8 +400,16 @@ impl Simulation {
         self.send()
     }
 
-    /// Builds the frame of the current step and sends it to every sink.
+    /// Builds the frame of the current step and sends it to every sink. Without sinks the
+    /// step only counts as recorded: its frame is built when asked for ([`Simulation::frame`],
+    /// [`Simulation::summary`]), so a run without sinks (a timed one) builds no frame between
+    /// its steps.
     fn record(&mut self) -> anyhow::Result<()> {
+        if self.sinks.is_empty() {
+            self.summary.frames_recorded += 1;
+            self.summary.last_recorded_step = self.step;
+            return Ok(());
+        }
         if self.built != Some(self.step) {
             self.build_frame();
         }
