@@ -239,7 +239,8 @@ impl Simulation {
     /// Steps up to `n` more steps (fewer when the run ends first: all its steps done, the
     /// guard's stop, an interrupt when [`RunSettings::stop_on_interrupt`]), recording every
     /// `log_every`-th step and the last. An `Err` is a sink's write error: end the run then
-    /// with [`Simulation::discard`].
+    /// with [`Simulation::discard`]. Without sinks no frame is built here (a timed run's
+    /// windows hold the stepping alone); [`Simulation::frame`] builds one when asked.
     pub fn advance(&mut self, n: u64) -> anyhow::Result<Progress> {
         self.start()?;
         let target = self.step.saturating_add(n).min(self.settings.steps);
