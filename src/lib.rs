@@ -4,6 +4,7 @@
 //! Data flows one way: scene → model → bodies → stepper → recorders. The integrator knows no
 //! URDF; a recorder knows no integrator.
 
+pub mod bench;
 pub mod budget;
 pub mod cli;
 pub mod commands;

@@ -4,7 +4,7 @@
 //!   initialised free bodies K steps; the last line is `ns_per_body_step=<median>` (wall time
 //!   per body-step on T threads). With T threads the batch is split as `simulate --threads T`
 //!   splits it ([`crate::sim::partition`]), the run guard checks every step, and the threads
-//!   meet every [`WINDOW_STEPS`] steps (a run recorded at 100 Hz with dt = 1 ms); with T > 1
+//!   meet every [`crate::bench::WINDOW_STEPS`] steps (a run recorded at 100 Hz with dt = 1 ms); with T > 1
 //!   the same is timed on one thread too and the line `scaling 1 -> T threads: S x` printed
 //!   before the last.
 //! - `tumble bench --scene SCENE.toml [--steps K] [--integrator NAME] [--dt DT]`: steps any
@@ -21,19 +21,18 @@
 //!   total linear momentum, without gravity), for side-by-side comparisons
 //!   (`scripts/bench_mechanism.sh`).
 
+use crate::bench::{TimedRun, measure_errors, partitioning, time_simulation, time_steps};
 use crate::scene::Scene;
+use crate::sim::Bodies;
+use crate::sim::IntegratorKind;
 use crate::sim::Loads;
-use crate::sim::partition::{Partitions, partition_count, stepping_threads};
+use crate::sim::partition::{partition_count, stepping_threads};
 use crate::sim::workload::free_body_batch;
-use crate::sim::{Bodies, Integrator, IntegratorKind};
 use crate::trade::measure::median;
+use crate::world::World;
 use anyhow::bail;
 use nalgebra::Vector3;
 use std::path::PathBuf;
-use std::time::Instant;
-
-/// Steps between two meetings of the threads (a 100 Hz recording at dt = 1 ms).
-pub const WINDOW_STEPS: u64 = 10;
 
 #[derive(clap::Args, Debug, Clone)]
 pub struct BenchArgs {
@@ -98,85 +97,6 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     }
 }
 
-/// Times `steps` steps from `start`, `repeats` times; returns the median wall time per step, ns.
-fn time_steps(
-    start: &Bodies,
-    make: &dyn Fn() -> anyhow::Result<Box<dyn Integrator>>,
-    loads: &Loads,
-    args: &BenchArgs,
-    per_run: &dyn Fn(usize, f64, u64),
-) -> anyhow::Result<f64> {
-    let mut samples = Vec::with_capacity(args.repeats);
-    for r in 0..args.repeats {
-        let mut bodies = start.clone();
-        let mut integrator = make()?;
-        integrator.init(&bodies);
-        let started = Instant::now();
-        let mut failures = 0u64;
-        for _ in 0..args.steps {
-            failures += u64::from(integrator.step(&mut bodies, loads).newton_failures);
-        }
-        let ns = started.elapsed().as_secs_f64() * 1e9 / args.steps as f64;
-        std::hint::black_box(&bodies);
-        per_run(r, ns, failures);
-        samples.push(ns);
-    }
-    Ok(median(&mut samples))
-}
-
-/// Steps `batch` through `steps` steps, the threads meeting every [`WINDOW_STEPS`]; returns the
-/// count of non-converged solves.
-fn advance_timed(batch: &mut Partitions<'_>, steps: u64, loads: &Loads) -> u64 {
-    let mut failures = 0u64;
-    let mut step = 0;
-    while step < steps {
-        let end = (step + WINDOW_STEPS).min(steps);
-        failures += u64::from(batch.advance(step, end, loads).stats.newton_failures);
-        step = end;
-    }
-    failures
-}
-
-/// One timed run of `world`'s batch cut into `ranges` on `threads` threads, each partition
-/// with its own integrator and guard as `simulate` steps it: ns per step of the whole batch,
-/// and the count of non-converged solves.
-#[allow(clippy::too_many_arguments)]
-fn time_partitioned(
-    world: &crate::world::World,
-    ranges: &[std::ops::Range<usize>],
-    threads: usize,
-    kind: IntegratorKind,
-    dt: f64,
-    settings: &crate::sim::integrators::VariationalSettings,
-    loads: &Loads,
-    steps: u64,
-) -> anyhow::Result<(f64, u64)> {
-    let mechanisms: Vec<_> = ranges
-        .iter()
-        .map(|r| crate::sim::partition::rebase(&world.mechanisms, r))
-        .collect();
-    let integrators = ranges
-        .iter()
-        .zip(&mechanisms)
-        .map(|(range, m)| crate::sim::integrator_for(kind, dt, settings, m, range.len()))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let mut batch = Partitions::with_ranges(
-        &world.bodies,
-        ranges,
-        integrators,
-        threads,
-        &mechanisms,
-        loads,
-        f64::MAX,
-        None,
-    )?;
-    let started = Instant::now();
-    let failures = advance_timed(&mut batch, steps, loads);
-    let ns = started.elapsed().as_secs_f64() * 1e9 / steps as f64;
-    std::hint::black_box(&batch.parts);
-    Ok((ns, failures))
-}
-
 fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
     let name = args.integrator.as_deref().unwrap_or("variational");
     let kind = integrator_kind(name)?;
@@ -192,8 +112,10 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
     let asked = crate::commands::simulate::thread_count(args.threads)?;
     let threads = stepping_threads(partition_count(args.bodies, asked), asked);
     let inits = free_body_batch(args.bodies);
-    let loads = Loads::uniform_gravity(Vector3::new(0.0, 0.0, -9.81));
     let settings = Default::default();
+    // A bare batch of free bodies: a world with no layout and no mechanisms, the bodies given
+    // as the initial states.
+    let world = World::default();
     let counts: Vec<usize> = if threads > 1 {
         vec![1, threads]
     } else {
@@ -217,15 +139,16 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
     let mut samples = vec![Vec::with_capacity(args.repeats); counts.len()];
     for r in 0..args.repeats {
         for (c, &t) in counts.iter().enumerate() {
-            let parts = partition_count(args.bodies, t);
-            let integrators: Vec<Box<dyn crate::sim::Integrator>> =
-                (0..parts).map(|_| kind.build(dt, &settings)).collect();
-            let mut batch = Partitions::new(&inits, integrators, t, f64::MAX, None)?;
-            let started = Instant::now();
-            let failures = advance_timed(&mut batch, args.steps, &loads);
-            let ns =
-                started.elapsed().as_secs_f64() * 1e9 / (args.steps as f64 * args.bodies as f64);
-            std::hint::black_box(&batch.parts);
+            let run = TimedRun {
+                kind,
+                dt_secs: dt,
+                variational: &settings,
+                gravity: Vector3::new(0.0, 0.0, -9.81),
+                threads: t,
+                steps: args.steps,
+            };
+            let timed = time_simulation(&world, &inits, &run)?;
+            let (ns, failures) = (timed.ns_per_step / args.bodies as f64, timed.failures);
             println!(
                 "run {} ({t} thread{}): {ns:.2} ns per body-step ({failures} non-converged solves)",
                 r + 1,
@@ -298,13 +221,20 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
         println!("momentum_err_max={:e}", errors.angular);
         println!("linear_momentum_err_max={:e}", errors.linear);
     }
-    let ns = time_steps(&start, &make, &loads, args, &|r, ns, failures| {
-        println!(
-            "run {}: {ns:.1} ns per step, {:.2} ns per body-step ({failures} non-converged solves)",
-            r + 1,
-            ns / bodies as f64
-        )
-    })?;
+    let ns = time_steps(
+        &start,
+        &make,
+        &loads,
+        args.steps,
+        args.repeats,
+        &mut |r, ns, failures| {
+            println!(
+                "run {}: {ns:.1} ns per step, {:.2} ns per body-step ({failures} non-converged solves)",
+                r + 1,
+                ns / bodies as f64
+            )
+        },
+    )?;
     // On several threads: the batch cut between mechanisms as `simulate --threads` cuts it,
     // and, for the scaling, the same run on one thread (one partition, as `simulate --threads
     // 1` steps it: the guard after every step, the meetings every window), the two thread
@@ -312,12 +242,8 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
     // both alike. The scaling compares the same work: the runs above time the integrator
     // alone, without the guard that every simulated step pays.
     let threads = crate::commands::simulate::thread_count(args.threads)?;
-    let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
-    let ranges = crate::sim::partition::ranges(bodies, threads, &mechanism_ranges);
-    let ns = if ranges.len() > 1 {
-        let parts = ranges.len();
-        let used = crate::sim::partition::stepping_threads(parts, threads);
-        let one = crate::sim::partition::ranges(bodies, 1, &mechanism_ranges);
+    let (parts, used) = partitioning(&world, threads);
+    let ns = if parts > 1 {
         println!(
             "{} x {} steps, 1 thread (1 partition) and {used} threads ({parts} partitions, cut \
              between mechanisms), taking turns, the guard checking every step",
@@ -328,9 +254,18 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
             Vec::with_capacity(args.repeats),
         ];
         for r in 0..args.repeats {
-            for (c, (ranges, t)) in [(&one, 1), (&ranges, used)].into_iter().enumerate() {
-                let (ns, failures) =
-                    time_partitioned(&world, ranges, t, kind, dt, &settings, &loads, args.steps)?;
+            for (c, t) in [1, used].into_iter().enumerate() {
+                // `threads` cuts the batch as `simulate --threads` does, stepped on `used`.
+                let run = TimedRun {
+                    kind,
+                    dt_secs: dt,
+                    variational: &settings,
+                    gravity: scene.gravity(),
+                    threads: if t == 1 { 1 } else { threads },
+                    steps: args.steps,
+                };
+                let timed = time_simulation(&world, &world.bodies, &run)?;
+                let (ns, failures) = (timed.ns_per_step, timed.failures);
                 println!(
                     "run {} ({t} thread{}): {ns:.1} ns per step, {:.2} ns per body-step \
                      ({failures} non-converged solves)",
@@ -362,84 +297,4 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
     println!("ns_per_step={ns:.1}");
     println!("ns_per_body_step={:.2}", ns / bodies as f64);
     Ok(())
-}
-
-struct Errors {
-    steps: u64,
-    energy: f64,
-    angular: f64,
-    linear: f64,
-}
-
-/// The largest relative errors of the reported energy and the conserved momenta over `secs`.
-fn measure_errors(
-    world: &crate::world::World,
-    make: &dyn Fn() -> anyhow::Result<Box<dyn Integrator>>,
-    loads: &Loads,
-    dt: f64,
-    secs: f64,
-) -> anyhow::Result<Errors> {
-    let steps = (secs / dt).round() as u64;
-    let mut bodies = Bodies::new(&world.bodies);
-    let mut integrator = make()?;
-    integrator.init(&bodies);
-    let mut frames = crate::simulation::FrameBuilder::new(world);
-    let floating: Vec<usize> = world
-        .layout
-        .mechanisms
-        .iter()
-        .enumerate()
-        .filter(|(_, m)| m.floating)
-        .map(|(k, _)| k)
-        .collect();
-    let frame = frames.frame(&bodies, loads, 0, dt);
-    let p0: Vec<Vector3<f64>> = floating
-        .iter()
-        .map(|&k| frame.mechanisms[k].linear_momentum)
-        .collect();
-    let e0 = frames.total_energy();
-    let mut l0 = Vec::new();
-    frames.conserved_angmom(&mut l0);
-    let mut l = Vec::new();
-    let (mut energy, mut angular, mut linear): (f64, f64, f64) = (0.0, 0.0, 0.0);
-    let worst = |a: f64, b: f64| {
-        if b.is_nan() || a.is_nan() {
-            f64::NAN
-        } else {
-            a.max(b)
-        }
-    };
-    for step in 1..=steps {
-        integrator.step(&mut bodies, loads);
-        let frame = frames.frame(&bodies, loads, step, dt);
-        if loads.gravity().norm() == 0.0 {
-            for (i, &k) in floating.iter().enumerate() {
-                let p = frame.mechanisms[k].linear_momentum;
-                linear = worst(
-                    linear,
-                    (p - p0[i]).norm() / p0[i].norm().max(f64::MIN_POSITIVE),
-                );
-            }
-        }
-        energy = worst(
-            energy,
-            (frames.total_energy() - e0).abs() / e0.abs().max(f64::MIN_POSITIVE),
-        );
-        frames.conserved_angmom(&mut l);
-        for (a, b) in l.iter().zip(&l0) {
-            angular = worst(angular, (a - b).norm() / b.norm().max(f64::MIN_POSITIVE));
-        }
-    }
-    if l0.is_empty() {
-        angular = f64::NAN;
-    }
-    if floating.is_empty() || loads.gravity().norm() != 0.0 {
-        linear = f64::NAN;
-    }
-    Ok(Errors {
-        steps,
-        energy,
-        angular,
-        linear,
-    })
 }

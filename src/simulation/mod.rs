@@ -243,7 +243,8 @@ impl Simulation {
     /// Steps up to `n` more steps (fewer when the run ends first: all its steps done, the
     /// guard's stop, an interrupt when [`RunSettings::stop_on_interrupt`]), recording every
     /// `log_every`-th step and the last. An `Err` is a sink's write error: end the run then
-    /// with [`Simulation::discard`].
+    /// with [`Simulation::discard`]. Without sinks no frame is built here (a timed run's
+    /// windows hold the stepping alone); [`Simulation::frame`] builds one when asked.
     pub fn advance(&mut self, n: u64) -> anyhow::Result<Progress> {
         self.start()?;
         let target = self.step.saturating_add(n).min(self.settings.steps);
@@ -402,8 +403,16 @@ impl Simulation {
         self.send()
     }
 
-    /// Builds the frame of the current step and sends it to every sink.
+    /// Builds the frame of the current step and sends it to every sink. Without sinks the
+    /// step only counts as recorded: its frame is built when asked for ([`Simulation::frame`],
+    /// [`Simulation::summary`]), so a run without sinks (a timed one) builds no frame between
+    /// its steps.
     fn record(&mut self) -> anyhow::Result<()> {
+        if self.sinks.is_empty() {
+            self.summary.frames_recorded += 1;
+            self.summary.last_recorded_step = self.step;
+            return Ok(());
+        }
         if self.built != Some(self.step) {
             self.build_frame();
         }

@@ -21,11 +21,10 @@
 use super::Status;
 use crate::record::Frame;
 use crate::scene::Scene;
-use crate::sim::Loads;
-use crate::sim::guard::{Cause, Guard};
+use crate::sim::guard::Cause;
 use crate::sim::limits::ENERGY_ERROR_BOUND;
-use crate::sim::{Bodies, IntegratorKind};
-use crate::simulation::FrameBuilder;
+use crate::sim::{IntegratorKind, RunSettings};
+use crate::simulation::{Progress, Simulation};
 use crate::world::World;
 use std::fmt::Write as _;
 
@@ -112,7 +111,8 @@ fn totals(frame: &Frame<'_>) -> (f64, f64, f64, f64) {
     (kinetic, kinetic + potential, gap, angle)
 }
 
-/// One row (see the module doc).
+/// One row (see the module doc): the scene stepped through a [`Simulation`] on this thread,
+/// its guard after every step, the reported frame read after every step.
 pub fn run_row(
     scene: &Scene,
     world: &World,
@@ -120,21 +120,15 @@ pub fn run_row(
     dt: f64,
     duration_secs: f64,
 ) -> anyhow::Result<SceneRow> {
-    let settings = scene.variational_settings();
-    let run = scene.run_settings();
-    let loads = Loads::uniform_gravity(scene.gravity());
-    let mut bodies = Bodies::new(&world.bodies);
-    let mut integrator = world.integrator(kind, dt, &settings)?;
-    integrator.init(&bodies);
-    let mut guard = Guard::new(
-        &bodies,
-        run.divergence_energy_ratio,
-        run.stop_on_newton_failure,
-    );
-    guard.watch_mechanisms(&world.mechanisms, &bodies, &loads);
-    let mut frames = FrameBuilder::new(world);
-    let (t0, e0, gap0, angle0) = totals(&frames.frame(&bodies, &loads, 0, dt));
     let steps = ((duration_secs / dt).ceil() as u64).max(1);
+    let settings = RunSettings {
+        steps,
+        log_every: steps,
+        ..scene.run_settings()
+    };
+    let mut sim =
+        Simulation::of_world(world, kind, dt, &scene.variational_settings(), 1, &settings)?;
+    let (t0, e0, gap0, angle0) = totals(&sim.frame().as_frame());
     let mut row = SceneRow {
         integrator: kind,
         dt,
@@ -154,33 +148,38 @@ pub fn run_row(
         let scale = if t_max > 0.0 { t_max } else { e0.abs() };
         if scale > 0.0 { de / scale } else { de }
     };
-    for step in 1..=steps {
-        let stats = integrator.step(&mut bodies, &loads);
-        row.newton_iters_max = row.newton_iters_max.max(stats.newton_iters_max);
-        row.substeps += u64::from(stats.substepped);
-        row.substep_factor_max = row.substep_factor_max.max(stats.substep_factor_max);
-        if let Some(stop) = guard.check(&bodies, &stats, step) {
-            row.steps_done = step - 1;
-            row.energy_err_max = relative(de_max, kinetic_max);
-            row.status = match stop.cause {
-                Cause::NewtonFailed { .. } => Status::NewtonFailed,
-                Cause::NonFinite { .. } | Cause::OutOfRange { .. } => {
-                    row.energy_err_max = f64::INFINITY;
-                    Status::Diverged
-                }
-                Cause::EnergyGrowth { .. } | Cause::MechanismEnergyGrowth { .. } => {
-                    Status::Diverged
-                }
-            };
-            return Ok(row);
+    // One step at a time: every step's reported frame is measured.
+    loop {
+        let progress = sim.advance(1)?;
+        if progress == Progress::Stopped {
+            break;
         }
-        let (t, e, gap, angle) = totals(&frames.frame(&bodies, &loads, step, dt));
+        let (t, e, gap, angle) = totals(&sim.frame().as_frame());
         kinetic_max = kinetic_max.max(t);
         de_max = de_max.max((e - e0).abs());
         row.residual_m_max = row.residual_m_max.max(gap);
         row.residual_rad_max = row.residual_rad_max.max(angle);
+        if progress != Progress::Running {
+            break;
+        }
     }
+    let summary = sim.summary();
+    row.newton_iters_max = summary.stats.newton_iters_max;
+    row.substeps = u64::from(summary.stats.substepped);
+    row.substep_factor_max = summary.stats.substep_factor_max;
     row.energy_err_max = relative(de_max, kinetic_max);
+    if let Some(stop) = summary.stopped {
+        row.steps_done = stop.step - 1;
+        row.status = match stop.cause {
+            Cause::NewtonFailed { .. } => Status::NewtonFailed,
+            Cause::NonFinite { .. } | Cause::OutOfRange { .. } => {
+                row.energy_err_max = f64::INFINITY;
+                Status::Diverged
+            }
+            Cause::EnergyGrowth { .. } | Cause::MechanismEnergyGrowth { .. } => Status::Diverged,
+        };
+        return Ok(row);
+    }
     row.status = if row.substeps > 0 {
         Status::Substepped
     } else if row.energy_err_max.is_nan() || row.energy_err_max > ENERGY_ERROR_BOUND {

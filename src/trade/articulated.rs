@@ -159,7 +159,9 @@ pub fn measure(
     let mut frames = FrameBuilder::new(world);
     let (mut l0, mut l) = (Vec::new(), Vec::new());
 
-    // Errors over the measurement horizon, on the reported states.
+    // Errors over the measurement horizon, on the reported states. Stepped directly, not
+    // through a `Simulation`: every step's frame is compared, and with no guard a diverging
+    // run reports NaN.
     let mut bodies = start.clone();
     let mut integrator = world.integrator(kind, dt, variational)?;
     integrator.init(&bodies);
@@ -203,7 +205,8 @@ pub fn measure(
         }
     }
 
-    // Cost: the bare stepping loop of the whole scene.
+    // Cost: the bare stepping loop of the whole scene (no guard, no frames: what the column
+    // times).
     let mut failed = None;
     let ns_per_body_step = timed_median(settings.repeats, steps, world.bodies.len(), &mut || {
         let mut bodies = start.clone();

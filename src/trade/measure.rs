@@ -52,8 +52,10 @@ pub fn steps_in(secs: f64, dt: f64) -> u64 {
     (secs / dt).round() as u64
 }
 
-/// Seconds to step `init` `steps` steps split into `parts` partitions on `threads` threads
-/// ([`crate::sim::partition`]; the threads meet every 10 steps, a 100 Hz recording at 1 ms).
+/// Seconds to step `init` `steps` steps on `threads` threads, split as `simulate --threads`
+/// splits it ([`crate::bench::time_simulation`]: a [`crate::simulation::Simulation`] with no
+/// sinks, the guard after every step, the threads meeting every
+/// [`crate::bench::WINDOW_STEPS`] steps, a 100 Hz recording at 1 ms); NaN when it cannot run.
 fn timed_partitions(
     init: &[BodyInit],
     kind: IntegratorKind,
@@ -61,25 +63,21 @@ fn timed_partitions(
     variational: &VariationalSettings,
     loads: &Loads,
     steps: u64,
-    parts: usize,
     threads: usize,
 ) -> f64 {
-    let integrators: Vec<Box<dyn crate::sim::Integrator>> =
-        (0..parts).map(|_| kind.build(dt, variational)).collect();
-    let Ok(mut batch) =
-        crate::sim::partition::Partitions::new(init, integrators, threads, f64::MAX, None)
-    else {
-        return f64::NAN;
+    let run = crate::bench::TimedRun {
+        kind,
+        dt_secs: dt,
+        variational,
+        gravity: *loads.gravity(),
+        threads,
+        steps,
     };
-    let started = Instant::now();
-    let mut step = 0;
-    while step < steps {
-        let end = (step + 10).min(steps);
-        batch.advance(step, end, loads);
-        step = end;
+    // A bare batch of free bodies: a world with no layout and no mechanisms.
+    match crate::bench::time_simulation(&crate::world::World::default(), init, &run) {
+        Ok(timed) => timed.secs,
+        Err(_) => f64::NAN,
     }
-    std::hint::black_box(&batch.parts);
-    started.elapsed().as_secs_f64()
 }
 
 /// Measures `kind` at step `dt` on the bodies `init` (see the module doc of [`crate::trade`]).
@@ -96,7 +94,8 @@ pub fn measure(
     let t_end = steps as f64 * dt;
     let start = Bodies::new(init);
 
-    // Errors over the measurement horizon.
+    // Errors over the measurement horizon. The integrator is stepped directly, not through a
+    // `Simulation`: every step is compared, and with no guard a diverging run reports NaN.
     let mut bodies = start.clone();
     let mut integrator = kind.build(dt, variational);
     integrator.init(&bodies);
@@ -149,17 +148,9 @@ pub fn measure(
     let parts = crate::sim::partition::partition_count(init.len(), settings.threads);
     let ns_per_body_step = timed_median(settings.repeats, steps, init.len(), &mut || {
         if parts > 1 {
-            timed_partitions(
-                init,
-                kind,
-                dt,
-                variational,
-                loads,
-                steps,
-                parts,
-                settings.threads,
-            )
+            timed_partitions(init, kind, dt, variational, loads, steps, settings.threads)
         } else {
+            // The bare step (no guard, one thread): what the column times.
             let mut bodies = start.clone();
             let mut integrator = kind.build(dt, variational);
             integrator.init(&bodies);

@@ -10,10 +10,9 @@
 use crate::record::rerun::RerunOptions;
 use crate::record::{Frame, OutputFile, RecordingLayout, Sink, SinkOptions, TopicGroup};
 use crate::scene::Scene;
-use crate::sim::Loads;
-use crate::sim::guard::{Divergence, Guard};
-use crate::sim::{Bodies, IntegratorKind};
-use crate::simulation::FrameBuilder;
+use crate::sim::guard::Divergence;
+use crate::sim::{IntegratorKind, RunSettings};
+use crate::simulation::{Progress, Simulation};
 use crate::world::World;
 use std::path::Path;
 
@@ -78,10 +77,12 @@ pub fn layout(world: &World, kinds: &[IntegratorKind], dt: f64) -> RecordingLayo
 }
 
 /// Runs every integrator on `scene` for `duration_secs` at `dt` and records them side by side.
-/// Every run is watched by the divergence [`Guard`] (the scene's `divergence_energy_ratio`,
-/// Newton failures stop it when substepping is on): when one run fails, the recording ends at
-/// the last recorded step before it (nothing non-finite is written) and the failure is returned
-/// with the integrator it happened to and the body's name; the files are finished either way.
+/// Every run is a [`Simulation`] on this thread, watched by its divergence guard (the scene's
+/// `divergence_energy_ratio`, Newton failures stop it when substepping is on); the runs go from
+/// one recorded step to the next in turn. When one run fails, the recording ends at the last
+/// recorded step before it (nothing non-finite is written) and the failure is returned with
+/// the integrator it happened to (the earliest step's, the first in `kinds` among those failing
+/// at that step) and the body's name; the files are finished either way.
 pub fn record(
     scene: &Scene,
     kinds: &[IntegratorKind],
@@ -93,25 +94,18 @@ pub fn record(
     let world = scene.build()?;
     crate::scene::triangles::check_recorded(&world, &scene.source)?;
     let layout = layout(&world, kinds, dt);
-    let loads = Loads::uniform_gravity(scene.gravity());
     let steps = super::measure::steps_in(duration_secs, dt);
     let log_every = steps.div_ceil(MAX_FRAMES).max(1);
-    // The integrators first (an unsupported one is an error before any file exists).
-    let mut runs: Vec<_> = kinds
+    let settings = RunSettings {
+        steps,
+        log_every,
+        ..scene.run_settings()
+    };
+    let variational = scene.variational_settings();
+    // The runs first (an unsupported integrator is an error before any file exists).
+    let mut runs: Vec<Simulation> = kinds
         .iter()
-        .map(|kind| {
-            let bodies = Bodies::new(&world.bodies);
-            let mut integrator = world.integrator(*kind, dt, &scene.variational_settings())?;
-            integrator.init(&bodies);
-            let run = scene.run_settings();
-            let mut guard = Guard::new(
-                &bodies,
-                run.divergence_energy_ratio,
-                run.stop_on_newton_failure,
-            );
-            guard.watch_mechanisms(&world.mechanisms, &bodies, &loads);
-            Ok((bodies, integrator, FrameBuilder::new(&world), guard))
-        })
+        .map(|&kind| Simulation::of_world(&world, kind, dt, &variational, 1, &settings))
         .collect::<anyhow::Result<_>>()?;
     // The MCAP file keeps its inertia ellipsoids (the default options); the Rerun one leaves
     // them out.
@@ -129,34 +123,20 @@ pub fn record(
     let mut joint_states = Vec::with_capacity(layout.joints.len());
     let mut mechanism_states = Vec::with_capacity(layout.mechanisms.len());
     let mut result = Ok(());
-    for step in 0..=steps {
-        if step > 0 {
-            for (kind, (bodies, integrator, _, guard)) in kinds.iter().zip(&mut runs) {
-                let stats = integrator.step(bodies, &loads);
-                if let Some(d) = guard.check(bodies, &stats, step) {
-                    let name = world.layout.bodies[d.body].name.clone();
-                    stopped.get_or_insert((*kind, d, name));
-                }
-            }
-            if stopped.is_some() {
-                break;
-            }
-        }
-        if step % log_every != 0 && step != steps {
-            continue;
-        }
+    let mut step = 0;
+    loop {
         poses.clear();
         states.clear();
         joint_states.clear();
         mechanism_states.clear();
         let mut time_ns = 0;
-        for (bodies, _, frames, _) in &mut runs {
-            let frame = frames.frame(bodies, &loads, step, dt);
+        for sim in &mut runs {
+            let frame = sim.frame();
             time_ns = frame.time_ns;
-            poses.extend_from_slice(frame.world_from_link);
-            states.extend_from_slice(frame.bodies);
-            joint_states.extend_from_slice(frame.joints);
-            mechanism_states.extend_from_slice(frame.mechanisms);
+            poses.extend_from_slice(&frame.world_from_link);
+            states.extend_from_slice(&frame.bodies);
+            joint_states.extend_from_slice(&frame.joints);
+            mechanism_states.extend_from_slice(&frame.mechanisms);
         }
         let frame = Frame {
             step,
@@ -170,6 +150,28 @@ pub fn record(
             result = Err(e);
             break;
         }
+        if step == steps {
+            break;
+        }
+        let next = ((step / log_every + 1) * log_every).min(steps);
+        if let Err(e) = runs
+            .iter_mut()
+            .try_for_each(|sim| sim.advance(next - step).map(drop))
+        {
+            result = Err(e);
+            break;
+        }
+        stopped = kinds
+            .iter()
+            .zip(&mut runs)
+            .filter(|(_, sim)| sim.progress() == Progress::Stopped)
+            .filter_map(|(&kind, sim)| sim.summary().stopped.map(|d| (kind, d)))
+            .min_by_key(|(_, d)| d.step)
+            .map(|(kind, d)| (kind, d, world.layout.bodies[d.body].name.clone()));
+        if stopped.is_some() {
+            break;
+        }
+        step = next;
     }
     crate::record::finish_all(sinks, result.map(|()| stopped), &[rrd, mcap])
 }
