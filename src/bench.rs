@@ -15,7 +15,6 @@
 use crate::sim::integrators::VariationalSettings;
 use crate::sim::{Bodies, BodyInit, Integrator, IntegratorKind, Loads, RunSettings};
 use crate::simulation::{Inits, Simulation};
-use crate::trade::measure::median;
 use crate::world::World;
 use nalgebra::Vector3;
 use std::time::Instant;
@@ -216,4 +215,17 @@ pub fn measure_errors(
         angular,
         linear,
     })
+}
+
+/// Median (mean of the middle two for an even count).
+pub fn median(values: &mut [f64]) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    if n == 0 {
+        f64::NAN
+    } else if n % 2 == 1 {
+        values[n / 2]
+    } else {
+        0.5 * (values[n / 2 - 1] + values[n / 2])
+    }
 }

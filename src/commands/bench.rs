@@ -21,6 +21,7 @@
 //!   total linear momentum, without gravity), for side-by-side comparisons
 //!   (`scripts/bench_mechanism.sh`).
 
+use crate::bench::median;
 use crate::bench::{TimedRun, measure_errors, partitioning, time_simulation, time_steps};
 use crate::scene::Scene;
 use crate::sim::Bodies;
@@ -28,7 +29,6 @@ use crate::sim::IntegratorKind;
 use crate::sim::Loads;
 use crate::sim::partition::{partition_count, stepping_threads};
 use crate::sim::workload::free_body_batch;
-use crate::trade::measure::median;
 use crate::world::World;
 use anyhow::bail;
 use nalgebra::Vector3;

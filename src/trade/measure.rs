@@ -2,6 +2,7 @@
 
 use super::TradeSettings;
 use super::reference::{Reference, rotation_error};
+use crate::bench::median;
 use crate::sim::Loads;
 use crate::sim::integrators::VariationalSettings;
 use crate::sim::reference::parabola;
@@ -216,19 +217,6 @@ pub(crate) fn worst(a: f64, b: f64) -> f64 {
         f64::NAN
     } else {
         a.max(b)
-    }
-}
-
-/// Median (mean of the middle two for an even count).
-pub fn median(values: &mut [f64]) -> f64 {
-    values.sort_by(f64::total_cmp);
-    let n = values.len();
-    if n == 0 {
-        f64::NAN
-    } else if n % 2 == 1 {
-        values[n / 2]
-    } else {
-        0.5 * (values[n / 2 - 1] + values[n / 2])
     }
 }
 
