@@ -49,7 +49,7 @@ fn simulation(scene: &Scene, world: &World, settings: &RunSettings) -> (Simulati
     )
     .unwrap();
     let seen = Seen::default();
-    sim.attach(Box::new(Keep(seen.clone()))).unwrap();
+    sim.attach_all(vec![Box::new(Keep(seen.clone()))]).unwrap();
     (sim, seen)
 }
 
