@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod bodies;
+pub mod limited;
 pub mod urdfs;
 
 use std::path::{Path, PathBuf};

@@ -9,10 +9,9 @@
 use crate::common;
 use crate::common::urdfs::write;
 
-use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+
+use std::time::Duration;
 
 /// A refusal must come this fast. Generous for a loaded 2-core machine: every refusal here
 /// measured under 0.1 s, against 4 s to minutes before.
@@ -21,55 +20,11 @@ const QUICK: Duration = Duration::from_secs(10);
 /// A run still going after this is killed and fails the test.
 const HANG_LIMIT: Duration = Duration::from_secs(120);
 
-struct Run {
-    status: Option<i32>,
-    stderr: String,
-    elapsed: Duration,
-}
+use common::limited::Limited as Run;
 
 /// Runs `tumble args` in `cwd`, killed after [`HANG_LIMIT`].
 fn run(args: &[&str], cwd: &Path) -> Run {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_tumble"))
-        .args(args)
-        .current_dir(cwd)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("cannot run tumble");
-    let mut out = child.stdout.take().unwrap();
-    let mut err = child.stderr.take().unwrap();
-    // Drained (so that a chatty child cannot block on a full pipe), not kept.
-    let out = std::thread::spawn(move || {
-        let mut s = Vec::new();
-        out.read_to_end(&mut s).ok();
-    });
-    let err = std::thread::spawn(move || {
-        let mut s = Vec::new();
-        err.read_to_end(&mut s).ok();
-        s
-    });
-    let started = Instant::now();
-    let status = loop {
-        if let Some(status) = child.try_wait().expect("wait") {
-            break status;
-        }
-        if started.elapsed() > HANG_LIMIT {
-            child.kill().ok();
-            child.wait().ok();
-            panic!(
-                "tumble {} still running after {HANG_LIMIT:?}",
-                args.join(" ")
-            );
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    };
-    out.join().unwrap();
-    Run {
-        status: status.code(),
-        stderr: common::text(&err.join().unwrap()),
-        elapsed: started.elapsed(),
-    }
+    common::limited::run_limited(args, cwd, HANG_LIMIT)
 }
 
 /// The longest run of digits in `text` (a number printed in full: `1e300` as 301 digits).

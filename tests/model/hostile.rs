@@ -12,64 +12,18 @@
 use crate::common;
 use crate::common::urdfs::write;
 
-use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Command;
+use std::time::Duration;
 
 /// A run still going after this is a hang: it is killed and the test fails.
 const HANG_LIMIT: Duration = Duration::from_secs(60);
 
-/// Outcome of one run of the binary.
-struct Run {
-    status: Option<i32>,
-    stdout: String,
-    stderr: String,
-}
+use common::limited::Limited as Run;
 
 /// Runs `tumble args` in `cwd`, killing it after [`HANG_LIMIT`].
 fn run_with_limit(args: &[String], cwd: &Path) -> Run {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_tumble"))
-        .args(args)
-        .current_dir(cwd)
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("cannot run tumble");
-    // Drain both pipes on threads so that a chatty child cannot block on a full pipe.
-    let mut out = child.stdout.take().unwrap();
-    let mut err = child.stderr.take().unwrap();
-    let out = std::thread::spawn(move || {
-        let mut s = Vec::new();
-        out.read_to_end(&mut s).ok();
-        s
-    });
-    let err = std::thread::spawn(move || {
-        let mut s = Vec::new();
-        err.read_to_end(&mut s).ok();
-        s
-    });
-    let started = Instant::now();
-    let status = loop {
-        if let Some(status) = child.try_wait().expect("wait") {
-            break status;
-        }
-        if started.elapsed() > HANG_LIMIT {
-            child.kill().ok();
-            child.wait().ok();
-            panic!(
-                "tumble {} still running after {HANG_LIMIT:?}: a hang",
-                args.join(" ")
-            );
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    };
-    Run {
-        status: status.code(),
-        stdout: common::text(&out.join().unwrap()),
-        stderr: common::text(&err.join().unwrap()),
-    }
+    common::limited::run_limited(args, cwd, HANG_LIMIT)
 }
 
 /// What every run must satisfy whatever its case: no panic, no crash.
