@@ -397,9 +397,8 @@ impl Simulation {
             return Ok(());
         }
         self.started = true;
-        if self.built != Some(0) {
-            self.build_frame();
-        }
+        // Frame 0 was built by `new` and is still the builder's last frame: nothing steps
+        // before the first `start`, and a frame asked for at step 0 is that same frame.
         self.send()
     }
 
