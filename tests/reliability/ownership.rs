@@ -548,7 +548,16 @@ fn a_signal_during_convert_leaves_nothing() {
 fn two_datasets_on_one_folder_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let spec = scene("dataset.toml");
+    // The bundled spec with 10 times its runs: about 2 s, so that the first run is still
+    // writing while the three others are refused (the bundled 1000 runs took 0.4 s, and a
+    // quiet machine finished them before the third).
+    common::urdfs::copy_models(d, &["box", "t_handle", "arm"]);
+    let spec_text = std::fs::read_to_string(scene("dataset.toml"))
+        .unwrap()
+        .replace("runs = 1000 ", "runs = 10000 ");
+    assert!(spec_text.contains("runs = 10000 "));
+    std::fs::write(d.join("dataset.toml"), spec_text).unwrap();
+    let spec = d.join("dataset.toml").display().to_string();
     let first = Command::new(exe())
         .args(["dataset", &spec, "--out", "ds", "-q"])
         .current_dir(d)
@@ -584,7 +593,7 @@ fn two_datasets_on_one_folder_are_refused() {
     assert!(resumed.status.success(), "{}", text(&resumed.stderr));
     let said = text(&resumed.stdout) + &text(&resumed.stderr);
     assert!(
-        said.contains("1000 runs (10 chunks) were complete and checked; 0 chunks recomputed"),
+        said.contains("10000 runs (100 chunks) were complete and checked; 0 chunks recomputed"),
         "{said}"
     );
 }
