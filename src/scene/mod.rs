@@ -59,6 +59,7 @@ mod entry;
 mod links;
 pub mod placement;
 mod rigid;
+pub mod signal;
 
 pub use build::{LoadedModels, LoadedTable};
 pub use entry::{BaseMode, BodiesMode, ModelEntry, SimSettings};

@@ -11,6 +11,7 @@ pub mod mechanism;
 pub mod partition;
 pub mod reference;
 pub mod run_settings;
+pub mod signal;
 pub mod so3;
 pub mod workload;
 

@@ -1,0 +1,155 @@
+//! Time signals that drive inputs (issue 30: actuator efforts and targets, applied loads): a
+//! constant, a sine, or a table linear between its rows. Evaluated inside the step, so plain
+//! numbers only; the scene parses them (`crate::scene::signal`).
+//!
+//! ```text
+//! constant:  s(t) = c
+//! sine:      s(t) = offset + amplitude · sin(2π f t + phase)
+//! table:     s(t) = v_k + (v_{k+1} − v_k) (t − t_k) / (t_{k+1} − t_k)   for t_k ≤ t ≤ t_{k+1}
+//!            s(t) = v_0 for t < t_0, v_{n−1} for t > t_{n−1}  (held beyond the ends)
+//! ```
+
+/// A signal of time (s).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Signal {
+    Constant(f64),
+    Sine {
+        amplitude: f64,
+        frequency_hz: f64,
+        /// rad
+        phase: f64,
+        offset: f64,
+    },
+    /// Rows `(t_k, v_k)`, `t_k` strictly increasing (checked where the table is read), at
+    /// least one row.
+    Table {
+        times_secs: Vec<f64>,
+        values: Vec<f64>,
+    },
+}
+
+impl Signal {
+    /// The value at time `t_secs`.
+    pub fn at(&self, t_secs: f64) -> f64 {
+        match self {
+            Signal::Constant(c) => *c,
+            Signal::Sine {
+                amplitude,
+                frequency_hz,
+                phase,
+                offset,
+            } => offset + amplitude * (std::f64::consts::TAU * frequency_hz * t_secs + phase).sin(),
+            Signal::Table { times_secs, values } => {
+                let last = times_secs.len() - 1;
+                if t_secs <= times_secs[0] {
+                    return values[0];
+                }
+                if t_secs >= times_secs[last] {
+                    return values[last];
+                }
+                // The row k with t_k <= t < t_{k+1}.
+                let k = times_secs.partition_point(|&tk| tk <= t_secs) - 1;
+                let (t0, t1) = (times_secs[k], times_secs[k + 1]);
+                let (v0, v1) = (values[k], values[k + 1]);
+                v0 + (v1 - v0) * ((t_secs - t0) / (t1 - t0))
+            }
+        }
+    }
+
+    /// The time derivative at `t_secs` (a table's slope on its segment, 0 beyond its ends):
+    /// a velocity target that follows a position target, or a servo's feed-forward.
+    pub fn rate(&self, t_secs: f64) -> f64 {
+        match self {
+            Signal::Constant(_) => 0.0,
+            Signal::Sine {
+                amplitude,
+                frequency_hz,
+                phase,
+                ..
+            } => {
+                let w = std::f64::consts::TAU * frequency_hz;
+                amplitude * w * (w * t_secs + phase).cos()
+            }
+            Signal::Table { times_secs, values } => {
+                let last = times_secs.len() - 1;
+                if t_secs < times_secs[0] || t_secs >= times_secs[last] {
+                    return 0.0;
+                }
+                let k = times_secs.partition_point(|&tk| tk <= t_secs) - 1;
+                (values[k + 1] - values[k]) / (times_secs[k + 1] - times_secs[k])
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_constant_is_the_same_at_every_time_and_has_no_rate() {
+        let s = Signal::Constant(0.5);
+        for t in [-1.0, 0.0, 3.7, 1e9] {
+            assert_eq!((s.at(t), s.rate(t)), (0.5, 0.0));
+        }
+    }
+
+    /// offset + A sin(2π f t + φ) at the points where the sine is 0, 1 and −1, and its
+    /// derivative A 2π f cos(2π f t + φ).
+    #[test]
+    fn a_sine_follows_its_closed_form() {
+        let s = Signal::Sine {
+            amplitude: 0.5,
+            frequency_hz: 0.25,
+            phase: 0.0,
+            offset: 0.2,
+        };
+        // Period 4 s: quarter periods at 1, 2, 3 s. Round-off of sin near kπ: < 1e-15.
+        assert!((s.at(0.0) - 0.2).abs() < 1e-15);
+        assert!((s.at(1.0) - 0.7).abs() < 1e-15);
+        assert!((s.at(2.0) - 0.2).abs() < 1e-15);
+        assert!((s.at(3.0) + 0.3).abs() < 1e-15);
+        let w = std::f64::consts::TAU * 0.25;
+        assert!((s.rate(0.0) - 0.5 * w).abs() < 1e-15);
+        assert!(s.rate(1.0).abs() < 1e-15);
+        // A quarter-period phase is a cosine.
+        let c = Signal::Sine {
+            amplitude: 1.0,
+            frequency_hz: 0.25,
+            phase: std::f64::consts::FRAC_PI_2,
+            offset: 0.0,
+        };
+        assert!((c.at(0.0) - 1.0).abs() < 1e-15 && c.at(1.0).abs() < 1e-15);
+    }
+
+    /// Linear between rows (exact at the rows and at a midpoint), held beyond the ends, the
+    /// segment's slope as the rate.
+    #[test]
+    fn a_table_is_linear_between_rows_and_held_beyond_its_ends() {
+        let s = Signal::Table {
+            times_secs: vec![0.0, 1.0, 3.0],
+            values: vec![1.0, 3.0, -1.0],
+        };
+        assert_eq!(s.at(-5.0), 1.0);
+        assert_eq!(s.at(0.0), 1.0);
+        assert_eq!(s.at(0.5), 2.0);
+        assert_eq!(s.at(1.0), 3.0);
+        assert_eq!(s.at(2.0), 1.0);
+        assert_eq!(s.at(2.5), 0.0);
+        assert_eq!(s.at(3.0), -1.0);
+        assert_eq!(s.at(10.0), -1.0);
+        assert_eq!(s.rate(-1.0), 0.0);
+        assert_eq!(s.rate(0.25), 2.0);
+        assert_eq!(s.rate(1.0), -2.0);
+        assert_eq!(s.rate(2.999), -2.0);
+        assert_eq!(s.rate(3.0), 0.0);
+        let one = Signal::Table {
+            times_secs: vec![2.0],
+            values: vec![7.0],
+        };
+        assert_eq!(
+            (one.at(0.0), one.at(2.0), one.at(9.0), one.rate(2.0)),
+            (7.0, 7.0, 7.0, 0.0)
+        );
+    }
+}
