@@ -27,6 +27,8 @@ pub struct World {
     /// Frames of compound joints' massless interior links: placed from the mechanism's report,
     /// not from a body (their [`Attachment`] is a placeholder).
     pub interior_frames: Vec<InteriorFrame>,
+    /// Applied loads on bodies (a scene's `[[model.load]]`), batch indices of `bodies`.
+    pub body_loads: Vec<crate::sim::loads::BodyLoad>,
     /// What the build decided that the user should know (e.g. joints locked because no mass
     /// hangs from them), one line each; the command prints them.
     pub notes: Vec<String>,

@@ -411,6 +411,7 @@ fn shared_model(
         joints,
         coordinates,
         mimics,
+        drives: Vec::new(),
         base: if fixed { Base::Fixed } else { Base::Floating },
         length_scale,
     };

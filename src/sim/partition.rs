@@ -381,10 +381,15 @@ impl<'a> Partitions<'a> {
         let step_part = |part: &mut Part<'_>| {
             part.stats.clear();
             part.stop = None;
+            // The partition's own view of the loads (its bodies re-based), its time set per
+            // step: `t_k = (k − 1) dt` at the start of step `k`, a product, not a running sum.
+            let mut part_loads = loads.part(part.first..part.first + part.bodies.len());
+            let dt = part.integrator.dt();
             for step in from + 1..=to {
+                part_loads.set_time((step - 1) as f64 * dt);
                 let (local, any_suspect) =
                     part.integrator
-                        .step_watched(&mut part.bodies, loads, part.guard.watch());
+                        .step_watched(&mut part.bodies, &part_loads, part.guard.watch());
                 let mut global = local;
                 global.failed_body = local.failed_body.map(|b| b + part.first);
                 part.stats.push(global);
@@ -629,6 +634,7 @@ mod tests {
             joints: Vec::new(),
             coordinates: Vec::new(),
             mimics: Vec::new(),
+            drives: Vec::new(),
             base: Base::Floating,
             length_scale: 1.0,
         });

@@ -118,7 +118,8 @@ impl Simulation {
                 })
             })
             .collect::<anyhow::Result<Vec<_>>>()?;
-        let loads = Loads::uniform_gravity(settings.gravity);
+        let loads =
+            Loads::uniform_gravity(settings.gravity).with_body_loads(world.body_loads.clone());
         let parts = Partitions::with_ranges(
             &inits,
             &ranges,

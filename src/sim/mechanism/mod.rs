@@ -32,6 +32,7 @@
 //! holds what changes (warm starts, workspaces). Nothing here knows URDF.
 
 pub mod coords;
+pub mod drive;
 pub mod init;
 pub mod project;
 pub mod rows;
@@ -40,6 +41,7 @@ pub mod stepper;
 pub mod tree;
 
 pub use coords::{CompoundChain, CoordinateKind};
+pub use drive::{Actuator, ActuatorKind, Effort, JointDrive};
 pub use rows::{BodyPose, JointRows, RowKind};
 pub use stepper::{Articulated, UnsupportedIntegrator};
 
@@ -86,6 +88,9 @@ pub struct MechanismModel {
     pub coordinates: Vec<Coordinate>,
     /// Mimic rows `θ_f − k θ_l − b = 0` on coordinates.
     pub mimics: Vec<Mimic>,
+    /// What drives the coordinates (actuators, damping), at most one per coordinate, sorted by
+    /// coordinate; each adds one row to its joint's block in the step ([`step`]).
+    pub drives: Vec<JointDrive>,
     /// `Fixed`: the root link is welded to the world (joints on it have no parent body).
     pub base: Base,
     /// A length typical of the mechanism (largest anchor distance from a centre of mass, ≥ 1 mm):
@@ -199,6 +204,22 @@ impl MechanismModel {
         for m in &self.mimics {
             if m.follower >= self.coordinates.len() || m.leader >= self.coordinates.len() {
                 return Err("mimic on an unknown coordinate".into());
+            }
+        }
+        let mut extra_rows = vec![0; self.joints.len()];
+        for (k, d) in self.drives.iter().enumerate() {
+            let Some(c) = self.coordinates.get(d.coordinate) else {
+                return Err(format!("drive {k} on an unknown coordinate"));
+            };
+            if k > 0 && self.drives[k - 1].coordinate >= d.coordinate {
+                return Err("drives not sorted by coordinate, or two on one".into());
+            }
+            if matches!(c.kind, CoordinateKind::Compound { .. }) {
+                return Err(format!("drive on compound joint stage {:?}", c.name));
+            }
+            extra_rows[c.joint] += 1;
+            if self.joints[c.joint].rows.count() + extra_rows[c.joint] > rows::MAX_ROWS {
+                return Err(format!("joint {:?}: too many driven rows", c.name));
             }
         }
         Ok(())

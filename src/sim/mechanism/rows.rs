@@ -33,7 +33,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 /// Largest number of rows of one joint.
-pub const MAX_ROWS: usize = 5;
+pub const MAX_ROWS: usize = 6;
 /// Rows of one joint (unused rows, past [`RowKind::count`], are zero).
 pub type RowValues = SVector<f64, MAX_ROWS>;
 /// One body's columns of a joint's rows: `[∂/∂c (world), ∂/∂η (body)]`.

@@ -56,6 +56,7 @@ pub(crate) fn pendulum(theta0: f64) -> (Mechanism, Vec<BodyInit>, f64) {
             is_linear: false,
         }],
         mimics: Vec::new(),
+        drives: Vec::new(),
         base: Base::Fixed,
         length_scale: d,
     };
