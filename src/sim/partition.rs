@@ -325,6 +325,13 @@ impl<'a> Partitions<'a> {
         })
     }
 
+    /// The energy flows of every partition's integrator, summed.
+    pub fn energy_flow(&self) -> crate::sim::integrators::EnergyFlow {
+        self.parts.iter().fold(Default::default(), |a, p| {
+            a.add(p.integrator.energy_flow())
+        })
+    }
+
     /// The partition holding body `i`.
     #[inline]
     pub fn part_of(&self, i: usize) -> usize {
