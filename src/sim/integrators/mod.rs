@@ -16,6 +16,8 @@
 
 pub mod composition;
 pub mod explicit;
+#[cfg(test)]
+mod forced_tests;
 pub mod moser_veselov;
 pub mod rk4;
 pub mod translation;

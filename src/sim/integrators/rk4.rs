@@ -74,12 +74,7 @@ fn forced_rate(
     let (dq, dm) = rotation_rate(&bodies.inv_inertia_body[i], q, m);
     let unit = UnitQuaternion::new_normalize(*q);
     let (f, tau) = loads.wrench_on(i, t_secs, &unit);
-    (
-        dq,
-        dm + tau,
-        *v,
-        loads.gravity() + f / bodies.mass[i],
-    )
+    (dq, dm + tau, *v, loads.gravity() + f / bodies.mass[i])
 }
 
 /// One RK4 step of a loaded body from `y` at `t_secs`.

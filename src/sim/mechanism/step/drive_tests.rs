@@ -151,7 +151,15 @@ fn a_stiff_servo_settles_at_its_target() {
     let mut worst: f64 = 0.0;
     for k in 0..200 {
         loads.set_time(f64::from(k) * h);
-        let stats = step(&model, &mut state, &mut warm, &mut bodies, h, &loads, &settings);
+        let stats = step(
+            &model,
+            &mut state,
+            &mut warm,
+            &mut bodies,
+            h,
+            &loads,
+            &settings,
+        );
         assert_eq!(stats.newton_failures, 0, "step {k}");
         assert_eq!(stats.substepped, 0, "step {k}");
         theta = angle(&model, &bodies, theta);
@@ -188,7 +196,15 @@ fn spin_down(b: f64, h: f64, steps: u32) -> (Vec<f64>, f64) {
     let loads = Loads::none();
     let mut energies = vec![kinetic(&model, &bodies)];
     for _ in 0..steps {
-        let stats = step(&model, &mut state, &mut warm, &mut bodies, h, &loads, &settings);
+        let stats = step(
+            &model,
+            &mut state,
+            &mut warm,
+            &mut bodies,
+            h,
+            &loads,
+            &settings,
+        );
         assert_eq!(stats.newton_failures, 0);
         energies.push(kinetic(&model, &bodies));
     }
@@ -207,7 +223,12 @@ fn damping_never_adds_energy_at_any_step() {
         let (energies, dissipated) = spin_down(2.0 * a * I_PIVOT / h, h, 50);
         let floor = 1e-25 * energies[0];
         for pair in energies.windows(2) {
-            assert!(pair[1] <= pair[0] + floor, "a = {a}: {} -> {}", pair[0], pair[1]);
+            assert!(
+                pair[1] <= pair[0] + floor,
+                "a = {a}: {} -> {}",
+                pair[0],
+                pair[1]
+            );
         }
         // Energy after 50 steps: the rate factor's square per step, ((1 − a)/(1 + a))^100
         // (4.502e-5 at a = 0.05, 0 at a = 1, 0.6703 at a = 500); measured 4.5016e-5,
@@ -216,7 +237,10 @@ fn damping_never_adds_energy_at_any_step() {
         let expected = ((1.0 - a) / (1.0 + a)).powi(100);
         let last = energies[50] / energies[0];
         assert!(dissipated > 0.0, "a = {a}");
-        assert!((last - expected).abs() <= 1e-3 * expected + 1e-30, "a = {a}: {last} vs {expected}");
+        assert!(
+            (last - expected).abs() <= 1e-3 * expected + 1e-30,
+            "a = {a}: {last} vs {expected}"
+        );
     }
 }
 

@@ -35,9 +35,9 @@
 //! update, the commit); here, the step with its guards: warm, cold, substeps.
 
 mod assembly;
-mod drives;
 #[cfg(test)]
 mod drive_tests;
+mod drives;
 mod newton;
 #[cfg(test)]
 pub(crate) mod tests;
