@@ -53,13 +53,18 @@ use crate::model::policy::{MassSettings, ModelMassSettings};
 
 use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
 
+mod actuator;
 mod articulated;
 mod build;
+mod drives;
 mod entry;
+mod joint_states;
 mod links;
+mod load;
 pub mod placement;
 mod rigid;
 pub mod signal;
+pub mod signal_log;
 
 pub use build::{LoadedModels, LoadedTable};
 pub use entry::{BaseMode, BodiesMode, ModelEntry, SimSettings};
@@ -403,6 +408,12 @@ impl Scene {
         }
         // --- whole-model bodies (issue 5): `bodies` and `joints` ---
         self.validate_joints()?;
+        // --- driven robots (issue 30): `[[model.actuator]]`, `[[model.load]]` ---
+        for (i, m) in self.models.iter().enumerate() {
+            let key = format!("{file}: model[{i}]");
+            actuator::read_all(&key, m)?;
+            load::read_all(&key, m)?;
+        }
         Ok(())
     }
 
@@ -439,6 +450,8 @@ impl Scene {
                     Some("joint_velocities")
                 } else if !m.locked_joints.is_empty() {
                     Some("locked_joints")
+                } else if m.joint_damping.is_some() {
+                    Some("joint_damping")
                 } else {
                     None
                 };
