@@ -216,7 +216,8 @@ fn take(
                     pick.quantity.name()
                 );
             }
-            let seconds = |ns: u64| ns as f64 * 1e-9;
+            // Correctly rounded: 250 ms is 0.25 exactly, 10 ms the double nearest 0.01.
+            let seconds = |ns: u64| ns as f64 / 1e9;
             if header.log_time < start || rows.last_ns.is_some_and(|l| header.log_time <= l) {
                 bail!(
                     "message {n} on `{topic}` has log time {} s, not after the previous row's \

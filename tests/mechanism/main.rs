@@ -7,6 +7,7 @@
 mod common;
 
 mod copies;
+mod driven;
 mod hostile;
 mod mechanism;
 mod recordings;
