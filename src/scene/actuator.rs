@@ -210,13 +210,11 @@ pub(crate) fn resolve_all(
             let names: Vec<&str> = model
                 .joints
                 .iter()
-                .filter(|j| j.kind != JointKind::Fixed && j.mimic.is_none())
                 .map(|j| j.name.as_str())
                 .take(40)
                 .collect();
             bail!(
-                "{at}.joint: no joint `{}` in model `{label}` ({}; the joints an actuator can \
-                 drive: {})",
+                "{at}.joint: no joint `{}` in model `{label}` ({}; its joints: {})",
                 spec.joint,
                 entry.urdf.display(),
                 if names.is_empty() {

@@ -8,6 +8,7 @@ mod common;
 
 mod copies;
 mod driven;
+mod driven_hostile;
 mod hostile;
 mod mechanism;
 mod recordings;
