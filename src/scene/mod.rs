@@ -35,6 +35,20 @@
 //! strict = false                # refuse the URDF oddities urdfdom loads (docs/urdf.md) instead of loading them with a warning (default false; --strict sets it on every model)
 //! copies = 10000                # the table stands for N models named <name>_<index> (default: one, named `name`; docs/scale.md)
 //! seed = 7                      # copy i draws its distributions from streams seeded by (seed, i) (default 0)
+//! joint_damping = true          # articulated: the URDF's <dynamics damping> on every moving joint (default true)
+//!
+//! [[model.actuator]]            # articulated: one per driven joint (crate::scene::actuator)
+//! joint = "elbow"
+//! kind = "position"             # "motor" (effort) | "position" (target, kp, kd) | "velocity" (target, kd)
+//! target = 0.5                  # a signal: number, sine, CSV table, MCAP log (crate::scene::signal)
+//! kp = 80.0
+//! effort_limit = 3.0            # default: the URDF's <limit effort>; 0: none
+//!
+//! [[model.load]]                # any body mode: a force and torque on a link (crate::scene::load)
+//! link = "tool0"
+//! force = [0.0, 0.0, 5.0]       # N at the link frame's origin; each component a signal
+//! torque = [0.0, 0.0, 0.1]      # N m
+//! frame = "world"               # | "link"
 //! # position, rpy, linvel, angvel: a value or a distribution ({ uniform = [lo, hi] }, log_uniform, normal, choice);
 //! # orientation = "uniform" | [x, y, z, w] instead of rpy ([`crate::scene::placement`])
 //!
