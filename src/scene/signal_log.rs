@@ -62,6 +62,10 @@ struct Rows {
 pub fn read(path: &Path, topic: &str, pick: Pick<'_>) -> anyhow::Result<Signal> {
     crate::input::check(path, LOG_MAX_BYTES)?;
     let file = std::fs::File::open(path)?;
+    // The object opened may differ from the one checked (a rename in between): check again.
+    if !file.metadata()?.is_file() {
+        bail!("not a regular file (only regular files are read)");
+    }
     read_from(
         std::io::BufReader::with_capacity(1 << 16, file),
         topic,

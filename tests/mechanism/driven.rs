@@ -361,7 +361,7 @@ fn tumbles_own_recordings_read_back_as_log_signals() {
 fn joint_state_cdr(names: &[&str], position: &[f64], effort: &[f64]) -> Vec<u8> {
     let mut b = vec![0u8, 1, 0, 0];
     let align = |b: &mut Vec<u8>, n: usize| {
-        while (b.len() - 4) % n != 0 {
+        while !(b.len() - 4).is_multiple_of(n) {
             b.push(0);
         }
     };
