@@ -12,6 +12,7 @@ mod driven_hostile;
 mod forces;
 mod hostile;
 mod mechanism;
+mod pinocchio_driven;
 mod recordings;
 mod robot;
 mod threads;
