@@ -6,6 +6,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod arm_servo;
 mod copies;
 mod driven;
 mod driven_hostile;
