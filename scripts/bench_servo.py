@@ -13,7 +13,10 @@ gravity -9.81 z, every joint j on a position servo tau = kp (r_j(t) - q_j) - kd_
 started on its trajectory (q_j = r_j(0), q_j' = r_j'(0)). One kp for every joint; kd_j critical on
 the diagonal of the mass matrix of the straight chain: kd_j = 2 sqrt(kp M_jj), M_jj the inertia of
 the rods below joint j about it (closed form, `diagonal_inertia`: 14.29 kg m^2 at j1 down to
-0.0420 at j7), so that every joint alone would be critically damped.
+0.0420 at j7), so that every joint alone would be critically damped. Coupled, every mode of the
+straight chain is damped (damping ratio 0.53 and up) and the fastest are heavily over-damped: the
+largest eigenvalue of M^-1 D is 3.6e3 sqrt(kp / 10) 1/s, against 56 sqrt(kp / 10) rad/s for the
+fastest spring (M^-1 K). A stiff system: explicit damping needs h below 2 / 3.6e3 s at kp = 10.
 
 `compare` writes one JSON line per engine setting, for each kp in KPS and dt in DTS:
 
@@ -21,12 +24,14 @@ the rods below joint j about it (closed form, `diagonal_inertia`: 14.29 kg m^2 a
    "note"}
 
   tracking_rms  RMS over the joints and the samples (every 10 ms, t > 0) of r_j(t) - q_j(t), rad
-  ref_rms       RMS of q_j(t) - q_ref_j(t), rad: q_ref is MuJoCo's RK4 at 0.1 ms with the target
-                held at each step's midpoint (second order in that step: its own error is far
-                below the figures compared), rollout in C
+  ref_rms       RMS of q_j(t) - q_ref_j(t), rad: q_ref is MuJoCo's RK4 (rolled out in C) at a step
+                h <= min(0.1 ms, 1 / the fastest rate) (`reference`: 3 us at kp = 1e5), the target
+                held at each step's midpoint (second order in h); its row prints its largest
+                change from a run at 2 h (1e-8 rad or less: far below the figures compared)
   kinetic_max   largest kinetic energy at the samples, J
   stable        finite, no MuJoCo instability warning, the tumble run not stopped by its guard,
-                and kinetic_max at most 10 times the reference's (bounded energy)
+                and kinetic_max at most 10 times the reference's (bounded energy); the cost of
+                an unstable setting is not printed (MuJoCo's rollout resets a diverged state)
 
 tumble's rows come from WORK/tumble-<integrator>-<kp>-<dt>.mcap (its /joints and /mechanisms
 topics, every 10 ms) and WORK/tumble-<integrator>-<kp>-<dt>.json ({"ns_per_step", "exit", "log"}:
@@ -35,6 +40,8 @@ written by bench_servo.sh. MuJoCo runs its own URDF importer with contacts and l
 position actuator per joint (`set_to_position(kp, kv = kd_j)`, no control or force range), and
 holds the control constant over a step: it is given r(t_k + h/2), the target at the step's
 midpoint (the start value would lag by h/2, a first-order error that is not the integrator's).
+MuJoCo's Euler integrates joint damping implicitly but not an actuator's kv; the row "euler, kd as
+damping" gives it kd_j as the joint's damping (dof_damping) and kv = 0: the same effort.
 Cost per step: MuJoCo's C rollout of TIMED_STEPS steps with those controls, median of 5.
 """
 
@@ -267,7 +274,7 @@ def rms(x):
     return float(np.sqrt(np.mean(np.square(x))))
 
 
-def row(kp, dt, integrator, ns, q, ke, ref_q, ref_ke, secs, note):
+def row(kp, dt, integrator, ns, q, ke, ref_q, ref_ke, note):
     stable = q is not None and bool(np.all(np.isfinite(q))) and ke <= 10 * ref_ke
     if q is not None and len(q) != len(ref_q):
         stable, note = False, note or f"{len(q)} samples of {len(ref_q)}"
@@ -316,13 +323,13 @@ def compare(models_dir, work, secs, timed, kps, dts):
                 except (OSError, KeyError, ValueError) as e:
                     note = f"{note}; no recording ({type(e).__name__})"
                 print(json.dumps(row(kp, dt, f"tumble-{name}", info["ns_per_step"], q, ke,
-                                     ref_q, ref_ke, secs, note)), flush=True)
+                                     ref_q, ref_ke, note)), flush=True)
             for name, (integ, damping) in INTEGRATORS.items():
                 q, ke, unstable = run_mujoco(models_dir, kp, integ, dt, secs, damping)
                 note = f"unstable at t = {unstable:.2f} s" if unstable is not None else ""
                 ns = cost_mujoco(models_dir, kp, integ, dt, timed, damping)
-                print(json.dumps(row(kp, dt, f"mujoco-{name}", ns, q, ke, ref_q, ref_ke,
-                                     secs, note)), flush=True)
+                print(json.dumps(row(kp, dt, f"mujoco-{name}", ns, q, ke, ref_q, ref_ke, note)),
+                      flush=True)
 
 
 def table(lines):
@@ -334,7 +341,8 @@ def table(lines):
     )
     for r in rows:
         ns = r["ns_per_step"]
-        us = "-" if ns is None or math.isnan(float(ns)) else f"{float(ns) / 1e3:.2f}"
+        unknown = ns is None or math.isnan(float(ns)) or not r["stable"]
+        us = "-" if unknown else f"{float(ns) / 1e3:.2f}"
         print(
             f"{r['kp']:>7g} {r['dt']:>7g} {r['integrator']:<30} {'yes' if r['stable'] else 'NO':>6} "
             f"{us:>8} {fmt(r['tracking_rms']):>9} {fmt(r['ref_rms']):>8} "

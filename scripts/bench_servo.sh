@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
-# Servos side by side with MuJoCo (docs/forces.md, "Side by side with MuJoCo"): models/chain7.urdf welded
-# at 4 m under gravity, every joint on a position servo tracking a sine (scripts/bench_servo.py: the targets,
-# kd critical per joint), for each kp in KPS and dt in DTS, tumble variational and variational4 against MuJoCo's
-# Euler, implicitfast, implicit, RK4 and discrete integrators. Per setting: stable (finite, no guard stop or
-# MuJoCo instability warning, kinetic energy at most 10 times the reference motion's), RMS tracking error
-# (target - q), RMS error against a reference run (MuJoCo RK4 at 0.1 ms), largest kinetic energy, cost per step
-# (tumble: `tumble bench --scene`, median of 5 runs of TIMED_STEPS steps; MuJoCo: its C rollout, the same).
+# Servos side by side with MuJoCo (docs/forces.md, "Side by side with MuJoCo"): models/chain7.urdf welded at 4 m
+# under gravity, every joint on a position servo tracking a sine (scripts/bench_servo.py: the targets, kd critical
+# per joint), for each kp in KPS and dt in DTS: tumble variational and variational4 against MuJoCo's Euler (kd on
+# the actuators, or as the joints' damping), implicitfast, implicit, RK4 and discrete integrators. Per setting:
+# stable (finite, no guard stop or MuJoCo instability warning, kinetic energy at most 10 times the reference
+# motion's), RMS tracking error (target - q), RMS error against a reference run (MuJoCo RK4 at a step below the
+# inverse of the fastest rate, checked against twice that step), largest kinetic energy, cost per step (tumble:
+# `tumble bench --scene --threads 1`, median of 5 runs of TIMED_STEPS steps; MuJoCo: its C rollout, the same).
 # Prints one table (one run, one machine: compare the rows, not the absolute figures across machines).
 # Usage: bash scripts/bench_servo.sh   (SECS=10 TIMED_STEPS=5000 KPS=10,100,1000,10000,100000 DTS=0.001,0.01)
 set -euo pipefail
