@@ -278,6 +278,9 @@ impl Scene {
             bounds::check_initial_states(self, &world, i, entry, first_body..world.bodies.len())?;
         }
         bounds::check_total_energy(self, &world)?;
+        if let Some(note) = composition_damping_note(self.integrator(), &world) {
+            world.notes.push(note);
+        }
         // Grown one copy at a time, the per-frame vectors hold up to twice what they need
         // (10 000 bodies: 16 384 slots of frames and attachments, about 1 MB spare).
         world.bodies.shrink_to_fit();
@@ -320,4 +323,40 @@ fn robot_description(
         urdf_path: urdf_path.to_path_buf(),
         urdf,
     }
+}
+
+/// A note when `kind` composes steps of negative size (`variational4`, `variational6`) and a
+/// mechanism has a damper (URDF damping, a servo's `kd`): there the damper anti-damps, stable
+/// only while it is resolved in time (docs/forces.md, Limits).
+fn composition_damping_note(
+    kind: crate::sim::IntegratorKind,
+    world: &World,
+) -> Option<String> {
+    use crate::sim::IntegratorKind;
+    use crate::sim::mechanism::ActuatorKind;
+    if !matches!(
+        kind,
+        IntegratorKind::Variational4 | IntegratorKind::Variational6
+    ) {
+        return None;
+    }
+    let damped = world.mechanisms.iter().any(|m| {
+        m.drives.iter().any(|d| {
+            d.damping > 0.0
+                || d.actuator.as_ref().is_some_and(|a| match a.kind {
+                    ActuatorKind::Position { kd, .. } | ActuatorKind::Velocity { kd, .. } => {
+                        kd > 0.0
+                    }
+                    ActuatorKind::Motor { .. } => false,
+                })
+        })
+    });
+    damped.then(|| {
+        format!(
+            "{} composes steps of negative size, where joint damping and servo kd anti-damp: \
+             stable only while each damper is resolved in time (b h / (2 I) well below 0.5); \
+             watch the energy balance line, or use variational (docs/forces.md, Limits)",
+            kind.name()
+        )
+    })
 }

@@ -155,13 +155,14 @@ fn joint_damping_false_and_locked_joints_remove_damping() {
         dir.path(),
         &format!("{ARM}locked_joints = [\"thumb\", \"slide\"]\n"),
     );
-    assert_eq!(
-        w.mechanisms[0].drives,
-        vec![
-            damping_only(coordinate(&w, "elbow"), 0.3),
-            damping_only(coordinate(&w, "finger"), 0.05),
-        ]
-    );
+    let mut expected = vec![
+        damping_only(coordinate(&w, "elbow"), 0.3),
+        damping_only(coordinate(&w, "finger"), 0.05),
+        damping_only(coordinate(&w, "shoulder_yaw"), 0.2),
+        damping_only(coordinate(&w, "shoulder_pitch"), 0.25),
+    ];
+    expected.sort_by_key(|d| d.coordinate);
+    assert_eq!(w.mechanisms[0].drives, expected);
     // No actuator and no damping: no drive at all (the bundled models, unchanged).
     let w = world(
         dir.path(),
@@ -512,4 +513,23 @@ fn hand_built_logs_read_back_as_log_signals() {
             values: vec![0.0, 0.5, 1.0],
         }
     );
+}
+
+/// A damped model (the arm's URDF damping) stepped by a composition with a negative substep
+/// gets the note that its dampers anti-damp there; the same scene with `variational`, or the
+/// composition without damping, gets none.
+#[test]
+fn compositions_with_damping_get_a_note() {
+    let dir = folder(&[]);
+    let note = |w: &World| w.notes.iter().any(|n| n.contains("anti-damp"));
+    let with = |integrator: &str, damping: bool| {
+        let sim = format!("[sim]\nduration = 0.01\nintegrator = \"{integrator}\"\n");
+        let rest = ARM.trim_start_matches("[sim]\nduration = 0.01\n");
+        let extra = if damping { "" } else { "joint_damping = false\n" };
+        world(dir.path(), &format!("{sim}{rest}{extra}"))
+    };
+    assert!(note(&with("variational4", true)));
+    assert!(note(&with("variational6", true)));
+    assert!(!note(&with("variational", true)));
+    assert!(!note(&with("variational4", false)));
 }
