@@ -3,7 +3,8 @@
 //! recording has articulated models (per topic group, under its prefix like `/tf`).
 //!
 //! ```text
-//! message JointState      { string name = 1; double position = 2; double velocity = 3; }
+//! message JointState      { string name = 1; double position = 2; double velocity = 3;
+//!                           double effort = 4; optional double target = 5; bool saturated = 6; }
 //! message JointStates     { google.protobuf.Timestamp timestamp = 1; uint64 step = 2;
 //!                           repeated JointState joints = 3; }
 //! message MechanismState  { string name = 1; Vector3 linear_momentum = 2;
@@ -19,12 +20,25 @@
 //! momenta and energies from the momenta projected onto the velocity constraints, world frame,
 //! SI units; `angular_momentum` is about the model's centre of mass `com`; `residual_m` the
 //! largest anchor gap of any joint (m), `residual_rad` the largest axis misalignment (rad).
+//!
+//! `effort`, `target` and `saturated` are a driven joint's ([`crate::record::JointState`]):
+//! the effort applied, actuator plus damping (N m or N; the continuous-time law at the
+//! recorded time, position and velocity), the commanded target (a position servo's position,
+//! a velocity servo's velocity; absent for a motor, damping alone or an undriven joint) and
+//! whether the effort limit clamped it. proto3 leaves default values out of the bytes, so an
+//! undriven joint's message is the one it was before drives existed (effort 0, no target, not
+//! saturated); and the schema lists the three fields only in recordings with a driven joint
+//! ([`joint_states_descriptor`]), so a recording without drives is byte for byte the one it
+//! was. A reader decodes both with either schema (fields it does not know are skipped).
 //! Each schema is a self-contained `FileDescriptorSet` (`tumble.Vector3` from
 //! `tumble/BodyStates.proto`, which it includes, as `/bodies` does).
 
 use prost::Message as _;
 use prost_types::field_descriptor_proto::{Label, Type};
-use prost_types::{DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet};
+use prost_types::{
+    DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet,
+    OneofDescriptorProto,
+};
 
 /// Schema names.
 pub const JOINT_STATES_SCHEMA: &str = "tumble.JointStates";
@@ -39,6 +53,12 @@ pub struct JointState {
     pub position: f64,
     #[prost(double, tag = "3")]
     pub velocity: f64,
+    #[prost(double, tag = "4")]
+    pub effort: f64,
+    #[prost(double, optional, tag = "5")]
+    pub target: Option<f64>,
+    #[prost(bool, tag = "6")]
+    pub saturated: bool,
 }
 
 /// `tumble.JointStates`
@@ -143,20 +163,39 @@ fn stamp_and_step() -> [FieldDescriptorProto; 2] {
     ]
 }
 
-/// The `FileDescriptorSet` of [`JointStates`] (field numbers as the `prost` tags above).
-pub fn joint_states_descriptor() -> Vec<u8> {
+/// The `FileDescriptorSet` of [`JointStates`] (field numbers as the `prost` tags above). With
+/// `driven` (the recording has a driven joint) `JointState` lists `effort`, `target` (proto3
+/// `optional`: a synthetic oneof `_target`, as `protoc` describes it) and `saturated`;
+/// without, the three are left out and the schema is the one recordings had before drives.
+pub fn joint_states_descriptor(driven: bool) -> Vec<u8> {
     let [ts, step] = stamp_and_step();
+    let mut joint_state = message(
+        "JointState",
+        vec![
+            field("name", 1, Type::String, None),
+            field("position", 2, Type::Double, None),
+            field("velocity", 3, Type::Double, None),
+        ],
+    );
+    if driven {
+        joint_state.field.extend([
+            field("effort", 4, Type::Double, None),
+            FieldDescriptorProto {
+                oneof_index: Some(0),
+                proto3_optional: Some(true),
+                ..field("target", 5, Type::Double, None)
+            },
+            field("saturated", 6, Type::Bool, None),
+        ]);
+        joint_state.oneof_decl.push(OneofDescriptorProto {
+            name: Some("_target".into()),
+            ..Default::default()
+        });
+    }
     descriptor(
         "tumble/JointStates.proto",
         vec![
-            message(
-                "JointState",
-                vec![
-                    field("name", 1, Type::String, None),
-                    field("position", 2, Type::Double, None),
-                    field("velocity", 3, Type::Double, None),
-                ],
-            ),
+            joint_state,
             message(
                 "JointStates",
                 vec![ts, step, repeated("joints", 3, ".tumble.JointState")],
@@ -232,6 +271,9 @@ pub fn joint_states(
                 name: name.clone(),
                 position: s.position,
                 velocity: s.velocity,
+                effort: s.effort,
+                target: s.target,
+                saturated: s.saturated,
             })
             .collect(),
     }

@@ -194,7 +194,7 @@ impl McapSink {
                 writer.add_schema(
                     mp::JOINT_STATES_SCHEMA,
                     "protobuf",
-                    &mp::joint_states_descriptor(),
+                    &mp::joint_states_descriptor(!layout.drives.is_empty()),
                 )?,
                 writer.add_schema(
                     mp::MECHANISM_STATES_SCHEMA,
