@@ -294,8 +294,9 @@ fn threads_write_the_same_bytes() {
     }
 }
 
-/// `--format` writes exactly the files it names, and the Parquet tables read in pandas with one
-/// trajectory row per body and recorded step.
+/// `--format` writes exactly the files it names (`parquet` its three tables, the joints table
+/// without rows for a scene without articulated models), and the Parquet tables read in pandas
+/// with one trajectory row per body and recorded step.
 #[test]
 fn format_writes_exactly_what_it_names() {
     let dir = tempfile::tempdir().unwrap();
@@ -311,11 +312,20 @@ fn format_writes_exactly_what_it_names() {
         ("rrd", vec!["x.rrd"]),
         (
             "parquet",
-            vec!["x.bodies.parquet", "x.trajectories.parquet"],
+            vec![
+                "x.bodies.parquet",
+                "x.joints.parquet",
+                "x.trajectories.parquet",
+            ],
         ),
         (
             "mcap,parquet",
-            vec!["x.bodies.parquet", "x.mcap", "x.trajectories.parquet"],
+            vec![
+                "x.bodies.parquet",
+                "x.joints.parquet",
+                "x.mcap",
+                "x.trajectories.parquet",
+            ],
         ),
         ("ros2,rrd", vec!["x.ros2.mcap", "x.rrd"]),
     ] {

@@ -98,6 +98,7 @@
 pub mod batched;
 pub mod blueprint;
 pub mod chunks;
+pub mod drives;
 pub mod columns;
 pub mod footer;
 pub mod joints;
