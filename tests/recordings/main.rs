@@ -7,6 +7,7 @@
 mod common;
 
 mod dataset;
+mod drives;
 mod partial_step;
 mod recordings;
 mod replay;

@@ -25,9 +25,7 @@ use crate::fsutil::part_path;
 use crate::record::writeback::WritebackFile;
 use crate::record::{Frame, RecordingLayout, Sink};
 use anyhow::Context;
-use arrow_array::{
-    ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray,
-};
+use arrow_array::{ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray};
 use arrow_schema::{DataType, Schema, SchemaRef};
 use parquet::arrow::ArrowWriter;
 use std::io::BufWriter;
@@ -113,13 +111,21 @@ impl JointsSink {
         }
         let rows = std::mem::take(&mut self.rows);
         let n = rows.step.len();
-        let time_secs: Float64Array = rows.time_ns.iter().map(|&t| Some(t as f64 * 1e-9)).collect();
+        let time_secs: Float64Array = rows
+            .time_ns
+            .iter()
+            .map(|&t| Some(t as f64 * 1e-9))
+            .collect();
         let joint: StringArray = rows
             .joint
             .iter()
             .map(|&j| Some(self.names[j as usize].as_str()))
             .collect();
-        let drive: StringArray = rows.joint.iter().map(|&j| self.drives[j as usize]).collect();
+        let drive: StringArray = rows
+            .joint
+            .iter()
+            .map(|&j| self.drives[j as usize])
+            .collect();
         let columns: Vec<ArrayRef> = vec![
             Arc::new(Int64Array::from(vec![0; n])),
             Arc::new(Int64Array::from(rows.step)),

@@ -82,7 +82,6 @@ impl Quantity {
             value,
         }
     }
-
 }
 
 /// The driven joints' series (module doc).
@@ -158,7 +157,8 @@ impl DriveSeries {
                 if let Some(entity) = q.entities.first() {
                     chunks.push(static_chunk(
                         entity.clone(),
-                        &[&rerun::SeriesLines::new().with_names(q.names.iter().map(String::as_str))],
+                        &[&rerun::SeriesLines::new()
+                            .with_names(q.names.iter().map(String::as_str))],
                     )?);
                 }
                 continue;
@@ -216,8 +216,10 @@ impl DriveSeries {
         if q.joints.is_empty() {
             return Vec::new();
         }
-        vec![format!("+ {}", drive_entity_path("position_target", ""))
-            + if self.batched { "" } else { "/**" }]
+        vec![
+            format!("+ {}", drive_entity_path("position_target", ""))
+                + if self.batched { "" } else { "/**" },
+        ]
     }
 
     /// The blueprint's plots of the drives: the velocity servos' velocities against their

@@ -98,8 +98,8 @@
 pub mod batched;
 pub mod blueprint;
 pub mod chunks;
-pub mod drives;
 pub mod columns;
+pub mod drives;
 pub mod footer;
 pub mod joints;
 pub mod paths;
