@@ -41,6 +41,7 @@
 //! file is written under `<path>.part` and renamed onto `path` only once complete.
 
 pub mod cdr;
+pub mod cdr_read;
 pub mod msgs;
 pub mod sink;
 
