@@ -595,7 +595,10 @@ pub fn diff(
         if frames_compared {
             s.times.clone()
         } else {
-            s.joints.as_ref().map(|j| j.times.clone()).unwrap_or_default()
+            s.joints
+                .as_ref()
+                .map(|j| j.times.clone())
+                .unwrap_or_default()
         }
     };
     let sides_times = [sampled(&scans[0]), sampled(&scans[1])];
@@ -686,7 +689,8 @@ pub fn diff(
             frames_result = Some(compare_frames(a, b, settings, &matched, times, &mut sink)?);
         }
         if let (Some((times, _)), Some((names, _, _))) = (&joint_times, &joint_pair) {
-            let topics = [&scans[0], &scans[1]].map(|s| s.joints.as_ref().expect("joints").topic.clone());
+            let topics =
+                [&scans[0], &scans[1]].map(|s| s.joints.as_ref().expect("joints").topic.clone());
             joints_result = Some(compare_joints([a, b], &topics, names, times, &mut sink)?);
         }
         Ok(())

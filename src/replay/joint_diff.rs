@@ -358,7 +358,10 @@ mod tests {
         assert_eq!(got, [("c".to_string(), 0.25)]);
         msgs::joint_state(&mut buf, stamp, &["c".into()], &[], &[1.0], &[]).unwrap();
         let err = decode_positions(msgs::JOINT_STATE, &buf).unwrap_err();
-        assert!(err.to_string().contains("1 joints and holds 0 positions"), "{err}");
+        assert!(
+            err.to_string().contains("1 joints and holds 0 positions"),
+            "{err}"
+        );
         let err = decode_positions("foxglove.FrameTransforms", &buf).unwrap_err();
         assert!(err.to_string().contains("not a joint state"), "{err}");
     }

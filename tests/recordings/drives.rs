@@ -69,7 +69,7 @@ joints = { hinge = 1.0 }
 joint_velocities = { slide = 0.5 }
 "#;
 
-fn scene(dir: &Path) -> Scene {
+pub(crate) fn scene(dir: &Path) -> Scene {
     let models = common::root().join("models");
     let text = SCENE
         .replace(
@@ -108,7 +108,7 @@ fn drive(world: &mut World, k: usize, drives: Vec<(&str, Option<Actuator>, f64)>
 }
 
 /// The scene's world with the drives of the module doc (dp_1's elbow undriven).
-fn driven_world(scene: &Scene) -> World {
+pub(crate) fn driven_world(scene: &Scene) -> World {
     let mut world = scene.build().unwrap();
     let names: Vec<&str> = world
         .layout
@@ -190,7 +190,7 @@ fn driven_world(scene: &Scene) -> World {
 }
 
 /// Runs `world` of `scene` to every format under `dir/out/run`; the stem.
-fn record(scene: &Scene, world: &mut World, dir: &Path) -> PathBuf {
+pub(crate) fn record(scene: &Scene, world: &mut World, dir: &Path) -> PathBuf {
     let stem = dir.join("out/run");
     let options = SimulateOptions {
         rerun: Default::default(),
@@ -203,14 +203,14 @@ fn record(scene: &Scene, world: &mut World, dir: &Path) -> PathBuf {
     stem
 }
 
-fn file(stem: &Path, ext: &str) -> PathBuf {
+pub(crate) fn file(stem: &Path, ext: &str) -> PathBuf {
     let mut s = stem.as_os_str().to_owned();
     s.push(".");
     s.push(ext);
     PathBuf::from(s)
 }
 
-const JOINTS: [&str; 6] = [
+pub(crate) const JOINTS: [&str; 6] = [
     "dp_0/shoulder",
     "dp_0/elbow",
     "dp_1/shoulder",

@@ -150,8 +150,14 @@ mod tests {
     fn damaged_messages_are_errors() {
         let data = [0, 1, 0, 0, 0xff, 0xff, 0xff, 0x7f];
         let err = CdrReader::new(&data).unwrap().f64_sequence().unwrap_err();
-        assert!(err.to_string().contains("2147483647 elements in 0 bytes"), "{err}");
-        let err = CdrReader::new(&[0, 1, 0, 0, 1, 0]).unwrap().u32().unwrap_err();
+        assert!(
+            err.to_string().contains("2147483647 elements in 0 bytes"),
+            "{err}"
+        );
+        let err = CdrReader::new(&[0, 1, 0, 0, 1, 0])
+            .unwrap()
+            .u32()
+            .unwrap_err();
         assert!(err.to_string().contains("ends at byte 2"), "{err}");
         let err = CdrReader::new(&[0, 2, 0, 0]).unwrap_err();
         assert!(err.to_string().contains("00 02"), "{err}");

@@ -320,7 +320,15 @@ mod tests {
         let mut buf = Vec::new();
         let stamp = Stamp { sec: 3, nanosec: 7 };
         let names = ["a".to_string(), "bcd".into(), "ef".into()];
-        joint_state(&mut buf, stamp, &names, &[0.5, -1.0, 2.0], &[], &[1.0, 2.0, 3.0]).unwrap();
+        joint_state(
+            &mut buf,
+            stamp,
+            &names,
+            &[0.5, -1.0, 2.0],
+            &[],
+            &[1.0, 2.0, 3.0],
+        )
+        .unwrap();
         let decoded = decode_joint_state(&buf).unwrap();
         assert_eq!(
             decoded,
