@@ -658,6 +658,70 @@ mod tests {
         ));
     }
 
+    /// The drives round-trip; a layout without drives has no `drives` key (its JSON is the one
+    /// written before drives existed); drives out of order, on a joint the layout lacks, or of
+    /// an unknown law are refused.
+    #[test]
+    fn drives_round_trip_and_are_absent_without_drives() {
+        let joint = |name: &str| JointLayout {
+            name: name.into(),
+            model: "m".into(),
+            kind: "revolute".into(),
+            limits: None,
+        };
+        let mut layout = RecordingLayout {
+            name: "driven".into(),
+            joints: vec![joint("a"), joint("b"), joint("c")],
+            ..Default::default()
+        };
+        assert!(!to_json(&layout).contains("drives"));
+        layout.drives = vec![
+            DriveLayout {
+                joint: 0,
+                actuator: Some(ActuatorLaw::Position),
+                effort_limit: Some(2.5),
+                damping: 0.1,
+            },
+            DriveLayout {
+                joint: 2,
+                actuator: None,
+                effort_limit: None,
+                damping: 0.3,
+            },
+        ];
+        let text = to_json(&layout);
+        assert!(
+            text.contains(
+                r#""drives":[{"joint":0,"actuator":"position","effort_limit":2.5,"damping":0.1},"#
+            ),
+            "{text}"
+        );
+        let back = from_json(&text).unwrap();
+        assert_eq!(back.drives, layout.drives);
+        assert_eq!(back.drive_of(2).map(|d| d.kind_name()), Some("damping"));
+        assert!(back.drive_of(1).is_none());
+        for (bad, message) in [
+            (
+                r#"{"joint":2,"actuator":null,"effort_limit":null,"damping":0.3},{"joint":0,"actuator":null,"effort_limit":null,"damping":0.3}"#,
+                "drive on joint 0 of 3",
+            ),
+            (
+                r#"{"joint":3,"actuator":null,"effort_limit":null,"damping":0.3}"#,
+                "drive on joint 3 of 3",
+            ),
+            (
+                r#"{"joint":1,"actuator":"spring","effort_limit":null,"damping":0.3}"#,
+                "unknown actuator \"spring\"",
+            ),
+        ] {
+            let start = text.find(r#""drives":["#).unwrap() + r#""drives":["#.len();
+            let end = text.rfind(']').unwrap();
+            let damaged = format!("{}{bad}{}", &text[..start], &text[end..]);
+            let err = format!("{:#}", from_json(&damaged).unwrap_err());
+            assert!(err.contains(message), "{err}");
+        }
+    }
+
     /// Files written before version 2 (every frame's list inline) still read.
     #[test]
     fn version_one_inline_visuals_still_read() {

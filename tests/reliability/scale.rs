@@ -365,6 +365,14 @@ fn format_writes_exactly_what_it_names() {
         serde_json::json!(["b_0/box", "b_1/box", "b_2/box"])
     );
     assert_eq!(py["steps"], serde_json::json!([0, 10, 20]));
+    // No articulated model: the joints table is there, with its columns and no rows.
+    let joints = common::run_py(
+        "read_parquet_joints.py",
+        &[&d.join("parquet/x.joints.parquet")],
+    );
+    assert_eq!(joints["pandas"]["rows"], 0);
+    assert_eq!(joints["polars"]["rows"], 0);
+    assert_eq!(joints["polars"]["columns"].as_array().unwrap().len(), 11);
     let bad = tumble(&["simulate", "s.toml", "--format", "mcap,csv"], d);
     assert_eq!(bad.status.code(), Some(2));
     assert!(
