@@ -18,7 +18,7 @@
 
 use super::blueprint::PlotView;
 use super::chunks::static_chunk;
-use super::joints::{joint_velocity_entity_path, path};
+use super::paths::named_path;
 use super::values::f64c;
 use super::writer::ChunkWriter;
 use crate::record::{ActuatorLaw, DriveLayout, Frame, JointState, RecordingLayout};
@@ -42,7 +42,7 @@ struct Quantity {
 /// Entity of a driven joint's quantity `kind` (`effort`, `position_target`,
 /// `velocity_target`, `saturated`).
 pub fn drive_entity_path(kind: &str, joint: &str) -> EntityPath {
-    path(&["plots", "joints", kind], joint)
+    named_path(&["plots", "joints", kind], joint)
 }
 
 impl Quantity {
@@ -222,21 +222,22 @@ impl DriveSeries {
         ]
     }
 
-    /// The blueprint's plots of the drives: the velocity servos' velocities against their
-    /// targets, and the efforts.
-    pub(super) fn plot_views(&self, layout: &RecordingLayout) -> Vec<PlotView> {
+    /// The blueprint's plots of the drives: the velocity servos' velocities (`velocities`: the
+    /// joint velocity entities, one per joint or the one batched) against their targets, and
+    /// the efforts.
+    pub(super) fn plot_views(&self, velocities: &[EntityPath]) -> Vec<PlotView> {
         let mut views = Vec::new();
         let all = |kind: &str| {
             format!("+ {}", drive_entity_path(kind, "")) + if self.batched { "" } else { "/**" }
         };
         if !self.velocity_target.joints.is_empty() {
             let mut contents: Vec<String> = if self.batched {
-                vec![format!("+ {}", joint_velocity_entity_path(""))]
+                velocities.iter().map(|e| format!("+ {e}")).collect()
             } else {
                 self.velocity_target
                     .joints
                     .iter()
-                    .map(|&j| format!("+ {}", joint_velocity_entity_path(&layout.joints[j].name)))
+                    .map(|&j| format!("+ {}", velocities[j]))
                     .collect()
             };
             contents.push(all("velocity_target"));

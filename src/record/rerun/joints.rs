@@ -11,7 +11,7 @@
 //! | `/plots/mechanisms/<model>/constraint_residual` | [gap (m), misalignment (rad)] |
 //!
 //! `<joint>` and `<model>` are the layout's names split at `/` (one path part each), as for
-//! bodies.
+//! bodies. Driven joints add their effort, target and saturation series ([`super::drives`]).
 //!
 //! **Many models** (more than [`BATCH_MODELS_MAX`], e.g. `copies = 1000` of a robot): an entity
 //! per joint and per model series made Rerun's start-up, chunk store and footer cost about 4 ms
@@ -34,23 +34,13 @@
 use super::blueprint::PlotView;
 use super::chunks::static_chunk;
 use super::drives::DriveSeries;
-use super::paths::ENERGY_SERIES;
+use super::paths::{ENERGY_SERIES, named_path as path};
 use super::values::nonzero;
 use super::writer::ChunkWriter;
 use crate::record::{Frame, RecordingLayout};
 use anyhow::Result;
 use rerun::log::Chunk;
 use rerun::{EntityPath, EntityPathPart, TimeColumn};
-
-pub(super) fn path(parts: &[&str], name: &str) -> EntityPath {
-    let mut p: Vec<EntityPathPart> = parts.iter().map(|s| EntityPathPart::new(*s)).collect();
-    p.extend(
-        name.split('/')
-            .filter(|s| !s.is_empty())
-            .map(EntityPathPart::new),
-    );
-    EntityPath::new(p)
-}
 
 /// Entity of a joint's position series.
 pub fn joint_position_entity_path(joint: &str) -> EntityPath {
@@ -370,7 +360,7 @@ impl JointPlots {
         };
         if self.batched {
             views.push(positions_plot("+ /plots/joints/position"));
-            views.extend(self.drives.plot_views(layout));
+            views.extend(self.drives.plot_views(&self.velocities));
             views.push(PlotView::new(
                 "every model's energy change (E − E₀)/|E₀|",
                 &["+ /plots/mechanisms/energy_change"],
@@ -384,7 +374,7 @@ impl JointPlots {
         if !self.positions.is_empty() {
             views.push(positions_plot("+ /plots/joints/position/**"));
         }
-        views.extend(self.drives.plot_views(layout));
+        views.extend(self.drives.plot_views(&self.velocities));
         for m in &layout.mechanisms {
             let change = format!("+ {}", mechanism_entity_path(&m.name, "energy_change"));
             let residual = format!(
