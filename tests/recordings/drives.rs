@@ -530,6 +530,21 @@ fn every_format_records_the_drives() {
         assert!(queries.contains(&expected), "{expected} not in {queries:?}");
     }
 
+    // `tumble info` lists what drives each joint.
+    let out = common::tumble(&["info", mcap.to_str().unwrap(), "--json"], dir.path());
+    assert!(out.status.success(), "{}", common::text(&out.stderr));
+    let info: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        info["joints"][0]["drive"],
+        serde_json::json!({"kind": "position", "effort_limit": LIMIT, "damping": SHOULDER_DAMPING})
+    );
+    assert_eq!(info["joints"][5]["drive"]["kind"], "damping");
+    assert!(
+        info["joints"][3].get("drive").is_none(),
+        "{}",
+        info["joints"][3]
+    );
+
     // `tumble convert` replays the driven MCAP into the very .rrd the run wrote.
     let converted = dir.path().join("conv.rrd");
     let out = common::tumble(
