@@ -254,12 +254,15 @@ fn vec3(v: &nalgebra::Vector3<f64>) -> Option<super::proto::Vector3> {
     })
 }
 
-/// The `/joints` message of a group's joints.
+/// The `/joints` message of a group's joints. Without `driven` (the recording has no driven
+/// joint, and its schema no drive field: [`joint_states_descriptor`]) the drive fields are
+/// left at their defaults, so the messages never carry a field the schema does not declare.
 pub fn joint_states(
     time_ns: u64,
     step: u64,
     names: &[String],
     states: &[crate::record::JointState],
+    driven: bool,
 ) -> JointStates {
     JointStates {
         timestamp: Some(timestamp(time_ns)),
@@ -271,9 +274,9 @@ pub fn joint_states(
                 name: name.clone(),
                 position: s.position,
                 velocity: s.velocity,
-                effort: s.effort,
-                target: s.target,
-                saturated: s.saturated,
+                effort: if driven { s.effort } else { 0.0 },
+                target: s.target.filter(|_| driven),
+                saturated: s.saturated && driven,
             })
             .collect(),
     }
@@ -322,5 +325,41 @@ pub fn from_proto(m: &MechanismState) -> crate::record::MechanismState {
         potential_energy: m.potential_energy,
         residual_m: m.residual_m,
         residual_rad: m.residual_rad,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A recording without drives writes the bytes it wrote before drives existed, whatever
+    /// the frame holds; with drives, the three fields are encoded (the target only when set).
+    #[test]
+    fn drive_fields_are_written_only_in_driven_recordings() {
+        let names = ["j".to_string()];
+        let plain = crate::record::JointState {
+            position: 0.5,
+            velocity: -1.0,
+            ..Default::default()
+        };
+        let driven_state = crate::record::JointState {
+            effort: 2.0,
+            target: Some(0.25),
+            saturated: true,
+            ..plain
+        };
+        let bytes = |s, driven| joint_states(7, 1, &names, &[s], driven).encode_to_vec();
+        assert_eq!(bytes(driven_state, false), bytes(plain, false));
+        assert_eq!(bytes(plain, true), bytes(plain, false));
+        let decoded = JointStates::decode(&*bytes(driven_state, true)).unwrap();
+        let j = &decoded.joints[0];
+        assert_eq!((j.effort, j.target, j.saturated), (2.0, Some(0.25), true));
+        // A target of 0 is still present (proto3 `optional` keeps it), unlike effort 0.
+        let zero = crate::record::JointState {
+            target: Some(0.0),
+            ..plain
+        };
+        let decoded = JointStates::decode(&*bytes(zero, true)).unwrap();
+        assert_eq!(decoded.joints[0].target, Some(0.0));
     }
 }

@@ -118,6 +118,8 @@ pub struct McapSink {
     groups: Vec<ChannelGroup>,
     sequence: u32,
     joint_names: Vec<String>,
+    /// Whether a joint is driven (the `/joints` schema and messages carry the drive fields).
+    driven: bool,
     mechanism_names: Vec<String>,
     buf: Vec<u8>,
     warnings: Vec<String>,
@@ -303,6 +305,7 @@ impl McapSink {
             groups,
             sequence: 0,
             joint_names: layout.joints.iter().map(|j| j.name.clone()).collect(),
+            driven: !layout.drives.is_empty(),
             mechanism_names: layout.mechanisms.iter().map(|m| m.name.clone()).collect(),
             buf: Vec::new(),
             warnings,
@@ -360,6 +363,7 @@ impl Sink for McapSink {
                     frame.step,
                     &self.joint_names[joints.clone()],
                     &frame.joints[joints],
+                    self.driven,
                 );
                 self.buf.clear();
                 message.encode(&mut self.buf)?;
