@@ -464,6 +464,23 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         "energy {:.9e} J -> {:.9e} J ({energy_change}); angular momentum relative change max {:.2e}",
         s.energy_initial, s.energy_final, s.angmom_rel_change_max
     );
+    let flow = s.energy_flow;
+    if flow != Default::default() {
+        let change = s.energy_final - s.energy_initial;
+        let open = change - (flow.input_work - flow.dissipated);
+        let scale = change
+            .abs()
+            .max(flow.input_work.abs())
+            .max(flow.dissipated)
+            .max(f64::MIN_POSITIVE);
+        println!(
+            "energy balance: change {change:.6e} J = input work {:.6e} J - dissipated {:.6e} J \
+             + not closed {open:.3e} J ({:.2e} of the largest term)",
+            flow.input_work,
+            flow.dissipated,
+            open.abs() / scale
+        );
+    }
     println!(
         "Newton: at most {} iterations per solve, {} non-converged solves; {} body-steps substepped (largest split {}x)",
         s.stats.newton_iters_max,

@@ -512,6 +512,8 @@ mod tests {
                     offset: 0.0,
                 }),
                 limits: None,
+                damping: 0.0,
+                effort_limit: 0.0,
             })
             .collect()
     }

@@ -87,6 +87,13 @@ pub struct Joint {
     /// The `<limit lower upper>` range of a revolute or prismatic joint (rad or m), when it
     /// is a real interval (`upper > lower`; a missing `<limit>` reads as `[0, 0]`: no range).
     pub limits: Option<[f64; 2]>,
+    /// The `<dynamics damping>` as written (N m s/rad, or N s/m for a prismatic joint); 0
+    /// when absent. Not checked here: a scene that uses it checks it
+    /// (`crate::scene` turns it into joint damping of articulated models).
+    pub damping: f64,
+    /// The `<limit effort>` as written (N m, or N for a prismatic joint), any joint type; 0
+    /// when absent. Not checked here: an actuator that uses it as its clamp checks it.
+    pub effort_limit: f64,
 }
 
 /// Why a set of joints is not a tree, or a configuration cannot be applied.
@@ -339,6 +346,8 @@ mod tests {
             axis: Vector3::z(),
             mimic: None,
             limits: None,
+            damping: 0.0,
+            effort_limit: 0.0,
         }
     }
 

@@ -24,6 +24,7 @@
 //! Every link frame is recorded (massless ones too), frame ids as in the other modes. A body is
 //! named after its group's root link frame id.
 
+use super::actuator::ResolvedActuator;
 use super::{BaseMode, ModelEntry};
 use crate::model::articulation::{self, Articulation};
 use crate::model::kinematics::JointKind;
@@ -76,11 +77,12 @@ pub(super) fn add_articulated_model(
     model: &Model,
     entry: &ModelEntry,
     copy: &CopyPlace<'_>,
+    actuators: &[ResolvedActuator],
     body_names: &mut HashSet<String>,
     template: &mut Option<Template>,
 ) -> anyhow::Result<()> {
     if template.is_none() {
-        *template = Some(prepare(world, model, entry, copy.label)?);
+        *template = Some(prepare(world, model, entry, copy.label, actuators)?);
     }
     match template.as_ref().expect("filled above") {
         Template::Rigid => super::rigid::add_rigid_model(
@@ -96,12 +98,13 @@ pub(super) fn add_articulated_model(
     }
 }
 
-/// The table's checks, merged groups and mechanism model (see [`Template`]).
+/// The table's checks, merged groups and mechanism model with its drives (see [`Template`]).
 fn prepare(
     world: &mut World,
     model: &Model,
     entry: &ModelEntry,
     label: &str,
+    actuators: &[ResolvedActuator],
 ) -> anyhow::Result<Template> {
     let label = label.to_string();
     let joint_index: HashMap<&str, usize> = model
@@ -175,6 +178,10 @@ fn prepare(
         ));
     }
     check_groups(&art, model, &label, entry.allow_non_physical_inertia)?;
+    let merged = super::drives::Merged {
+        locked: &locked,
+        massless: &art.locked_massless,
+    };
     if art.joints.is_empty() {
         if fixed {
             bail!(
@@ -183,10 +190,31 @@ fn prepare(
                 model.path.display()
             );
         }
-        // One group: exactly the rigid body.
+        // One group: exactly the rigid body. An actuated joint was merged: say why.
+        super::drives::drives(
+            model,
+            entry,
+            &label,
+            &[],
+            actuators,
+            &merged,
+            &mut world.notes,
+        )?;
         return Ok(Template::Rigid);
     }
-    let (frames, shared) = shared_model(model, entry, &art, fixed)?;
+    let (frames, mut shared) = shared_model(model, entry, &art, fixed)?;
+    shared.drives = super::drives::drives(
+        model,
+        entry,
+        &label,
+        &shared.coordinates,
+        actuators,
+        &merged,
+        &mut world.notes,
+    )?;
+    shared
+        .validate()
+        .map_err(|e| anyhow::anyhow!("internal error driving model `{}`: {e}", model.name))?;
     Ok(Template::Mechanism(Box::new(Shared {
         art,
         frames,

@@ -6,7 +6,7 @@
 
 use super::placement::{self, Placement};
 use super::{BodiesMode, ModelEntry, Scene, URDF_METADATA_PREFIX, articulated, bounds};
-use super::{links, rigid};
+use super::{actuator, links, load, rigid};
 use crate::model::policy;
 use crate::model::{Model, urdf};
 use crate::record::RobotDescription;
@@ -25,6 +25,10 @@ pub struct LoadedTable {
     pub text_key: String,
     /// The table's `/robot_description` (with copies: the first copy's).
     pub description: RobotDescription,
+    /// Its actuators, signals read ([`actuator::resolve_all`]).
+    pub(crate) actuators: Vec<actuator::ResolvedActuator>,
+    /// Its loads, signals read ([`load::resolve_all`]); every copy gets them.
+    pub(crate) loads: Vec<load::LinkLoad>,
 }
 
 /// Every table's model ([`Scene::load_models`]).
@@ -121,6 +125,12 @@ impl Scene {
                     model
                 }
             };
+            // Issue 30's inputs: joints and links checked against the model, signals read once
+            // per table however many copies or runs use it.
+            let key = format!("{}: model[{i}]", self.source.display());
+            let label = entry.name.clone().unwrap_or_else(|| model.name.clone());
+            let actuators = actuator::resolve_all(&key, entry, &model, &label, &self.base_dir)?;
+            let loads = load::resolve_all(&key, entry, &model, &label, &self.base_dir)?;
             let text_key = format!("{URDF_METADATA_PREFIX}{}", entry.urdf.display());
             if let std::collections::btree_map::Entry::Vacant(slot) =
                 urdf_texts.entry(text_key.clone())
@@ -149,6 +159,8 @@ impl Scene {
                 urdf_path,
                 text_key,
                 description,
+                actuators,
+                loads,
             });
         }
         Ok(LoadedModels {
@@ -221,11 +233,15 @@ impl Scene {
                             label: &label,
                             place: &place,
                         },
+                        &table.actuators,
                         &mut body_names,
                         &mut template,
                     )
                     .with_context(context)?,
                 }
+                let copy_frames = before..world.layout.frames.len();
+                load::attach(&mut world, copy_frames, &table.loads, entry, &label)
+                    .with_context(context)?;
                 if copy == 0 && copies > 1 {
                     // The other copies cost what the first did: refuse a world too big for the
                     // machine before building it (issue 28: 100 000 copies of a 7-link chain

@@ -102,6 +102,18 @@ pub struct ModelEntry {
     /// Articulated models: joints locked at their `joints` value and merged like fixed joints.
     #[serde(default)]
     pub locked_joints: Vec<String>,
+    /// Articulated models: `[[model.actuator]]` tables, one per driven joint, as written (read
+    /// and checked by [`super::actuator`], their signals read when the model is loaded).
+    #[serde(default, rename = "actuator", skip_serializing_if = "Vec::is_empty")]
+    pub actuators: Vec<toml::Table>,
+    /// `[[model.load]]` tables, forces and torques on links, as written (read and checked by
+    /// [`super::load`]).
+    #[serde(default, rename = "load", skip_serializing_if = "Vec::is_empty")]
+    pub loads: Vec<toml::Table>,
+    /// Articulated models: `false` leaves the URDF's `<dynamics damping>` out (`None`: the
+    /// default, damping on).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint_damping: Option<bool>,
     /// Mass settings of this model (refine the scene's `[mass]`).
     #[serde(default)]
     pub inertia: Option<InertiaPolicy>,
@@ -184,6 +196,9 @@ impl ModelEntry {
             base: None,
             joint_velocities: BTreeMap::new(),
             locked_joints: Vec::new(),
+            actuators: Vec::new(),
+            loads: Vec::new(),
+            joint_damping: None,
             inertia: None,
             density: None,
             geometry: None,

@@ -35,6 +35,20 @@
 //! strict = false                # refuse the URDF oddities urdfdom loads (docs/urdf.md) instead of loading them with a warning (default false; --strict sets it on every model)
 //! copies = 10000                # the table stands for N models named <name>_<index> (default: one, named `name`; docs/scale.md)
 //! seed = 7                      # copy i draws its distributions from streams seeded by (seed, i) (default 0)
+//! joint_damping = true          # articulated: the URDF's <dynamics damping> on every moving joint (default true)
+//!
+//! [[model.actuator]]            # articulated: one per driven joint (crate::scene::actuator)
+//! joint = "elbow"
+//! kind = "position"             # "motor" (effort) | "position" (target, kp, kd) | "velocity" (target, kd)
+//! target = 0.5                  # a signal: number, sine, CSV table, MCAP log (crate::scene::signal)
+//! kp = 80.0
+//! effort_limit = 3.0            # default: the URDF's <limit effort>; 0: none
+//!
+//! [[model.load]]                # any body mode: a force and torque on a link (crate::scene::load)
+//! link = "tool0"
+//! force = [0.0, 0.0, 5.0]       # N at the link frame's origin; each component a signal
+//! torque = [0.0, 0.0, 0.1]      # N m
+//! frame = "world"               # | "link"
 //! # position, rpy, linvel, angvel: a value or a distribution ({ uniform = [lo, hi] }, log_uniform, normal, choice);
 //! # orientation = "uniform" | [x, y, z, w] instead of rpy ([`crate::scene::placement`])
 //!
@@ -53,13 +67,18 @@ use crate::model::policy::{MassSettings, ModelMassSettings};
 
 use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSettings};
 
+mod actuator;
 mod articulated;
 mod build;
+mod drives;
 mod entry;
+mod joint_states;
 mod links;
+mod load;
 pub mod placement;
 mod rigid;
 pub mod signal;
+pub mod signal_log;
 
 pub use build::{LoadedModels, LoadedTable};
 pub use entry::{BaseMode, BodiesMode, ModelEntry, SimSettings};
@@ -403,6 +422,12 @@ impl Scene {
         }
         // --- whole-model bodies (issue 5): `bodies` and `joints` ---
         self.validate_joints()?;
+        // --- driven robots (issue 30): `[[model.actuator]]`, `[[model.load]]` ---
+        for (i, m) in self.models.iter().enumerate() {
+            let key = format!("{file}: model[{i}]");
+            actuator::read_all(&key, m)?;
+            load::read_all(&key, m)?;
+        }
         Ok(())
     }
 
@@ -439,6 +464,8 @@ impl Scene {
                     Some("joint_velocities")
                 } else if !m.locked_joints.is_empty() {
                     Some("locked_joints")
+                } else if m.joint_damping.is_some() {
+                    Some("joint_damping")
                 } else {
                     None
                 };

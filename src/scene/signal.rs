@@ -4,12 +4,15 @@
 //! effort = 0.5                                                   # a number
 //! target = { sine = { amplitude = 0.5, frequency_hz = 0.5, phase = 0.0, offset = 0.2 } }
 //! target = { table = "trajectory.csv" }                          # columns `time` (s) and the joint's name
+//! target = { log = "run.mcap", topic = "/joint_states" }         # a recorded log (actuators only)
+//! target = { log = "run.mcap", topic = "/joints", joint = "arm/elbow" }   # the joint's name in the log
 //! ```
 //!
-//! `phase` and `offset` default to 0. A table's path is relative to the scene file; its `time`
-//! column must increase strictly, every value must be finite. Every error names the key.
-//! (Recorded logs, `{ log = "run.mcap", topic = "/joint_states" }`, come with the actuators.)
+//! `phase` and `offset` default to 0. A table's or a log's path is relative to the scene file;
+//! a table's `time` column must increase strictly, every value must be finite. A log is read by
+//! [`super::signal_log`] (`joint` defaults to the actuator's joint). Every error names the key.
 
+use super::signal_log;
 use crate::sim::signal::Signal;
 use anyhow::{Context, bail};
 use std::path::Path;
@@ -18,12 +21,14 @@ use std::path::Path;
 pub const TABLE_MAX_BYTES: u64 = 64 << 20;
 
 /// Parses `value`, the key `key` (e.g. `scene.toml: model[0].actuator[1].target`), reading a
-/// table's column `column` from a file relative to `base_dir`.
+/// table's column `column` from a file relative to `base_dir`, and a log's joint and quantity
+/// as `log` says (`None`: the key takes no log).
 pub fn parse(
     key: &str,
     value: &toml::Value,
     base_dir: &Path,
     column: &str,
+    log: Option<signal_log::Pick<'_>>,
 ) -> anyhow::Result<Signal> {
     let number = |k: &str, v: &toml::Value| -> anyhow::Result<f64> {
         let x = match v {
@@ -40,9 +45,15 @@ pub fn parse(
         toml::Value::Table(t) => t,
         _ => return Ok(Signal::Constant(number(key, value)?)),
     };
+    if table.contains_key("log") {
+        return parse_log(key, table, base_dir, log);
+    }
     let mut kinds = table.iter();
     let (Some((kind, body)), None) = (kinds.next(), kinds.next()) else {
-        bail!("{key}: expected a number, {{ sine = {{ ... }} }} or {{ table = \"file.csv\" }}");
+        bail!(
+            "{key}: expected a number, {{ sine = {{ ... }} }}, {{ table = \"file.csv\" }} or \
+             {{ log = \"file.mcap\", topic = \"...\" }}"
+        );
     };
     match kind.as_str() {
         "sine" => {
@@ -79,8 +90,52 @@ pub fn parse(
                 .with_context(|| format!("{key}.table: cannot read {}", path.display()))?;
             read_table(&text, column).with_context(|| format!("{key}.table: {}", path.display()))
         }
-        other => bail!("{key}.{other}: unknown signal (expected a number, sine or table)"),
+        other => bail!("{key}.{other}: unknown signal (expected a number, sine, table or log)"),
     }
+}
+
+/// `{ log = "file.mcap", topic = "...", joint = "..." }` ([`super::signal_log`]).
+fn parse_log(
+    key: &str,
+    table: &toml::Table,
+    base_dir: &Path,
+    log: Option<signal_log::Pick<'_>>,
+) -> anyhow::Result<Signal> {
+    let Some(pick) = log else {
+        bail!(
+            "{key}.log: a recorded log drives actuators only (here: a number, \
+             {{ sine = {{ ... }} }} or {{ table = \"file.csv\" }})"
+        );
+    };
+    const KEYS: [&str; 3] = ["log", "topic", "joint"];
+    if let Some(other) = table.keys().find(|k| !KEYS.contains(&k.as_str())) {
+        bail!(
+            "{key}.{other}: unknown key of a log signal (expected: {})",
+            KEYS.join(", ")
+        );
+    }
+    let text = |name: &str| -> anyhow::Result<Option<&str>> {
+        match table.get(name) {
+            None => Ok(None),
+            Some(toml::Value::String(s)) if !s.is_empty() => Ok(Some(s)),
+            Some(v) => bail!("{key}.{name}: expected a non-empty string (got {v})"),
+        }
+    };
+    let file = text("log")?.context("unreachable: `log` is present")?;
+    let Some(topic) = text("topic")? else {
+        bail!("{key}.topic: missing (the log's topic of joint states, e.g. \"/joint_states\")");
+    };
+    let joint = text("joint")?.unwrap_or(pick.joint);
+    let path = base_dir.join(file);
+    signal_log::read(
+        &path,
+        topic,
+        signal_log::Pick {
+            joint,
+            quantity: pick.quantity,
+        },
+    )
+    .with_context(|| format!("{key}.log: {}", path.display()))
 }
 
 /// The columns `time` and `column` of a CSV text (a header line, then rows of numbers), as a
@@ -147,11 +202,11 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
         assert_eq!(
-            parse("k", &value("2"), d, "j").unwrap(),
+            parse("k", &value("2"), d, "j", None).unwrap(),
             Signal::Constant(2.0)
         );
         assert_eq!(
-            parse("k", &value("-0.5"), d, "j").unwrap(),
+            parse("k", &value("-0.5"), d, "j", None).unwrap(),
             Signal::Constant(-0.5)
         );
         assert_eq!(
@@ -159,7 +214,8 @@ mod tests {
                 "k",
                 &value("{ sine = { amplitude = 0.5, frequency_hz = 2 } }"),
                 d,
-                "j"
+                "j",
+                None
             )
             .unwrap(),
             Signal::Sine {
@@ -175,7 +231,7 @@ mod tests {
         )
         .unwrap();
         assert_eq!(
-            parse("k", &value("{ table = \"t.csv\" }"), d, "elbow").unwrap(),
+            parse("k", &value("{ table = \"t.csv\" }"), d, "elbow", None).unwrap(),
             Signal::Table {
                 times_secs: vec![0.0, 0.5, 2.0],
                 values: vec![1.0, 2.0, 4.0]
@@ -216,13 +272,13 @@ mod tests {
             ("{ table = \"nan.csv\" }", "line 3: `j` must be finite"),
             ("{ table = \"empty.csv\" }", "no rows after the header"),
         ] {
-            let e = format!("{:#}", parse("k", &value(text), d, "j").unwrap_err());
+            let e = format!("{:#}", parse("k", &value(text), d, "j", None).unwrap_err());
             assert!(e.contains(needle), "{text}: {e}");
         }
         std::fs::write(d.join("other.csv"), "time,wrist\n0,1\n").unwrap();
         let e = format!(
             "{:#}",
-            parse("k", &value("{ table = \"other.csv\" }"), d, "j").unwrap_err()
+            parse("k", &value("{ table = \"other.csv\" }"), d, "j", None).unwrap_err()
         );
         assert!(
             e.contains("no column `j` (the header has: time, wrist)"),

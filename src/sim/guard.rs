@@ -6,6 +6,12 @@
 //! solve failed even after substepping ([`StepStats::newton_failures`] with substepping on) is
 //! stopped too. The first body that fails, the step and the cause are reported; the run ends
 //! at the previous step, so nothing non-finite is ever recorded.
+//!
+//! Inputs do work: a body under an applied load ([`crate::sim::loads::BodyLoad`]) and an
+//! articulated model with an actuator or a loaded body are watched for non-finite and
+//! out-of-range values and Newton failures only, not for energy growth (their energy may grow
+//! by the inputs' work, which the run summary's energy balance reports). Joint damping alone
+//! only removes energy and keeps the energy test.
 
 use super::{Bodies, StepStats};
 use crate::sim::loads::Loads;
@@ -189,6 +195,16 @@ impl Guard {
             for i in range.clone() {
                 self.watch.two_t_max[i] = f64::INFINITY;
             }
+            let driven = m.drives.iter().any(|d| d.actuator.is_some());
+            if driven || loads.loads_any(&range) {
+                // Inputs do work: finiteness only (see the module doc).
+                self.mechanisms.push(MechanismWatch {
+                    bodies: range,
+                    relative: false,
+                    reference: 0.0,
+                });
+                continue;
+            }
             let relative = m.base == Base::Floating;
             let mut reference = mechanism_kinetic_energy(bodies, range.clone(), relative);
             if m.base == Base::Fixed {
@@ -206,6 +222,16 @@ impl Guard {
                 relative,
                 reference,
             });
+        }
+    }
+
+    /// Exempts the bodies under applied loads from the energy test (finiteness only; see the
+    /// module doc). `loads` indexes the same bodies as the guard.
+    pub fn exempt_loaded_bodies(&mut self, loads: &Loads) {
+        for l in loads.body_loads() {
+            if let Some(t) = self.watch.two_t_max.get_mut(l.body) {
+                *t = f64::INFINITY;
+            }
         }
     }
 

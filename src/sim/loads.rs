@@ -193,6 +193,68 @@ impl Loads {
     }
 }
 
+impl Loads {
+    /// Runs `step` (an unforced step of `h` of the bodies `range`) between the two trapezoid
+    /// kicks of [`Loads::kick`] at `t_k` and `t_k + h`, recording their work in `ledger`;
+    /// without applied loads on `range`, just runs it.
+    pub fn forced_step<R>(
+        &self,
+        bodies: &mut Bodies,
+        range: &Range<usize>,
+        h: f64,
+        ledger: &mut KickLedger,
+        step: impl FnOnce(&mut Bodies) -> R,
+    ) -> R {
+        if !self.loads_any(range) {
+            return step(bodies);
+        }
+        let t0 = self.time_secs;
+        ledger.begin();
+        self.kick(bodies, range, t0, 0.5 * h, ledger);
+        let out = step(bodies);
+        ledger.end();
+        self.kick(bodies, range, t0 + h, 0.5 * h, ledger);
+        out
+    }
+
+    /// The total force (world axes, N) and torque about the centre of mass (body axes, N m)
+    /// of the applied loads on body `i` at `t_secs` with orientation `world_from_body`.
+    pub fn wrench_on(
+        &self,
+        i: usize,
+        t_secs: f64,
+        world_from_body: &UnitQuaternion<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let k = self.bodies.partition_point(|l| l.body < i);
+        let mut f = Vector3::zeros();
+        let mut tau = Vector3::zeros();
+        for load in self.bodies[k..].iter().take_while(|l| l.body == i) {
+            let (fl, tl) = load.wrench(t_secs, world_from_body);
+            f += fl;
+            tau += tl;
+        }
+        (f, tau)
+    }
+
+    /// The distinct bodies in `range` that carry applied loads, in order.
+    pub fn loaded_bodies(&self, range: &Range<usize>) -> impl Iterator<Item = usize> + '_ {
+        let k = self.bodies.partition_point(|l| l.body < range.start);
+        let end = range.end;
+        let mut last = None;
+        self.bodies[k..]
+            .iter()
+            .take_while(move |l| l.body < end)
+            .filter_map(move |l| {
+                if last == Some(l.body) {
+                    None
+                } else {
+                    last = Some(l.body);
+                    Some(l.body)
+                }
+            })
+    }
+}
+
 /// The work of applied loads over a step, by the trapezoid rule: the kicks at both ends record
 /// each loaded body's pose and wrench; `W = ½ (F_k + F_{k+1}) · (c_{k+1} − c_k) + ½ (τ_k +
 /// τ_{k+1}) · log(R_kᵀ R_{k+1})` (torques in body axes), O(h²) from the exact work over a run.

@@ -294,7 +294,9 @@ impl<'a> Partitions<'a> {
                 integrator.init(&bodies);
                 let mut guard =
                     Guard::new(&bodies, divergence_energy_ratio, stop_on_newton_failure);
-                guard.watch_mechanisms(mechanisms, &bodies, loads);
+                let part_loads = loads.part(range.clone());
+                guard.exempt_loaded_bodies(&part_loads);
+                guard.watch_mechanisms(mechanisms, &bodies, &part_loads);
                 Part {
                     first: range.start,
                     bodies,
@@ -323,6 +325,13 @@ impl<'a> Partitions<'a> {
             len: inits.len(),
             pool,
         })
+    }
+
+    /// The energy flows of every partition's integrator, summed.
+    pub fn energy_flow(&self) -> crate::sim::integrators::EnergyFlow {
+        self.parts
+            .iter()
+            .fold(Default::default(), |a, p| a.add(p.integrator.energy_flow()))
     }
 
     /// The partition holding body `i`.

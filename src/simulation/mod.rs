@@ -360,6 +360,7 @@ impl Simulation {
                 })
                 .collect()
         };
+        summary.energy_flow = self.parts.energy_flow();
         summary.angmom_rel_change_max = self
             .angmom0
             .iter()

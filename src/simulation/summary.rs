@@ -15,6 +15,11 @@ pub struct RunSummary {
     /// Total mechanical energy of all bodies at the start and at the end, J.
     pub energy_initial: f64,
     pub energy_final: f64,
+    /// What the inputs did over the run ([`crate::sim::integrators::EnergyFlow`]): the work of
+    /// the applied loads and actuators, and the energy joint damping removed, J. The energy
+    /// balance is `energy_final − energy_initial = input_work − dissipated + residual`; the
+    /// residual is the scheme's own energy error (O(h²) for the variational family).
+    pub energy_flow: crate::sim::integrators::EnergyFlow,
     /// Largest change of any body's spatial angular momentum about its centre of mass, relative
     /// to that body's initial |L| (conserved exactly by the variational schemes).
     pub angmom_rel_change_max: f64,

@@ -10,7 +10,15 @@ use std::process::Command;
 /// Writes `scene` as `bad.toml` next to copies of the models it uses, runs
 /// `tumble simulate bad.toml --out <dir>/out`, and checks the outcome.
 fn refused(scene: &str, expected: &[&str]) {
+    refused_with(scene, &[], expected);
+}
+
+/// [`refused`] with more files next to the scene: `(name, bytes)`.
+pub(crate) fn refused_with(scene: &str, files: &[(&str, &[u8])], expected: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
+    for (name, bytes) in files {
+        std::fs::write(dir.path().join(name), bytes).unwrap();
+    }
     for model in ["double_pendulum.urdf", "chain3_free.urdf", "cart_pole.urdf"] {
         std::fs::copy(
             common::root().join("models").join(model),

@@ -7,6 +7,8 @@
 mod common;
 
 mod copies;
+mod driven;
+mod driven_hostile;
 mod hostile;
 mod mechanism;
 mod recordings;

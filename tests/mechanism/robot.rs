@@ -23,14 +23,17 @@ struct Swing {
     residual_rad: f64,
 }
 
-/// `robot` (relative to example-robot-data's `robots/`) welded at 1 m, 10 s at 1 ms.
+/// `robot` (relative to example-robot-data's `robots/`) welded at 1 m, 10 s at 1 ms, passive:
+/// `joint_damping = false` leaves out the URDF's `<dynamics damping>` (the panda's), so the
+/// energy is conserved.
 fn swing(robot: &str) -> Swing {
     let urdf = common::run_py("pin_composite.py", &[Path::new(robot), Path::new("zero")]);
     let urdf = urdf["urdf"].as_str().unwrap().to_string();
     let text = format!(
         "[sim]\ndt = 0.001\nduration = 10.0\nintegrator = \"variational\"\n\
          [[model]]\nurdf = {urdf:?}\nbodies = \"articulated\"\nbase = \"fixed\"\n\
-         position = [0.0, 0.0, 1.0]\nallow_non_physical_inertia = true\n"
+         position = [0.0, 0.0, 1.0]\nallow_non_physical_inertia = true\n\
+         joint_damping = false\n"
     );
     let dir = tempfile::tempdir().unwrap();
     let scene = Scene::parse(&text, &dir.path().join("robot.toml")).unwrap();

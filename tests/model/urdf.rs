@@ -625,3 +625,29 @@ fn inspect_run_and_text() {
         assert!(text.contains(needle), "`{needle}` not in\n{text}");
     }
 }
+
+/// `<dynamics damping>` and `<limit effort>` are kept as written for every joint type (0 when
+/// absent); `friction` is not read.
+#[test]
+fn joint_damping_and_effort_are_read_as_written() {
+    let xml = r#"<robot name="r">
+      <link name="a"/><link name="b"/><link name="c"/><link name="d"/>
+      <joint name="hinge" type="revolute"><parent link="a"/><child link="b"/>
+        <limit lower="-1" upper="1" effort="12.5" velocity="1"/>
+        <dynamics damping="0.3" friction="7"/></joint>
+      <joint name="spin" type="continuous"><parent link="b"/><child link="c"/>
+        <limit effort="4" velocity="1"/></joint>
+      <joint name="weld" type="fixed"><parent link="c"/><child link="d"/>
+        <dynamics damping="2"/></joint>
+    </robot>"#;
+    let model = urdf::load_str(xml, Path::new("dyn.urdf"), &Default::default()).unwrap();
+    let read: Vec<(&str, f64, f64)> = model
+        .joints
+        .iter()
+        .map(|j| (j.name.as_str(), j.damping, j.effort_limit))
+        .collect();
+    assert_eq!(
+        read,
+        [("hinge", 0.3, 12.5), ("spin", 0.0, 4.0), ("weld", 2.0, 0.0)]
+    );
+}

@@ -29,7 +29,7 @@
 //! Negative substeps (`γ_2` above) are steps backwards in time: the
 //! variational step is well-defined for `h < 0`.
 
-use super::{Integrator, StepStats, Variational, VariationalSettings};
+use super::{EnergyFlow, Integrator, StepStats, Variational, VariationalSettings};
 use crate::sim::Bodies;
 use crate::sim::loads::Loads;
 
@@ -125,10 +125,27 @@ impl Integrator for Composition {
 
     fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
         let mut stats = StepStats::default();
+        if loads.body_loads().is_empty() {
+            for &k in &self.substeps {
+                stats = stats.merge(self.stages[k].step(bodies, loads));
+            }
+            return stats;
+        }
+        // Each substep `γ_s h` starts at `t_k + (γ_1 + … + γ_{s−1}) h` (a negative `γ` steps
+        // back in time as well: the composition of symmetric steps stays symmetric).
+        let mut offset = 0.0;
         for &k in &self.substeps {
-            stats = stats.merge(self.stages[k].step(bodies, loads));
+            let stage_loads = loads.at_offset(offset);
+            stats = stats.merge(self.stages[k].step(bodies, &stage_loads));
+            offset += self.stages[k].dt();
         }
         stats
+    }
+
+    fn energy_flow(&self) -> EnergyFlow {
+        self.stages
+            .iter()
+            .fold(EnergyFlow::default(), |a, s| a.add(s.energy_flow()))
     }
 }
 

@@ -15,22 +15,28 @@
 //!   order of MuJoCo's `Euler` integrator and of Rapier (without their gyroscopic corrections). Translation gives `c_n = c0 + v0 t + g t (t + h)/2`
 //!   (the parabola plus `t h g / 2`).
 //!
-//! Both are of order 1. [`StepStats`] is always the default (no iterations).
+//! Both are of order 1. [`StepStats`] is always the default (no iterations). Applied loads
+//! ([`Loads::forced_step`]) act as two half kicks around the step, at its start and end times.
 
-use super::{Integrator, StepStats};
+use super::{EnergyFlow, Integrator, StepStats};
 use crate::sim::Bodies;
-use crate::sim::loads::Loads;
+use crate::sim::loads::{KickLedger, Loads};
 use nalgebra::{Quaternion, UnitQuaternion};
 
 /// Explicit (forward) Euler on `(q, M, c, v)`, quaternion renormalised after each step. Order 1.
 #[derive(Debug, Clone)]
 pub struct ExplicitEuler {
     dt_secs: f64,
+    /// The work of the applied loads.
+    ledger: KickLedger,
 }
 
 impl ExplicitEuler {
     pub fn new(dt_secs: f64) -> Self {
-        Self { dt_secs }
+        Self {
+            dt_secs,
+            ledger: KickLedger::default(),
+        }
     }
 }
 
@@ -47,6 +53,25 @@ impl Integrator for ExplicitEuler {
 
     fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
         let h = self.dt_secs;
+        let mut ledger = std::mem::take(&mut self.ledger);
+        loads.forced_step(bodies, &(0..bodies.len()), h, &mut ledger, |b| {
+            Self::unforced(b, loads, h)
+        });
+        self.ledger = ledger;
+        StepStats::default()
+    }
+
+    fn energy_flow(&self) -> EnergyFlow {
+        EnergyFlow {
+            input_work: self.ledger.work,
+            dissipated: 0.0,
+        }
+    }
+}
+
+impl ExplicitEuler {
+    /// The step without applied loads.
+    fn unforced(bodies: &mut Bodies, loads: &Loads, h: f64) {
         for i in 0..bodies.len() {
             let m = bodies.angmom_body[i];
             let omega = bodies.angvel_body(i);
@@ -64,7 +89,6 @@ impl Integrator for ExplicitEuler {
             *c += *v * h;
             *v += dv;
         }
-        StepStats::default()
     }
 }
 
@@ -72,11 +96,16 @@ impl Integrator for ExplicitEuler {
 #[derive(Debug, Clone)]
 pub struct SemiImplicitEuler {
     dt_secs: f64,
+    /// The work of the applied loads.
+    ledger: KickLedger,
 }
 
 impl SemiImplicitEuler {
     pub fn new(dt_secs: f64) -> Self {
-        Self { dt_secs }
+        Self {
+            dt_secs,
+            ledger: KickLedger::default(),
+        }
     }
 }
 
@@ -93,6 +122,25 @@ impl Integrator for SemiImplicitEuler {
 
     fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
         let h = self.dt_secs;
+        let mut ledger = std::mem::take(&mut self.ledger);
+        loads.forced_step(bodies, &(0..bodies.len()), h, &mut ledger, |b| {
+            Self::unforced(b, loads, h)
+        });
+        self.ledger = ledger;
+        StepStats::default()
+    }
+
+    fn energy_flow(&self) -> EnergyFlow {
+        EnergyFlow {
+            input_work: self.ledger.work,
+            dissipated: 0.0,
+        }
+    }
+}
+
+impl SemiImplicitEuler {
+    /// The step without applied loads.
+    fn unforced(bodies: &mut Bodies, loads: &Loads, h: f64) {
         for i in 0..bodies.len() {
             let m = bodies.angmom_body[i];
             let omega = bodies.angvel_body(i);
@@ -111,6 +159,5 @@ impl Integrator for SemiImplicitEuler {
             *v += dv;
             *c += *v * h;
         }
-        StepStats::default()
     }
 }

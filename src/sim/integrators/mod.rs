@@ -16,6 +16,8 @@
 
 pub mod composition;
 pub mod explicit;
+#[cfg(test)]
+mod forced_tests;
 pub mod moser_veselov;
 pub mod rk4;
 pub mod translation;
@@ -76,6 +78,27 @@ impl StepStats {
     }
 }
 
+/// Energy that entered or left the bodies through their inputs (applied loads, joint
+/// actuators, joint damping), summed over the steps taken: the terms of the energy balance
+/// `E(T) − E(0) = input_work − dissipated + (the scheme's own error)`.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct EnergyFlow {
+    /// Work of the applied loads and the actuators, J.
+    pub input_work: f64,
+    /// Energy removed by joint damping (≥ 0), J.
+    pub dissipated: f64,
+}
+
+impl EnergyFlow {
+    /// The sum of two flows.
+    pub fn add(self, other: Self) -> Self {
+        Self {
+            input_work: self.input_work + other.input_work,
+            dissipated: self.dissipated + other.dissipated,
+        }
+    }
+}
+
 /// A time-stepping scheme for a batch of free rigid bodies under [`Loads`] (today uniform
 /// gravity).
 pub trait Integrator: Send {
@@ -101,6 +124,10 @@ pub trait Integrator: Send {
     }
     /// The step size, s.
     fn dt(&self) -> f64;
+    /// The energy the inputs brought in and took out so far ([`EnergyFlow`]).
+    fn energy_flow(&self) -> EnergyFlow {
+        EnergyFlow::default()
+    }
 }
 
 /// Bodies stepped, then tested by the guard, at a time ([`step_blocks_watched`] and

@@ -225,6 +225,8 @@ pub struct MoserVeselov {
     dt_secs: f64,
     /// Per body: the last solved Cayley parameter (warm start of the next solve).
     f: Vec<Vector3<f64>>,
+    /// The work of the applied loads ([`Loads::forced_step`]).
+    ledger: crate::sim::loads::KickLedger,
 }
 
 impl MoserVeselov {
@@ -233,11 +235,27 @@ impl MoserVeselov {
             settings,
             dt_secs,
             f: Vec::new(),
+            ledger: Default::default(),
         }
     }
 
     /// One step of the bodies `range` of the batch (after [`Integrator::init`] of the batch).
     fn step_range(&mut self, bodies: &mut Bodies, range: Range<usize>, loads: &Loads) -> StepStats {
+        let mut ledger = std::mem::take(&mut self.ledger);
+        let stats = loads.forced_step(bodies, &range, self.dt_secs, &mut ledger, |b| {
+            self.step_range_unforced(b, range.clone(), loads)
+        });
+        self.ledger = ledger;
+        stats
+    }
+
+    /// [`MoserVeselov::step_range`] without the applied loads' kicks.
+    fn step_range_unforced(
+        &mut self,
+        bodies: &mut Bodies,
+        range: Range<usize>,
+        loads: &Loads,
+    ) -> StepStats {
         let mut stats = StepStats::default();
         for i in range.clone() {
             let pi = bodies.angmom_body[i];
@@ -315,6 +333,13 @@ impl Integrator for MoserVeselov {
         step_blocks_watched(bodies, watch, |bodies, range| {
             self.step_range(bodies, range, loads)
         })
+    }
+
+    fn energy_flow(&self) -> crate::sim::integrators::EnergyFlow {
+        crate::sim::integrators::EnergyFlow {
+            input_work: self.ledger.work,
+            dissipated: 0.0,
+        }
     }
 }
 

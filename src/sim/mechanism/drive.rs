@@ -74,6 +74,10 @@ pub struct StepEffort {
     pub effort: Effort,
     /// `∂(τ_a + τ_b)/∂θ_{k+1}` (≤ 0: stiffness and damping only resist).
     pub slope: f64,
+    /// The sum of the absolute values of the terms the effort was computed from (its
+    /// round-off is of the order of `ε` times this: a stiff servo's `kp r` and `kp θ` nearly
+    /// cancel at rest), for the Newton stopping rule.
+    pub magnitude: f64,
 }
 
 impl Actuator {
@@ -130,15 +134,21 @@ impl JointDrive {
         let rate = (theta1 - theta0) / h;
         let t1 = t0_secs + h;
         let mut slope = -self.damping / h;
+        let rate_terms = (theta1.abs() + theta0.abs()) / h.abs();
+        let mut magnitude = self.damping * rate_terms;
         let (actuator, saturated) = match &self.actuator {
             None => (0.0, false),
             Some(a) => {
                 let (raw, raw_slope) = match &a.kind {
                     ActuatorKind::Motor { effort } => {
-                        (0.5 * (effort.at(t0_secs) + effort.at(t1)), 0.0)
+                        let u = 0.5 * (effort.at(t0_secs) + effort.at(t1));
+                        magnitude += u.abs();
+                        (u, 0.0)
                     }
                     ActuatorKind::Position { target, kp, kd } => {
                         let r = 0.5 * (target.at(t0_secs) + target.at(t1));
+                        magnitude +=
+                            kp * (r.abs() + 0.5 * (theta0.abs() + theta1.abs())) + kd * rate_terms;
                         (
                             kp * (r - 0.5 * (theta0 + theta1)) - kd * rate,
                             -0.5 * kp - kd / h,
@@ -146,6 +156,7 @@ impl JointDrive {
                     }
                     ActuatorKind::Velocity { target, kd } => {
                         let w = 0.5 * (target.at(t0_secs) + target.at(t1));
+                        magnitude += kd * (w.abs() + rate_terms);
                         (kd * (w - rate), -kd / h)
                     }
                 };
@@ -163,6 +174,7 @@ impl JointDrive {
                 saturated,
             },
             slope,
+            magnitude,
         }
     }
 }

@@ -14,7 +14,7 @@ use super::step::{self, MechanismState, Warm};
 use crate::sim::Bodies;
 use crate::sim::integrators::composition::{triple_jump, yoshida6_solution_a};
 use crate::sim::integrators::{
-    Integrator, IntegratorKind, StepStats, Variational, VariationalSettings,
+    EnergyFlow, Integrator, IntegratorKind, StepStats, Variational, VariationalSettings,
 };
 use crate::sim::loads::Loads;
 use std::ops::Range;
@@ -163,7 +163,11 @@ impl Integrator for Articulated {
 
     fn step(&mut self, bodies: &mut Bodies, loads: &Loads) -> StepStats {
         let mut stats = StepStats::default();
+        // Each substep `γ_s h` starts at `t_k + (γ_1 + … + γ_{s−1}) h` (the drives' and the
+        // applied loads' time).
+        let mut stage_loads = loads.clone();
         for &k in &self.substeps {
+            let loads = &stage_loads;
             for (range, stages) in &mut self.free {
                 stats = stats.merge(stages[k].step_range(bodies, range.clone(), loads));
             }
@@ -178,7 +182,24 @@ impl Integrator for Articulated {
                     &self.settings,
                 ));
             }
+            let t = stage_loads.time_secs() + self.stage_dt[k];
+            stage_loads.set_time(t);
         }
         stats
+    }
+
+    fn energy_flow(&self) -> EnergyFlow {
+        let free = self
+            .free
+            .iter()
+            .flat_map(|(_, stages)| stages.iter())
+            .fold(EnergyFlow::default(), |a, s| a.add(s.energy_flow()));
+        self.mechanisms.iter().fold(free, |a, slot| {
+            let ws = &slot.state.ws;
+            a.add(EnergyFlow {
+                input_work: ws.drive_work.actuators + ws.load_work.work,
+                dissipated: ws.drive_work.damping,
+            })
+        })
     }
 }

@@ -180,6 +180,10 @@ pub struct TreeSolver {
     schur_pivots: Vec<usize>,
     impulse: Vec<Vector6>,
     tree_rhs: Vec<RowValues>,
+    /// Per joint, the diagonal `D₀` added on the rows past the joint's own (`1` by default:
+    /// an unused row solves to 0; a drive row of [`crate::sim::mechanism::step`] sets its
+    /// compliance there).
+    pub free_row_diag: Vec<RowValues>,
 }
 
 impl TreeSolver {
@@ -212,6 +216,7 @@ impl TreeSolver {
             schur_pivots: vec![0; extra_rows],
             impulse: vec![Vector6::zeros(); nb],
             tree_rhs: vec![RowValues::zeros(); nj],
+            free_row_diag: vec![RowValues::repeat(1.0); nj],
             topo,
         }
     }
@@ -227,7 +232,7 @@ impl TreeSolver {
         for (j, d) in self.d_joint.iter_mut().enumerate() {
             *d = Matrix5::zeros();
             for k in topo.rows[j]..MAX_ROWS {
-                d[(k, k)] = 1.0;
+                d[(k, k)] = self.free_row_diag[j][k];
             }
         }
         for b in (0..topo.parent_joint.len()).rev() {

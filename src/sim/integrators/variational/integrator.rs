@@ -10,9 +10,10 @@ use super::one_body::solve_xi;
 use super::substep::substep_unconverged;
 use crate::sim::Bodies;
 use crate::sim::guard::Watch;
+use crate::sim::integrators::EnergyFlow;
 use crate::sim::integrators::translation::step_translation;
 use crate::sim::integrators::{BLOCK_BODIES, Integrator, StepStats};
-use crate::sim::loads::Loads;
+use crate::sim::loads::{KickLedger, Loads};
 use crate::sim::so3::Real;
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -26,6 +27,8 @@ pub struct Variational {
     /// `xi` was just solved by [`Integrator::init`] for the current momenta: the next step's
     /// solution is `xi` itself, so it is used as the warm start without extrapolation.
     fresh: bool,
+    /// The work of the applied loads ([`Loads::forced_step`]).
+    ledger: KickLedger,
 }
 
 impl Variational {
@@ -35,6 +38,7 @@ impl Variational {
             dt_secs,
             xi: Vec::new(),
             fresh: false,
+            ledger: KickLedger::default(),
         }
     }
 
@@ -74,6 +78,13 @@ impl Integrator for Variational {
             self.init(bodies);
         }
         self.step_range_watched(bodies, 0..bodies.len(), loads, Some(watch))
+    }
+
+    fn energy_flow(&self) -> EnergyFlow {
+        EnergyFlow {
+            input_work: self.ledger.work,
+            dissipated: 0.0,
+        }
     }
 }
 
@@ -116,6 +127,28 @@ impl Variational {
     /// does), and the blocks start at `range.start` in multiples of [`LANES`], so the lanes
     /// and the bits are those of one pass over the range.
     pub fn step_range_watched(
+        &mut self,
+        bodies: &mut Bodies,
+        range: std::ops::Range<usize>,
+        loads: &Loads,
+        watch: Option<&Watch>,
+    ) -> (StepStats, bool) {
+        if loads.loads_any(&range) {
+            // The kicks of the applied loads around the unforced step; the guard's test after
+            // the end kick, over the whole range.
+            let mut ledger = std::mem::take(&mut self.ledger);
+            let (stats, _) = loads.forced_step(bodies, &range, self.dt_secs, &mut ledger, |b| {
+                self.step_range_unforced(b, range.clone(), loads, None)
+            });
+            self.ledger = ledger;
+            let suspect = watch.is_some_and(|w| w.any_suspect(bodies, range));
+            return (stats, suspect);
+        }
+        self.step_range_unforced(bodies, range, loads, watch)
+    }
+
+    /// [`Variational::step_range_watched`] without the applied loads' kicks.
+    fn step_range_unforced(
         &mut self,
         bodies: &mut Bodies,
         range: std::ops::Range<usize>,

@@ -177,7 +177,8 @@ impl Workspace {
             self.mimic_jac_next[m] = row;
         }
         self.coord_next = values;
-        Ok(ratio)
+        let drives = self.drive_rows_end(model, h, tol).map_err(|f| (f, 0))?;
+        Ok(ratio.max(drives))
     }
 }
 

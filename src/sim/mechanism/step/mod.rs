@@ -35,12 +35,16 @@
 //! update, the commit); here, the step with its guards: warm, cold, substeps.
 
 mod assembly;
+#[cfg(test)]
+mod drive_tests;
+mod drives;
 mod newton;
 #[cfg(test)]
 pub(crate) mod tests;
 mod warm;
 mod workspace;
 
+pub use drives::DriveWork;
 pub use warm::Warm;
 pub use workspace::Workspace;
 
@@ -89,6 +93,34 @@ pub fn step(
     settings: &VariationalSettings,
 ) -> StepStats {
     let ws = &mut state.ws;
+    let t0 = loads.time_secs();
+    let range = model.bodies();
+    let kicked = loads.loads_any(&range);
+    if kicked {
+        ws.load_work.begin();
+        loads.kick(bodies, &range, t0, 0.5 * h, &mut ws.load_work);
+    }
+    ws.time0_secs = t0;
+    let stats = step_unforced(model, ws, warm, bodies, h, loads, settings);
+    if kicked {
+        ws.load_work.end();
+        loads.kick(bodies, &range, t0 + h, 0.5 * h, &mut ws.load_work);
+    }
+    stats
+}
+
+/// [`step`] between the applied loads' kicks (the joint drives are in the solve). A split step
+/// keeps the kicks of the whole step around its substeps (Strang splitting: still second order,
+/// momentum still exact).
+fn step_unforced(
+    model: &Mechanism,
+    ws: &mut Workspace,
+    warm: &mut Warm,
+    bodies: &mut Bodies,
+    h: f64,
+    loads: &Loads,
+    settings: &VariationalSettings,
+) -> StepStats {
     let mut stats = StepStats::default();
     let warm_start = warm.valid.then_some(&*warm);
     let first = ws.attempt(model, bodies, h, loads, settings, warm_start);
@@ -116,6 +148,7 @@ pub fn step(
                 return stats;
             }
             split(model, ws, warm, bodies, h, loads, settings, &mut stats);
+            ws.time0_secs = loads.time_secs();
             stats
         }
     }
@@ -142,7 +175,8 @@ fn split(
         let hs = h / f64::from(n);
         let mut sub_warm = Warm::new(model);
         let mut ok = true;
-        for _ in 0..n {
+        for s in 0..n {
+            ws.time0_secs = loads.time_secs() + f64::from(s) * hs;
             let start = sub_warm.valid.then_some(&sub_warm);
             let mut result = ws.attempt(model, bodies, hs, loads, settings, start);
             if result.is_err() && sub_warm.valid {

@@ -12,6 +12,9 @@ use crate::sim::integrators::VariationalSettings;
 use crate::sim::loads::Loads;
 use nalgebra::Vector3;
 
+/// `π²`: a step's rotation `ξ` must stay below `π` in norm.
+const PI_SQUARED: f64 = std::f64::consts::PI * std::f64::consts::PI;
+
 impl Workspace {
     /// One Newton solve of the step `h` from the bodies' state (left untouched); on success the
     /// end state is in the workspace, for [`Workspace::commit`].
@@ -60,6 +63,9 @@ impl Workspace {
             self.mimic_jac_k[m] = row;
         }
         self.coord_next = scratch;
+        if let Err(f) = self.drive_rows_start(model) {
+            return Err((f, 0));
+        }
         // Start: warm λ, μ, ξ, or cold (λ = 0, ξ from the momenta).
         match warm {
             Some(w) if w.history => {
@@ -84,7 +90,24 @@ impl Workspace {
             }
         }
         self.impulses(model, bodies);
-        for i in 0..n {
+        if !model.drives.is_empty() {
+            // With drives, the momenta between steps carry the drives' end impulses, which
+            // the next step's joint impulses redistribute: `ξ` from the momenta alone can be
+            // far off (a stiff servo's torque impulse lands on one body's small inertia) and
+            // lead Newton to an aliased root beyond π. Start instead from the previous step's
+            // `ξ` (extrapolated) or, cold, from rest; Newton's first update solves the
+            // coupled linear system.
+            for i in 0..n {
+                self.xi[i] = warm.map_or(Vector3::zeros(), |w| {
+                    if w.history {
+                        w.xi[i] * 2.0 - w.xi_prev[i]
+                    } else {
+                        w.xi[i]
+                    }
+                });
+            }
+        }
+        for i in (0..n).filter(|_| model.drives.is_empty()) {
             let gi = first + i;
             let inv_j = bodies.inv_inertia_body[gi];
             let m = self.angmom_plus[i];
@@ -108,7 +131,13 @@ impl Workspace {
             }
             let ratio = self.residuals(model, bodies, h, loads, alpha, tol)?;
             if ratio <= 1.0 {
-                // Converged: reject the spurious root with a reversed axis.
+                // Converged: reject a root that turns a body by π or more in one step (the
+                // exponential map is one-to-one only below π: such a root aliases a rotation
+                // the step does not resolve, e.g. after a stiff servo's first Newton update
+                // overshoots), then the spurious root with a reversed axis.
+                if self.xi.iter().any(|x| x.norm_squared() >= PI_SQUARED) {
+                    return Err((Failure::SpuriousRoot, iterations));
+                }
                 for (j, joint) in model.joints.iter().enumerate() {
                     let a = parent_pose(model, &self.pose_next, j);
                     if !joint.rows.sign_ok(a, &self.pose_next[joint.child]) {
@@ -226,6 +255,7 @@ impl Workspace {
             bodies.com_world[gi] = self.pose_next[i].com;
             bodies.linvel_world[gi] = self.linvel_plus[i] + loads.gravity() * h;
         }
+        self.drive_commit(model, bodies);
         warm.push(&self.lambda, &self.mu, &self.xi);
         for m in &model.mimics {
             for c in [m.follower, m.leader] {

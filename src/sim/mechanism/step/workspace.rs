@@ -75,6 +75,14 @@ pub struct Workspace {
     pub coord_ref: Vec<f64>,
     /// Coordinate values at the end poses (scratch for the start's mimic rows).
     pub(super) coord_next: Vec<f64>,
+    /// The drive rows ([`super::drives`]).
+    pub(super) drives: super::drives::DriveRows,
+    /// The time at the start of the step (or substep) being solved, s.
+    pub(super) time0_secs: f64,
+    /// The drives' work and dissipation so far.
+    pub drive_work: super::drives::DriveWork,
+    /// The work of applied loads on the mechanism's bodies so far.
+    pub load_work: crate::sim::loads::KickLedger,
     /// Body state saved before a split step.
     backup: Backup,
     backup_coords: Vec<f64>,
@@ -132,6 +140,10 @@ impl Workspace {
             solver: TreeSolver::new(model.topology(), nm),
             coord_ref: model.coordinates.iter().map(|c| c.initial).collect(),
             coord_next: model.coordinates.iter().map(|c| c.initial).collect(),
+            drives: super::drives::DriveRows::new(model),
+            time0_secs: 0.0,
+            drive_work: super::drives::DriveWork::default(),
+            load_work: crate::sim::loads::KickLedger::default(),
             backup: Backup {
                 q: vec![UnitQuaternion::identity(); n],
                 m: vec![Vector3::zeros(); n],

@@ -1,0 +1,112 @@
+//! What drives an articulated model's joint coordinates ([`JointDrive`]): its actuators
+//! ([`super::actuator`]) and the URDF's `<dynamics damping>`.
+//!
+//! - Damping `b` acts on every moving joint (a coordinate of the mechanism) whose URDF gives
+//!   `b > 0`, mimic followers included (the mimic row carries the follower's damping to its
+//!   leader), unless the model says `joint_damping = false`. It must be a finite number
+//!   `>= 0`. Fixed and locked joints do not move: their damping does nothing and is left out.
+//!   A stage of a compound joint (two or three revolutes through a massless link) takes no
+//!   drive: its damping is left out with a note.
+//! - An actuator needs a moving joint: one locked (`locked_joints`, or because no mass hangs
+//!   from it) or a stage of a compound joint is refused, naming the reason.
+//!
+//! One drive per coordinate, sorted by coordinate, as `MechanismModel::validate` requires.
+
+use super::ModelEntry;
+use super::actuator::ResolvedActuator;
+use crate::model::Model;
+use crate::sim::mechanism::{Coordinate, CoordinateKind, JointDrive};
+use anyhow::bail;
+use std::collections::{BTreeMap, BTreeSet};
+
+/// Why a joint an actuator names is not among the mechanism's coordinates.
+pub(super) struct Merged<'a> {
+    /// `locked_joints`.
+    pub locked: &'a BTreeSet<String>,
+    /// Joints locked because no mass hangs from them.
+    pub massless: &'a [String],
+}
+
+/// The drives of a mechanism over `coordinates` (see the module doc); `label` names the model
+/// in messages and `notes`. Errors name the actuator's key or `joint_damping`.
+pub(super) fn drives(
+    model: &Model,
+    entry: &ModelEntry,
+    label: &str,
+    coordinates: &[Coordinate],
+    actuators: &[ResolvedActuator],
+    merged: &Merged<'_>,
+    notes: &mut Vec<String>,
+) -> anyhow::Result<Vec<JointDrive>> {
+    let coordinate_of = |name: &str| coordinates.iter().position(|c| c.name == name);
+    let mut drives: BTreeMap<usize, JointDrive> = BTreeMap::new();
+    if entry.joint_damping != Some(false) {
+        for (k, c) in coordinates.iter().enumerate() {
+            let Some(joint) = model.joints.iter().find(|j| j.name == c.name) else {
+                continue;
+            };
+            let b = joint.damping;
+            if b == 0.0 {
+                continue;
+            }
+            if !(b.is_finite() && b > 0.0) {
+                bail!(
+                    "joint_damping: joint `{}` of model `{label}` has <dynamics damping=\"{b}\"> \
+                     ({}): damping must be a finite number >= 0 (or set joint_damping = false \
+                     to leave the URDF's damping out)",
+                    c.name,
+                    entry.urdf.display()
+                );
+            }
+            if matches!(c.kind, CoordinateKind::Compound { .. }) {
+                notes.push(format!(
+                    "model `{label}`: joint `{}`'s damping ({b}) is not modelled: the joint is a \
+                     stage of a compound joint (revolutes through a massless link)",
+                    c.name
+                ));
+                continue;
+            }
+            drives.insert(
+                k,
+                JointDrive {
+                    coordinate: k,
+                    actuator: None,
+                    damping: b,
+                },
+            );
+        }
+    }
+    for a in actuators {
+        let at = format!("actuator[{}].joint", a.index);
+        let Some(k) = coordinate_of(&a.joint) else {
+            let why = if merged.locked.contains(&a.joint) {
+                "locked (locked_joints)"
+            } else if merged.massless.contains(&a.joint) {
+                "locked (no mass hangs from it)"
+            } else {
+                "merged into a body (it does not move)"
+            };
+            bail!(
+                "{at}: joint `{}` of model `{label}` is {why}: nothing for the actuator to drive",
+                a.joint
+            );
+        };
+        if matches!(coordinates[k].kind, CoordinateKind::Compound { .. }) {
+            bail!(
+                "{at}: joint `{}` of model `{label}` is a stage of a compound joint (revolutes \
+                 through a massless link, modelled as one universal or ball joint): actuators \
+                 on its stages are not supported",
+                a.joint
+            );
+        }
+        drives
+            .entry(k)
+            .or_insert(JointDrive {
+                coordinate: k,
+                actuator: None,
+                damping: 0.0,
+            })
+            .actuator = Some(a.actuator.clone());
+    }
+    Ok(drives.into_values().collect())
+}

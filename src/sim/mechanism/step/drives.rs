@@ -1,0 +1,181 @@
+//! The drive rows of a mechanism's step: each driven coordinate `θ` (an actuator, joint
+//! damping, or both; [`crate::sim::mechanism::drive`]) adds one row to its joint's block.
+//!
+//! Discrete Lagrange-d'Alembert forcing (Marsden & West 2001, §3.2) with the step's symmetric
+//! effort `τ̄(θ_k, θ_{k+1}, t_k, t_{k+1})` ([`JointDrive::step_effort`]): the impulse
+//! `ν = (h/2) τ̄` acts along `∇θ(q_k)` at the start of the step (with the joints' impulses
+//! `G(q_k)ᵀ λ`) and along `∇θ(q_{k+1})` at its end, i.e.
+//!
+//! ```text
+//! f_d⁻ = (h/2) τ̄ ∇θ(q_k),   f_d⁺ = (h/2) τ̄ ∇θ(q_{k+1})
+//! ```
+//!
+//! Both are gradients of a coordinate that no rigid motion of the whole mechanism changes, so
+//! they pair to zero with every rigid motion: the total linear and angular momentum of a
+//! free-floating mechanism stay exact under its own motors, whatever `τ̄` and the Newton
+//! tolerance (forced discrete Noether). `ν` is an unknown of Newton's system, beside `λ`, with
+//! the residual `r = ν − (h/2) τ̄(θ_{k+1})`; linearised with `c = −(h/2) ∂τ̄/∂θ_{k+1} ≥ 0`
+//! and `δθ_{k+1} = ∇θ(q_{k+1}) δq_{k+1}`:
+//!
+//! ```text
+//! c ∇θ(q_{k+1}) S G(q_k)ᵀ δx + δν = −r − c ∇θ(q_{k+1}) [0; e]
+//! ```
+//!
+//! which is a row of the tree system `(G_R S G_Lᵀ + D₀) δx = −g − G_R [0; e]` with left row
+//! `∇θ(q_k)`, right row `c ∇θ(q_{k+1})`, residual `r` and `D₀ = 1`, the diagonal the tree solve
+//! puts on a joint's unused rows ([`crate::sim::mechanism::tree::TreeSolver::free_row_diag`]),
+//! the whole row divided by `max(c, 1)` to keep it of the size of the joint's own rows. So
+//! stiffness and damping are implicit (a servo stays stable at any `h² kp / I`) at no cost in
+//! structure; a pure motor has `c = 0` and its row just reads `ν = (h/2) τ̄`.
+
+use super::super::Mechanism;
+use super::super::drive::{JointDrive, StepEffort};
+use super::super::rows::Row6;
+use super::assembly::{parent_pose, relative};
+use super::{Failure, Workspace};
+use crate::sim::Bodies;
+
+/// Per drive of the mechanism (same order as `MechanismModel::drives`): its row, and its
+/// values at the current iterate.
+#[derive(Debug, Clone, Default)]
+pub struct DriveRows {
+    /// The joint and the row of its block the drive occupies (after the joint's own rows).
+    pub(super) slot: Vec<(usize, usize)>,
+    /// `θ_k` (unwrapped near the coordinate's reference).
+    pub(super) theta_k: Vec<f64>,
+    /// `θ_{k+1}` at the current iterate.
+    pub(super) theta_next: Vec<f64>,
+    /// `∇θ(q_{k+1})` (parent, child), unscaled: the end impulses' directions.
+    pub(super) grad_next: Vec<(Row6, Row6)>,
+    /// The step's effort at the current iterate.
+    pub(super) effort: Vec<StepEffort>,
+}
+
+impl DriveRows {
+    pub(super) fn new(model: &Mechanism) -> Self {
+        let mut used: Vec<usize> = model.joints.iter().map(|j| j.rows.count()).collect();
+        let slot = model
+            .drives
+            .iter()
+            .map(|d| {
+                let j = model.coordinates[d.coordinate].joint;
+                used[j] += 1;
+                (j, used[j] - 1)
+            })
+            .collect();
+        let n = model.drives.len();
+        Self {
+            slot,
+            theta_k: vec![0.0; n],
+            theta_next: vec![0.0; n],
+            grad_next: vec![(Row6::zeros(), Row6::zeros()); n],
+            effort: vec![StepEffort::default(); n],
+        }
+    }
+}
+
+/// Energy flows of a mechanism's drives, summed over the steps taken.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct DriveWork {
+    /// `Σ τ̄_a (θ_{k+1} − θ_k)`: the work of the actuators, J.
+    pub actuators: f64,
+    /// `Σ b (θ_{k+1} − θ_k)² / h`: the energy the joint damping removed (≥ 0), J.
+    pub damping: f64,
+}
+
+impl Workspace {
+    /// The drive rows at the start of the step: `θ_k` and `∇θ(q_k)` into `G(q_k)`.
+    pub(super) fn drive_rows_start(&mut self, model: &Mechanism) -> Result<(), Failure> {
+        for (k, d) in model.drives.iter().enumerate() {
+            let (j, row) = self.drives.slot[k];
+            let (theta, ga, gb) = self.coordinate_gradient(model, &self.pose_k, d)?;
+            self.drives.theta_k[k] = theta;
+            let (jp, jc) = &mut self.jac_k[j];
+            jp.set_row(row, &ga);
+            jc.set_row(row, &gb);
+        }
+        Ok(())
+    }
+
+    /// The drive rows at the end of the step, after the joints' rows were evaluated at
+    /// `q_{k+1}`: the residual `r = ν − (h/2) τ̄`, the right row `c ∇θ(q_{k+1})`; returns the
+    /// largest residual relative to `tol` times the impulse's size.
+    pub(super) fn drive_rows_end(
+        &mut self,
+        model: &Mechanism,
+        h: f64,
+        tol: f64,
+    ) -> Result<f64, Failure> {
+        let mut ratio: f64 = 0.0;
+        let t0 = self.time0_secs;
+        for (k, d) in model.drives.iter().enumerate() {
+            let (j, row) = self.drives.slot[k];
+            let (theta, ga, gb) = self.coordinate_gradient(model, &self.pose_next, d)?;
+            let effort = d.step_effort(t0, h, self.drives.theta_k[k], theta);
+            let nu = self.lambda[j][row];
+            let target = 0.5 * h * effort.effort.total();
+            let r = nu - target;
+            let c = -0.5 * h * effort.slope;
+            // The row divided by max(c, 1), so that a stiff servo's row is of the size of the
+            // joint's own rows (partial pivoting is not scale-invariant): for c ≥ 1, right row
+            // ∇θ, diagonal 1/c, residual r/c; for c < 1, right row c ∇θ, diagonal 1, residual r.
+            let scale_row = 1.0 / c.max(1.0);
+            let (jp, jc) = &mut self.jac_next[j];
+            jp.set_row(row, &(ga * (c * scale_row)));
+            jc.set_row(row, &(gb * (c * scale_row)));
+            self.constraint_residual[j][row] = r * scale_row;
+            self.solver.free_row_diag[j][row] = scale_row;
+            self.drives.theta_next[k] = theta;
+            self.drives.grad_next[k] = (ga, gb);
+            self.drives.effort[k] = effort;
+            // Relative to the impulse and to its terms (see `StepEffort::magnitude`).
+            let scale = nu.abs().max(0.5 * h.abs() * effort.magnitude);
+            ratio = ratio.max(relative(r.abs(), tol * scale));
+        }
+        Ok(ratio)
+    }
+
+    /// `θ` and `∇θ` (parent, child) of drive `d`'s coordinate at `poses`, unwrapped near the
+    /// coordinate's reference.
+    fn coordinate_gradient(
+        &self,
+        model: &Mechanism,
+        poses: &[super::super::rows::BodyPose],
+        d: &JointDrive,
+    ) -> Result<(f64, Row6, Row6), Failure> {
+        let c = &model.coordinates[d.coordinate];
+        let a = parent_pose(model, poses, c.joint);
+        let b = &poses[model.joints[c.joint].child];
+        c.kind
+            .gradient(a, b, self.coord_ref[d.coordinate])
+            .ok_or(Failure::Singular)
+    }
+
+    /// The end impulses `ν ∇θ(q_{k+1})` of a solved step on the committed state, the drives'
+    /// work, and the coordinates' new references.
+    pub(super) fn drive_commit(&mut self, model: &Mechanism, bodies: &mut Bodies) {
+        let first = model.first_body;
+        for (k, d) in model.drives.iter().enumerate() {
+            let (j, row) = self.drives.slot[k];
+            let nu = self.lambda[j][row];
+            let (ga, gb) = &self.drives.grad_next[k];
+            let joint = &model.joints[j];
+            let mut apply = |i: usize, g: &Row6| {
+                let gi = first + i;
+                let lin = nalgebra::Vector3::new(g[0], g[1], g[2]) * nu;
+                let ang = nalgebra::Vector3::new(g[3], g[4], g[5]) * nu;
+                bodies.linvel_world[gi] += lin / bodies.mass[gi];
+                bodies.angmom_body[gi] += ang;
+            };
+            apply(joint.child, gb);
+            if let Some(p) = joint.parent {
+                apply(p, ga);
+            }
+            let dtheta = self.drives.theta_next[k] - self.drives.theta_k[k];
+            let e = &self.drives.effort[k].effort;
+            self.drive_work.actuators += e.actuator * dtheta;
+            self.drive_work.damping -= e.damping * dtheta;
+            self.coord_ref[d.coordinate] = self.drives.theta_next[k];
+        }
+    }
+}
