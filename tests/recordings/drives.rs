@@ -345,8 +345,8 @@ fn every_format_records_the_drives() {
             }
         }
     }
-    // measured before the integrator applied the drives: 10 saturated samples (the start,
-    // |raw| from 72 N m down), 11 not
+    // measured: 4 saturated samples (the start: |raw| = 72 N m at t = 0), 17 not once the servo
+    // pulls the joint toward its target (10 and 11 before the integrator applied the drives)
     assert!(
         saturated > 0 && free > 0,
         "{saturated} saturated, {free} not"
