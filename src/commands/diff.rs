@@ -44,6 +44,10 @@ pub struct DiffArgs {
     /// joints are reported but judged only when no frames are compared (then against 0).
     #[arg(long, value_name = "T", value_parser = parse_tolerance)]
     pub joint_tolerance: Option<f64>,
+    /// Take each file's joint times from its first joints message (the clock a scene's `log`
+    /// signal reads a log on): a run against the log that drove it.
+    #[arg(long)]
+    pub zero_start: bool,
 }
 
 fn parse_tolerance(s: &str) -> Result<f64, String> {
@@ -67,6 +71,7 @@ pub fn run(args: &DiffArgs) -> anyhow::Result<bool> {
         rot_tolerance_rad: args.rot_tolerance.unwrap_or(both),
         joint_topic: args.joint_topic.clone(),
         joint_tolerance: args.joint_tolerance,
+        joint_zero_start: args.zero_start,
     };
     let report = diff::diff(&args.a, &args.b, &settings, args.rrd.as_deref())?;
     for w in &report.warnings {

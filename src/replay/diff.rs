@@ -59,6 +59,8 @@ pub struct DiffSettings {
     /// Largest joint position difference (rad or m) still counted as "same". `None`: the
     /// joints are reported but judged only when no frames are compared (then against 0).
     pub joint_tolerance: Option<f64>,
+    /// Joint times from each file's first joints message ([`JointScan::start_at_zero`]).
+    pub joint_zero_start: bool,
 }
 
 /// Errors of one frame (named `bodies` in the JSON: the frames that bodies move).
@@ -158,6 +160,10 @@ pub struct JointsReport {
     /// Joints in only one file (not compared).
     pub unmatched_a: Vec<String>,
     pub unmatched_b: Vec<String>,
+    /// Subtracted from each file's joint times, s (`--zero-start`: its first message's time;
+    /// else 0).
+    pub offset_a: f64,
+    pub offset_b: f64,
     /// The tolerance the joints were judged against (null: not judged).
     pub tolerance: Option<f64>,
     /// Whether every compared joint is within it (null: not judged).
@@ -565,6 +571,11 @@ pub fn diff(
     rrd: Option<&Path>,
 ) -> anyhow::Result<DiffReport> {
     let mut scans = [scan_or_fail(a, settings)?, scan_or_fail(b, settings)?];
+    if settings.joint_zero_start {
+        for joints in scans.iter_mut().filter_map(|s| s.joints.as_mut()) {
+            joints.start_at_zero();
+        }
+    }
     let joint_pair = match (&scans[0].joints, &scans[1].joints) {
         (Some(x), Some(y)) => Some(match_names(&x.names, &y.names)),
         _ => None,
@@ -628,7 +639,18 @@ pub fn diff(
         None
     };
     let joint_times = match (&scans[0].joints, &scans[1].joints) {
-        (Some(x), Some(y)) if joints_compared => Some(comparison_times(&x.times, &y.times)?),
+        (Some(x), Some(y)) if joints_compared => {
+            Some(comparison_times(&x.times, &y.times).map_err(|e| {
+                if settings.joint_zero_start {
+                    e
+                } else {
+                    e.context(
+                        "comparing the joints (a log on another clock: --zero-start takes \
+                             each file's times from its first joints message)",
+                    )
+                }
+            })?)
+        }
         _ => None,
     };
     let span = |t: &[u64]| (t[0], t[t.len() - 1]);
@@ -689,9 +711,8 @@ pub fn diff(
             frames_result = Some(compare_frames(a, b, settings, &matched, times, &mut sink)?);
         }
         if let (Some((times, _)), Some((names, _, _))) = (&joint_times, &joint_pair) {
-            let topics =
-                [&scans[0], &scans[1]].map(|s| s.joints.as_ref().expect("joints").topic.clone());
-            joints_result = Some(compare_joints([a, b], &topics, names, times, &mut sink)?);
+            let joints = [&scans[0], &scans[1]].map(|s| s.joints.as_ref().expect("joints"));
+            joints_result = Some(compare_joints([a, b], joints, names, times, &mut sink)?);
         }
         Ok(())
     })();
@@ -743,6 +764,8 @@ pub fn diff(
                 time_end: times[times.len() - 1] as f64 / 1e9,
                 unmatched_a: only_a,
                 unmatched_b: only_b,
+                offset_a: x.offset_ns as f64 / 1e9,
+                offset_b: y.offset_ns as f64 / 1e9,
                 tolerance,
                 within_tolerance: tolerance.map(|t| err_max <= t),
             })
@@ -912,14 +935,14 @@ pub fn joint_error_entity(joint: &str) -> rerun::EntityPath {
 /// and the positions interpolated; with a sink, the difference series.
 fn compare_joints(
     paths: [&Path; 2],
-    topics: &[String; 2],
+    scans: [&JointScan; 2],
     names: &[String],
     times: &[u64],
     sink: &mut Option<RerunSink>,
 ) -> anyhow::Result<(Vec<JointDiff>, usize)> {
     let mut cursors = [
-        JointCursor::open(paths[0], &topics[0], names)?,
-        JointCursor::open(paths[1], &topics[1], names)?,
+        JointCursor::open(paths[0], scans[0], names)?,
+        JointCursor::open(paths[1], scans[1], names)?,
     ];
     let entities: Vec<rerun::EntityPath> = names.iter().map(|n| joint_error_entity(n)).collect();
     let mut acc = vec![JointAccumulator::default(); names.len()];

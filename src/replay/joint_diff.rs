@@ -17,7 +17,9 @@
 //! shared timestamps when they are at least half of the coarser recording's samples, else the
 //! coarser recording's times with the other interpolated linearly between its two neighbouring
 //! samples (the report counts the interpolated values). A log whose clock is not the
-//! simulation's (a robot's wall-clock stamps) does not overlap a run's span: the diff says so.
+//! simulation's (a robot's wall-clock stamps) does not overlap a run's span: with `--zero-start`
+//! each file's times are taken from its joints topic's first message, the clock a scene's `log`
+//! signal reads a log on (so a run driven by a log is compared with it sample for sample).
 //!
 //! # Reported
 //!
@@ -85,10 +87,12 @@ pub fn decode_positions(schema: &str, data: &[u8]) -> anyhow::Result<Vec<(String
 pub struct JointScan {
     pub topic: String,
     pub schema: String,
-    /// Log times of its messages, increasing.
+    /// Log times of its messages, increasing, less [`Self::offset_ns`].
     pub times: Vec<u64>,
     /// The joints of its first message, in order.
     pub names: Vec<String>,
+    /// Subtracted from every log time ([`Self::start_at_zero`]; 0 otherwise).
+    pub offset_ns: u64,
 }
 
 impl JointScan {
@@ -129,6 +133,7 @@ impl JointScan {
                     schema: schema.to_string(),
                     times: Vec::new(),
                     names,
+                    offset_ns: 0,
                 });
             }
             Some(_) => {}
@@ -146,6 +151,16 @@ impl JointScan {
         s.times.push(log_time);
         Ok(())
     }
+
+    /// Takes the times from the topic's first message (`--zero-start`: the clock a scene's
+    /// `log` signal reads a log on, `docs/scenes.md`).
+    pub fn start_at_zero(&mut self) {
+        let first = self.times.first().copied().unwrap_or(0);
+        for t in &mut self.times {
+            *t -= first;
+        }
+        self.offset_ns += first;
+    }
 }
 
 /// One sample of the compared joints.
@@ -162,6 +177,8 @@ pub struct JointCursor {
     /// joint name -> slot among the compared joints
     slots: HashMap<String, usize>,
     names: Vec<String>,
+    /// Subtracted from every log time ([`JointScan::offset_ns`]).
+    offset_ns: u64,
     prev: Option<Sample>,
     next: Option<Sample>,
     /// Values obtained by interpolation.
@@ -169,7 +186,9 @@ pub struct JointCursor {
 }
 
 impl JointCursor {
-    pub fn open(path: &Path, topic: &str, compared: &[String]) -> anyhow::Result<Self> {
+    /// Reads `scan`'s topic of `path` for the joints `compared`.
+    pub fn open(path: &Path, scan: &JointScan, compared: &[String]) -> anyhow::Result<Self> {
+        let topic = scan.topic.as_str();
         Ok(Self {
             path: path.to_owned(),
             stream: McapStream::open(path)?,
@@ -180,6 +199,7 @@ impl JointCursor {
                 .map(|(i, n)| (n.clone(), i))
                 .collect(),
             names: compared.to_vec(),
+            offset_ns: scan.offset_ns,
             prev: None,
             next: None,
             interpolated: 0,
@@ -209,7 +229,7 @@ impl JointCursor {
                 }
             }
             return Ok(Some(Sample {
-                t: log_time,
+                t: log_time.saturating_sub(self.offset_ns),
                 positions,
             }));
         }
