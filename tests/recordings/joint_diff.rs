@@ -320,9 +320,10 @@ kd = 100.0
             worst[k] = worst[k].max((f(&s[2]) - target).abs());
         }
     }
-    // The servos hold the joints near the log (measured: 0.0159 and 0.0165 rad at worst).
+    // The servos follow the log: a PD servo trails a ramp r' = 0.5 rad/s by about
+    // kd r'/kp = 0.025 rad, gravity adds a little (measured: 0.0297 rad shoulder, 0.0019 elbow).
     assert!(
-        worst[0] > 0.0 && worst[0] < 0.1 && worst[1] < 0.1,
+        (0.02..0.04).contains(&worst[0]) && worst[1] < 0.01,
         "{worst:?}"
     );
 
