@@ -513,6 +513,41 @@ fn every_format_records_the_drives() {
         names["/plots/joints/effort/cp/slide"],
         serde_json::json!(["cp/slide"])
     );
+    // Each servo's measured series and its target share a colour (Tableau 10 in joint order:
+    // blue, orange), the target wide and translucent; other series keep the viewer's colours.
+    let style = common::run_py("read_series_names.py", &[&rrd, Path::new("--style")]);
+    for (entity, colour, width) in [
+        ("/plots/joints/position/dp_0/shoulder", 0x1f77b4ff_u64, None),
+        (
+            "/plots/joints/position_target/dp_0/shoulder",
+            0x1f77b478,
+            Some(3.0),
+        ),
+        ("/plots/joints/velocity/dp_1/shoulder", 0xff7f0eff, None),
+        (
+            "/plots/joints/velocity_target/dp_1/shoulder",
+            0xff7f0e78,
+            Some(3.0),
+        ),
+    ] {
+        assert_eq!(
+            style[entity]["colors"],
+            serde_json::json!([colour]),
+            "{entity}"
+        );
+        assert_eq!(
+            style[entity]["widths"],
+            width.map_or(Value::Null, |w: f64| serde_json::json!([w])),
+            "{entity}"
+        );
+    }
+    for entity in [
+        "/plots/joints/velocity/dp_0/shoulder",
+        "/plots/joints/position/dp_1/elbow",
+        "/plots/joints/effort/dp_0/shoulder",
+    ] {
+        assert_eq!(style[entity]["colors"], Value::Null, "{entity}");
+    }
     // The blueprint: the position target in the joint positions plot, the velocity servo's
     // velocity against its target, the efforts.
     let queries = blueprint_queries(&rrd);

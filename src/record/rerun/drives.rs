@@ -8,7 +8,9 @@
 //! | `/plots/joints/velocity_target/<joint>` | [`<joint> target`] rad/s or m/s | velocity servos |
 //! | `/plots/joints/saturated/<joint>` | [`<joint> saturated`] 1 while the effort limit clamps, else 0 | actuators with an effort limit |
 //!
-//! The values are the frame's ([`crate::record::JointState`]). Targets sit in trees of their
+//! Each servo's measured series (its position, or its velocity for a velocity servo) and its
+//! target share a colour ([`PALETTE`], in joint order; not when batched), the target drawn wide
+//! and translucent. The values are the frame's ([`crate::record::JointState`]). Targets sit in trees of their
 //! own rather than under the joint's position entity, so no joint name can collide with a
 //! target's path. The blueprint ([`DriveSeries::plot_views`]) draws each position target in
 //! the joint positions plot, each velocity servo's velocity and target in a plot of their own,
@@ -37,6 +39,8 @@ struct Quantity {
     /// Per entity: the buffered rows' values (batched: one value per joint per row).
     values: Vec<Vec<f64>>,
     value: fn(&JointState) -> f64,
+    /// A servo's target (drawn in its joint's colour, [`PALETTE`]).
+    is_target: bool,
 }
 
 /// Entity of a driven joint's quantity `kind` (`effort`, `position_target`,
@@ -80,13 +84,38 @@ impl Quantity {
             names,
             entities,
             value,
+            is_target: suffix == TARGET_SUFFIX,
         }
     }
 }
 
+/// Colours of the joints with a target, in layout order, cycled (Tableau 10): a servo's
+/// measured series (its position, or its velocity for a velocity servo) and its target share
+/// one, the target drawn wider and translucent, the band the joint should follow. Without them
+/// the viewer's own colours (from the entity paths) may give both lines the same hue.
+const PALETTE: [[u8; 3]; 10] = [
+    [31, 119, 180],
+    [255, 127, 14],
+    [44, 160, 44],
+    [214, 39, 40],
+    [148, 103, 189],
+    [140, 86, 75],
+    [227, 119, 194],
+    [127, 127, 127],
+    [188, 189, 34],
+    [23, 190, 207],
+];
+/// What a target's series name adds to its joint's.
+const TARGET_SUFFIX: &str = " target";
+/// Opacity and stroke width (UI points) of a target's line.
+const TARGET_ALPHA: u8 = 120;
+const TARGET_WIDTH: f32 = 3.0;
+
 /// The driven joints' series (module doc).
 pub(super) struct DriveSeries {
     batched: bool,
+    /// Per joint with a target (sorted by joint): its law and its colour ([`PALETTE`]).
+    colours: Vec<(usize, ActuatorLaw, [u8; 3])>,
     effort: Quantity,
     position_target: Quantity,
     velocity_target: Quantity,
@@ -101,14 +130,25 @@ impl DriveSeries {
     /// The series of `layout`'s drives; `batched` as the joint series are.
     pub(super) fn new(layout: &RecordingLayout, batched: bool) -> Self {
         let target = |s: &JointState| f64c(s.target.unwrap_or(f64::NAN));
+        let colours = layout
+            .drives
+            .iter()
+            .filter_map(|d| match d.actuator {
+                Some(law @ (ActuatorLaw::Position | ActuatorLaw::Velocity)) => Some((d.joint, law)),
+                _ => None,
+            })
+            .enumerate()
+            .map(|(k, (joint, law))| (joint, law, PALETTE[k % PALETTE.len()]))
+            .collect();
         Self {
             batched,
+            colours,
             effort: Quantity::new(layout, "effort", |_| true, "", |s| f64c(s.effort), batched),
             position_target: Quantity::new(
                 layout,
                 "position_target",
                 |d| has_law(d, ActuatorLaw::Position),
-                " target",
+                TARGET_SUFFIX,
                 target,
                 batched,
             ),
@@ -116,7 +156,7 @@ impl DriveSeries {
                 layout,
                 "velocity_target",
                 |d| has_law(d, ActuatorLaw::Velocity),
-                " target",
+                TARGET_SUFFIX,
                 target,
                 batched,
             ),
@@ -163,14 +203,36 @@ impl DriveSeries {
                 }
                 continue;
             }
-            for (entity, name) in q.entities.iter().zip(&q.names) {
-                chunks.push(static_chunk(
-                    entity.clone(),
-                    &[&rerun::SeriesLines::new().with_names([name.as_str()])],
-                )?);
+            for ((entity, name), &joint) in q.entities.iter().zip(&q.names).zip(&q.joints) {
+                let mut lines = rerun::SeriesLines::new().with_names([name.as_str()]);
+                if let Some([r, g, b]) = self.colour(joint).filter(|_| q.is_target) {
+                    lines = lines
+                        .with_colors([rerun::Color::from_unmultiplied_rgba(r, g, b, TARGET_ALPHA)])
+                        .with_widths([TARGET_WIDTH]);
+                }
+                chunks.push(static_chunk(entity.clone(), &[&lines])?);
             }
         }
         Ok(chunks)
+    }
+
+    fn colour(&self, joint: usize) -> Option<[u8; 3]> {
+        self.colours
+            .binary_search_by_key(&joint, |c| c.0)
+            .ok()
+            .map(|i| self.colours[i].2)
+    }
+
+    /// The colour of joint `joint`'s measured series of quantity `law` (its position for a
+    /// position servo, its velocity for a velocity servo), when it has a target; `None`
+    /// otherwise and when batched (the viewer's own colours then).
+    pub(super) fn measured_colour(&self, joint: usize, law: ActuatorLaw) -> Option<rerun::Color> {
+        if self.batched {
+            return None;
+        }
+        let i = self.colours.binary_search_by_key(&joint, |c| c.0).ok()?;
+        let (_, l, [r, g, b]) = self.colours[i];
+        (l == law).then(|| rerun::Color::from_rgb(r, g, b))
     }
 
     /// Buffers one frame's values (`frame.joints` already checked against the layout).

@@ -37,7 +37,7 @@ use super::drives::DriveSeries;
 use super::paths::{ENERGY_SERIES, named_path as path};
 use super::values::nonzero;
 use super::writer::ChunkWriter;
-use crate::record::{Frame, RecordingLayout};
+use crate::record::{ActuatorLaw, Frame, RecordingLayout};
 use anyhow::Result;
 use rerun::log::Chunk;
 use rerun::{EntityPath, EntityPathPart, TimeColumn};
@@ -197,12 +197,20 @@ impl JointPlots {
             chunks.extend(self.drives.static_chunks()?);
             return Ok(chunks);
         }
-        for ((p, v), name) in self.positions.iter().zip(&self.velocities).zip(&self.names) {
-            for entity in [p, v] {
-                chunks.push(static_chunk(
-                    entity.clone(),
-                    &[&rerun::SeriesLines::new().with_names([name.as_str()])],
-                )?);
+        for (j, ((p, v), name)) in self
+            .positions
+            .iter()
+            .zip(&self.velocities)
+            .zip(&self.names)
+            .enumerate()
+        {
+            for (entity, law) in [(p, ActuatorLaw::Position), (v, ActuatorLaw::Velocity)] {
+                let mut lines = rerun::SeriesLines::new().with_names([name.as_str()]);
+                // A servo's measured series in its target's colour ([`super::drives`]).
+                if let Some(colour) = self.drives.measured_colour(j, law) {
+                    lines = lines.with_colors([colour]);
+                }
+                chunks.push(static_chunk(entity.clone(), &[&lines])?);
             }
         }
         for entities in &self.models {
