@@ -31,8 +31,9 @@ fn position_text(p: f64) -> String {
 /// model its joint coordinates and totals; compound joints' massless links are placed from the
 /// report. A driven joint reports its effort (actuator plus damping), target and saturation
 /// from its drive's continuous-time law ([`crate::sim::mechanism::JointDrive::effort`]) at the
-/// recorded time (`time_ns / 1e9`), with the recorded position and velocity. A joint found outside its URDF range at a recorded step is warned about once (on
-/// standard error), naming the joint and the time.
+/// recorded time (`time_ns / 1e9`), with the recorded position and velocity. A joint found
+/// outside its URDF range at a recorded step is warned about once (on standard error), naming
+/// the joint and the time.
 pub struct FrameBuilder {
     attachments: Arc<Vec<Attachment>>,
     interior: Vec<InteriorFrame>,

@@ -10,9 +10,9 @@
 //!
 //! Each servo's measured series (its position, or its velocity for a velocity servo) and its
 //! target share a colour ([`PALETTE`], in joint order; not when batched), the target drawn wide
-//! and translucent. The values are the frame's ([`crate::record::JointState`]). Targets sit in trees of their
-//! own rather than under the joint's position entity, so no joint name can collide with a
-//! target's path. The blueprint ([`DriveSeries::plot_views`]) draws each position target in
+//! and translucent. The values are the frame's ([`crate::record::JointState`]). Targets sit in
+//! trees of their own rather than under the joint's position entity, so no joint name can
+//! collide with a target's path. The blueprint ([`DriveSeries::plot_views`]) draws each position target in
 //! the joint positions plot, each velocity servo's velocity and target in a plot of their own,
 //! and the efforts in another. With many models ([`super::joints::BATCH_MODELS_MAX`]) each
 //! quantity is one entity (`/plots/joints/effort`, ...) with one instance per joint it covers,
