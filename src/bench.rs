@@ -38,10 +38,13 @@ pub fn time_steps(
         let mut bodies = start.clone();
         let mut integrator = make()?;
         integrator.init(&bodies);
+        let mut loads = loads.clone();
+        let dt = integrator.dt();
         let started = Instant::now();
         let mut failures = 0u64;
-        for _ in 0..steps {
-            failures += u64::from(integrator.step(&mut bodies, loads).newton_failures);
+        for k in 0..steps {
+            loads.set_time(k as f64 * dt);
+            failures += u64::from(integrator.step(&mut bodies, &loads).newton_failures);
         }
         let ns = started.elapsed().as_secs_f64() * 1e9 / steps as f64;
         std::hint::black_box(&bodies);
@@ -182,9 +185,12 @@ pub fn measure_errors(
             a.max(b)
         }
     };
+    let mut loads = loads.clone();
     for step in 1..=steps {
-        integrator.step(&mut bodies, loads);
-        let frame = frames.frame(&bodies, loads, step, dt);
+        loads.set_time((step - 1) as f64 * dt);
+        integrator.step(&mut bodies, &loads);
+        loads.set_time(step as f64 * dt);
+        let frame = frames.frame(&bodies, &loads, step, dt);
         if loads.gravity().norm() == 0.0 {
             for (i, &k) in floating.iter().enumerate() {
                 let p = frame.mechanisms[k].linear_momentum;

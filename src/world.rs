@@ -81,6 +81,12 @@ impl World {
     }
 
     /// The integrator that steps this whole world ([`crate::sim::integrator_for`]).
+    /// What acts on this world's bodies in uniform gravity `g` (m/s²): gravity and the
+    /// applied loads ([`World::body_loads`]).
+    pub fn loads(&self, gravity: nalgebra::Vector3<f64>) -> crate::sim::Loads {
+        crate::sim::Loads::uniform_gravity(gravity).with_body_loads(self.body_loads.clone())
+    }
+
     pub fn integrator(
         &self,
         kind: IntegratorKind,

@@ -26,7 +26,6 @@ use crate::bench::{TimedRun, measure_errors, partitioning, time_simulation, time
 use crate::scene::Scene;
 use crate::sim::Bodies;
 use crate::sim::IntegratorKind;
-use crate::sim::Loads;
 use crate::sim::partition::{partition_count, stepping_threads};
 use crate::sim::workload::free_body_batch;
 use crate::world::World;
@@ -199,7 +198,7 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
         None,
     )
     .check(args.allow_huge)?;
-    let loads = Loads::uniform_gravity(scene.gravity());
+    let loads = world.loads(scene.gravity());
     let start = Bodies::new(&world.bodies);
     let make = || world.integrator(kind, dt, &settings);
     make()?;

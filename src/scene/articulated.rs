@@ -191,15 +191,7 @@ fn prepare(
             );
         }
         // One group: exactly the rigid body. An actuated joint was merged: say why.
-        super::drives::drives(
-            model,
-            entry,
-            &label,
-            &[],
-            actuators,
-            &merged,
-            &mut world.notes,
-        )?;
+        super::drives::drives(model, entry, &label, &[], actuators, &merged)?;
         return Ok(Template::Rigid);
     }
     let (frames, mut shared) = shared_model(model, entry, &art, fixed)?;
@@ -210,7 +202,6 @@ fn prepare(
         &shared.coordinates,
         actuators,
         &merged,
-        &mut world.notes,
     )?;
     shared
         .validate()

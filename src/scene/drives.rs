@@ -5,17 +5,17 @@
 //!   `b > 0`, mimic followers included (the mimic row carries the follower's damping to its
 //!   leader), unless the model says `joint_damping = false`. It must be a finite number
 //!   `>= 0`. Fixed and locked joints do not move: their damping does nothing and is left out.
-//!   A stage of a compound joint (two or three revolutes through a massless link) takes no
-//!   drive: its damping is left out with a note.
+//!   A stage of a compound joint (two or three revolutes through a massless link) is a
+//!   coordinate like any other: its damping and actuator act on its angle.
 //! - An actuator needs a moving joint: one locked (`locked_joints`, or because no mass hangs
-//!   from it) or a stage of a compound joint is refused, naming the reason.
+//!   from it) is refused, naming the reason.
 //!
 //! One drive per coordinate, sorted by coordinate, as `MechanismModel::validate` requires.
 
 use super::ModelEntry;
 use super::actuator::ResolvedActuator;
 use crate::model::Model;
-use crate::sim::mechanism::{Coordinate, CoordinateKind, JointDrive};
+use crate::sim::mechanism::{Coordinate, JointDrive};
 use anyhow::bail;
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -28,7 +28,7 @@ pub(super) struct Merged<'a> {
 }
 
 /// The drives of a mechanism over `coordinates` (see the module doc); `label` names the model
-/// in messages and `notes`. Errors name the actuator's key or `joint_damping`.
+/// in messages. Errors name the actuator's key or `joint_damping`.
 pub(super) fn drives(
     model: &Model,
     entry: &ModelEntry,
@@ -36,7 +36,6 @@ pub(super) fn drives(
     coordinates: &[Coordinate],
     actuators: &[ResolvedActuator],
     merged: &Merged<'_>,
-    notes: &mut Vec<String>,
 ) -> anyhow::Result<Vec<JointDrive>> {
     let coordinate_of = |name: &str| coordinates.iter().position(|c| c.name == name);
     let mut drives: BTreeMap<usize, JointDrive> = BTreeMap::new();
@@ -57,14 +56,6 @@ pub(super) fn drives(
                     c.name,
                     entry.urdf.display()
                 );
-            }
-            if matches!(c.kind, CoordinateKind::Compound { .. }) {
-                notes.push(format!(
-                    "model `{label}`: joint `{}`'s damping ({b}) is not modelled: the joint is a \
-                     stage of a compound joint (revolutes through a massless link)",
-                    c.name
-                ));
-                continue;
             }
             drives.insert(
                 k,
@@ -91,14 +82,6 @@ pub(super) fn drives(
                 a.joint
             );
         };
-        if matches!(coordinates[k].kind, CoordinateKind::Compound { .. }) {
-            bail!(
-                "{at}: joint `{}` of model `{label}` is a stage of a compound joint (revolutes \
-                 through a massless link, modelled as one universal or ball joint): actuators \
-                 on its stages are not supported",
-                a.joint
-            );
-        }
         drives
             .entry(k)
             .or_insert(JointDrive {

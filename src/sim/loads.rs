@@ -255,18 +255,22 @@ impl Loads {
     }
 }
 
+/// What a start kick recorded of one body: its index, centre of mass, orientation, force
+/// (world axes) and torque (body axes).
+type KickRecord = (
+    usize,
+    Vector3<f64>,
+    UnitQuaternion<f64>,
+    Vector3<f64>,
+    Vector3<f64>,
+);
+
 /// The work of applied loads over a step, by the trapezoid rule: the kicks at both ends record
 /// each loaded body's pose and wrench; `W = ½ (F_k + F_{k+1}) · (c_{k+1} − c_k) + ½ (τ_k +
 /// τ_{k+1}) · log(R_kᵀ R_{k+1})` (torques in body axes), O(h²) from the exact work over a run.
 #[derive(Debug, Clone, Default)]
 pub struct KickLedger {
-    start: Vec<(
-        usize,
-        Vector3<f64>,
-        UnitQuaternion<f64>,
-        Vector3<f64>,
-        Vector3<f64>,
-    )>,
+    start: Vec<KickRecord>,
     cursor: usize,
     at_end: bool,
     /// Work done so far, J.

@@ -331,7 +331,7 @@ impl<'a> Partitions<'a> {
     pub fn energy_flow(&self) -> crate::sim::integrators::EnergyFlow {
         self.parts
             .iter()
-            .fold(Default::default(), |a, p| a.add(p.integrator.energy_flow()))
+            .fold(Default::default(), |a, p| a + p.integrator.energy_flow())
     }
 
     /// The partition holding body `i`.

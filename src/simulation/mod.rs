@@ -120,8 +120,7 @@ impl Simulation {
                 })
             })
             .collect::<anyhow::Result<Vec<_>>>()?;
-        let loads =
-            Loads::uniform_gravity(settings.gravity).with_body_loads(world.body_loads.clone());
+        let loads = world.loads(settings.gravity);
         let parts = Partitions::with_ranges(
             &inits,
             &ranges,

@@ -31,7 +31,6 @@ pub use measure::{EnergySeries, TradeRow, measure};
 
 use crate::scene::Scene;
 use crate::sim::IntegratorKind;
-use crate::sim::Loads;
 
 /// What `tumble trade` measures.
 #[derive(Debug, Clone, PartialEq)]
@@ -84,7 +83,10 @@ pub fn run(
     mut progress: impl FnMut(&TradeRow),
 ) -> anyhow::Result<TradeReport> {
     let world = scene.build()?;
-    let loads = Loads::uniform_gravity(scene.gravity());
+    let loads = world.loads(scene.gravity());
+    // Applied loads on free bodies: no closed form; the numerical reference and the energy
+    // balance of the articulated path (which also steps free bodies) measure them.
+    let numerical = !world.mechanisms.is_empty() || !world.body_loads.is_empty();
     let variational = scene.variational_settings();
     let series_dt = series_dt(&settings.dts);
     let mut skipped = Vec::new();
@@ -103,7 +105,7 @@ pub fn run(
             Some(why) => skipped.push(why),
         }
     }
-    let reference = if world.mechanisms.is_empty() {
+    let reference = if !numerical {
         reference::Reference::compute(&world.bodies, settings.duration_secs)
     } else {
         let finest = settings.dts.iter().copied().fold(f64::INFINITY, f64::min);
@@ -113,7 +115,7 @@ pub fn run(
     let mut energy_series = Vec::new();
     for &kind in &integrators {
         for &dt in &settings.dts {
-            let (row, series) = if world.mechanisms.is_empty() {
+            let (row, series) = if !numerical {
                 measure(
                     &world.bodies,
                     kind,

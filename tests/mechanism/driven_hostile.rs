@@ -49,13 +49,6 @@ fn actuators_on_joints_that_cannot_take_one_are_refused() {
         ],
     );
     refused(
-        &format!("{ARM}{}", motor("shoulder_pitch")),
-        &[
-            "actuator[0].joint: joint `shoulder_pitch`",
-            "stage of a compound joint",
-        ],
-    );
-    refused(
         &format!(
             "{ARM}{}{}{}",
             motor("elbow"),

@@ -9,6 +9,7 @@ mod common;
 mod copies;
 mod driven;
 mod driven_hostile;
+mod forces;
 mod hostile;
 mod mechanism;
 mod recordings;

@@ -145,7 +145,7 @@ impl Integrator for Composition {
     fn energy_flow(&self) -> EnergyFlow {
         self.stages
             .iter()
-            .fold(EnergyFlow::default(), |a, s| a.add(s.energy_flow()))
+            .fold(EnergyFlow::default(), |a, s| a + s.energy_flow())
     }
 }
 

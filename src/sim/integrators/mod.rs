@@ -89,9 +89,10 @@ pub struct EnergyFlow {
     pub dissipated: f64,
 }
 
-impl EnergyFlow {
+impl std::ops::Add for EnergyFlow {
+    type Output = Self;
     /// The sum of two flows.
-    pub fn add(self, other: Self) -> Self {
+    fn add(self, other: Self) -> Self {
         Self {
             input_work: self.input_work + other.input_work,
             dissipated: self.dissipated + other.dissipated,

@@ -101,6 +101,8 @@ pub struct Rk4 {
     dt_secs: f64,
     /// The work of the applied loads (trapezoid rule over each step, [`KickLedger`]).
     ledger: KickLedger,
+    /// The loaded bodies' end states of the step being taken (reused: no allocation per step).
+    forced: Vec<(usize, Forced)>,
 }
 
 impl Rk4 {
@@ -108,6 +110,7 @@ impl Rk4 {
         Self {
             dt_secs,
             ledger: KickLedger::default(),
+            forced: Vec::new(),
         }
     }
 }
@@ -131,25 +134,25 @@ impl Integrator for Rk4 {
             // Kicks of zero size record the loaded bodies' poses and wrenches for the work.
             self.ledger.begin();
             loads.kick(bodies, &all, t0, 0.0, &mut self.ledger);
-            let forced: Vec<(usize, Forced)> = loads
-                .loaded_bodies(&all)
-                .map(|i| {
+            let mut forced = std::mem::take(&mut self.forced);
+            forced.clear();
+            forced.extend(loads.loaded_bodies(&all).map(|i| {
                     let y = (
                         *bodies.world_from_body[i].quaternion(),
                         bodies.angmom_body[i],
                         bodies.com_world[i],
                         bodies.linvel_world[i],
                     );
-                    (i, rk4_forced(loads, bodies, i, t0, h, y))
-                })
-                .collect();
+                (i, rk4_forced(loads, bodies, i, t0, h, y))
+            }));
             self.step_unforced(bodies, loads);
-            for (i, (q, m, c, v)) in forced {
+            for &(i, (q, m, c, v)) in &forced {
                 bodies.world_from_body[i] = UnitQuaternion::new_normalize(q);
                 bodies.angmom_body[i] = m;
                 bodies.com_world[i] = c;
                 bodies.linvel_world[i] = v;
             }
+            self.forced = forced;
             self.ledger.end();
             loads.kick(bodies, &all, t0 + h, 0.0, &mut self.ledger);
             return StepStats::default();

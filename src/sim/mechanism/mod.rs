@@ -214,8 +214,10 @@ impl MechanismModel {
             if k > 0 && self.drives[k - 1].coordinate >= d.coordinate {
                 return Err("drives not sorted by coordinate, or two on one".into());
             }
-            if matches!(c.kind, CoordinateKind::Compound { .. }) {
-                return Err(format!("drive on compound joint stage {:?}", c.name));
+            if matches!(c.kind, CoordinateKind::Compound { .. })
+                && self.joints[c.joint].compound.is_none()
+            {
+                return Err(format!("compound stage {:?} without its chain", c.name));
             }
             extra_rows[c.joint] += 1;
             if self.joints[c.joint].rows.count() + extra_rows[c.joint] > rows::MAX_ROWS {

@@ -193,13 +193,13 @@ impl Integrator for Articulated {
             .free
             .iter()
             .flat_map(|(_, stages)| stages.iter())
-            .fold(EnergyFlow::default(), |a, s| a.add(s.energy_flow()));
+            .fold(EnergyFlow::default(), |a, s| a + s.energy_flow());
         self.mechanisms.iter().fold(free, |a, slot| {
             let ws = &slot.state.ws;
-            a.add(EnergyFlow {
+            a + EnergyFlow {
                 input_work: ws.drive_work.actuators + ws.load_work.work,
                 dissipated: ws.drive_work.damping,
-            })
+            }
         })
     }
 }

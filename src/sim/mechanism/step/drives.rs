@@ -28,12 +28,14 @@
 //! stiffness and damping are implicit (a servo stays stable at any `h² kp / I`) at no cost in
 //! structure; a pure motor has `c = 0` and its row just reads `ν = (h/2) τ̄`.
 
-use super::super::Mechanism;
+use super::super::coords::{CompoundChain, decompose};
 use super::super::drive::{JointDrive, StepEffort};
-use super::super::rows::Row6;
+use super::super::rows::{BodyPose, Row6};
+use super::super::{CoordinateKind, Mechanism};
 use super::assembly::{parent_pose, relative};
 use super::{Failure, Workspace};
 use crate::sim::Bodies;
+use nalgebra::{Matrix3, Vector3};
 
 /// Per drive of the mechanism (same order as `MechanismModel::drives`): its row, and its
 /// values at the current iterate.
@@ -128,8 +130,20 @@ impl Workspace {
             self.drives.theta_next[k] = theta;
             self.drives.grad_next[k] = (ga, gb);
             self.drives.effort[k] = effort;
-            // Relative to the impulse and to its terms (see `StepEffort::magnitude`).
-            let scale = nu.abs().max(0.5 * h.abs() * effort.magnitude);
+            // Relative to the impulse, to its terms (see `StepEffort::magnitude`) and to the
+            // largest torque impulse on the joint's child (the joint's own impulses, solved
+            // together with ν, set the round-off floor of ν: a weak damper on a loaded arm
+            // has ν far below it).
+            // And the round-off of θ itself (about 8 ε of the positions it is read from)
+            // through the slope: a damper's rate is a difference of nearly equal positions.
+            let child = model.joints[j].child;
+            let theta_roundoff =
+                8.0 * f64::EPSILON * (self.pose_next[child].com.amax() + model.length_scale);
+            let scale = nu
+                .abs()
+                .max(0.5 * h.abs() * effort.magnitude)
+                .max(self.impulse_scale[child])
+                .max(0.5 * h.abs() * effort.slope.abs() * theta_roundoff / tol);
             ratio = ratio.max(relative(r.abs(), tol * scale));
         }
         Ok(ratio)
@@ -140,12 +154,19 @@ impl Workspace {
     fn coordinate_gradient(
         &self,
         model: &Mechanism,
-        poses: &[super::super::rows::BodyPose],
+        poses: &[BodyPose],
         d: &JointDrive,
     ) -> Result<(f64, Row6, Row6), Failure> {
         let c = &model.coordinates[d.coordinate];
         let a = parent_pose(model, poses, c.joint);
         let b = &poses[model.joints[c.joint].child];
+        if let CoordinateKind::Compound { stage } = c.kind {
+            let chain = model.joints[c.joint]
+                .compound
+                .as_ref()
+                .ok_or(Failure::Singular)?;
+            return compound_gradient(model, c.joint, chain, stage, a, b, &self.coord_ref);
+        }
         c.kind
             .gradient(a, b, self.coord_ref[d.coordinate])
             .ok_or(Failure::Singular)
@@ -178,4 +199,60 @@ impl Workspace {
             self.coord_ref[d.coordinate] = self.drives.theta_next[k];
         }
     }
+}
+
+/// The angle of stage `stage` of compound joint `joint` and its gradient (rotations only: the
+/// stages turn about axes through the joint's anchor). The chain's angles `θ` solve
+/// `Q(θ) = P⁻¹ R_aᵀ R_b C` ([`decompose`], from the stages' references `refs`); a variation
+/// `R_a exp(η_a)`, `R_b exp(η_b)` turns `Q` by `ω = P⁻¹ W η_b − P⁻¹ η_a` (`P⁻¹ W = Q C⁻¹`;
+/// left-trivialised, in
+/// the first joint's frame), and `ω = A δθ` with `A` the stage axes at `θ`
+/// ([`CompoundChain::product`]), so `δθ = A⁺ ω` (`A⁻¹` for three stages, the least-squares
+/// inverse `(AᵀA)⁻¹ Aᵀ` for two, whose `ω` lies in the span of `A`).
+fn compound_gradient(
+    model: &Mechanism,
+    joint: usize,
+    chain: &CompoundChain,
+    stage: usize,
+    a: &BodyPose,
+    b: &BodyPose,
+    refs: &[f64],
+) -> Result<(f64, Row6, Row6), Failure> {
+    let n = chain.axes.len();
+    let mut theta = [0.0; 3];
+    for (ci, c) in model.coordinates.iter().enumerate() {
+        if let CoordinateKind::Compound { stage: s } = c.kind
+            && c.joint == joint
+        {
+            theta[s] = refs[ci];
+        }
+    }
+    let w = a.rot.transpose() * b.rot;
+    let err = decompose(chain, &chain.target(&w), &mut theta[..n]);
+    if !err.is_finite() {
+        return Err(Failure::NonFinite);
+    }
+    let (_, axes) = chain.product(&theta[..n]);
+    let mut ata = Matrix3::<f64>::identity();
+    for i in 0..n {
+        for j in 0..n {
+            ata[(i, j)] = axes[i].dot(&axes[j]);
+        }
+    }
+    let inv = ata.try_inverse().ok_or(Failure::Singular)?;
+    // Row `stage` of A⁺ = (AᵀA)⁻¹ Aᵀ.
+    let row: Vector3<f64> = (0..n).map(|j| axes[j] * inv[(stage, j)]).sum();
+    // `Q C⁻¹ = P⁻¹ W` taken from the poses, not from `Q(θ)`: the two differ by the joint's
+    // rows' residual (the chain's angles are a least-squares fit while Newton converges), and
+    // only `P⁻¹ W` makes the pair of torques cancel exactly under a rigid motion of both bodies
+    // (`η_a = R_aᵀ δ`, `η_b = R_bᵀ δ` give `ω = 0`): momentum exact at any Newton tolerance.
+    let to_parent = chain.parent_from_first.inverse().to_rotation_matrix();
+    let to_child = to_parent.matrix() * w;
+    let gb = to_child.transpose() * row;
+    let ga = -(to_parent.matrix().transpose() * row);
+    Ok((
+        theta[stage],
+        Row6::new(0.0, 0.0, 0.0, ga.x, ga.y, ga.z),
+        Row6::new(0.0, 0.0, 0.0, gb.x, gb.y, gb.z),
+    ))
 }
