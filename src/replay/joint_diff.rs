@@ -368,7 +368,7 @@ mod tests {
                     ..Default::default()
                 },
             ],
-            false,
+            &[],
         );
         let got = decode_positions(mp::JOINT_STATES_SCHEMA, &message.encode_to_vec()).unwrap();
         assert_eq!(got, [("a".to_string(), 1.5), ("b".to_string(), -2.0)]);

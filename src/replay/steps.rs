@@ -344,7 +344,7 @@ impl StepReader {
                 pending.joints[i] = Some(JointState {
                     position: j.position,
                     velocity: j.velocity,
-                    effort: j.effort,
+                    effort: j.effort.unwrap_or(0.0),
                     target: j.target,
                     saturated: j.saturated,
                 });

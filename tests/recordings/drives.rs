@@ -257,6 +257,8 @@ struct Sample {
     effort: f64,
     target: Option<f64>,
     saturated: bool,
+    /// Whether the message carries an effort (every driven joint's, even 0; no undriven one's).
+    has_effort: bool,
 }
 
 /// The samples of every joint, from read_joints.py's output.
@@ -279,6 +281,7 @@ fn samples(py: &Value) -> std::collections::BTreeMap<String, Vec<Sample>> {
                     effort: f(&e[2]),
                     target: e[3].as_f64(),
                     saturated: e[4].as_bool().unwrap(),
+                    has_effort: e[5].as_bool().unwrap(),
                 }
             })
             .collect();
@@ -287,13 +290,14 @@ fn samples(py: &Value) -> std::collections::BTreeMap<String, Vec<Sample>> {
     out
 }
 
-/// The protobuf `/joints` of a driven run: its schema declares `effort = 4`, `target = 5`
-/// (proto3 optional: present exactly where a servo commands one) and `saturated = 6`, and every
-/// recorded value is the drive's law at the recorded time, position and velocity; the position
-/// servo is saturated at some samples and not at others (so the flag is checked both ways);
-/// an undriven joint records 0, no target, not saturated. Then the other formats carry the same
-/// values: ROS 2 `effort` (both decoders), the Rerun series, the Parquet joints table (pandas and
-/// polars); and `tumble convert` replays the driven MCAP into the run's own `.rrd`.
+/// The protobuf `/joints` of a driven run: its schema declares `effort = 4` (proto3 optional:
+/// present for every driven joint, even when 0), `target = 5` (optional: present exactly where
+/// a servo commands one) and `saturated = 6`, and every recorded value is the drive's law at
+/// the recorded time, position and velocity; the position servo is saturated at some samples
+/// and not at others (so the flag is checked both ways); an undriven joint records no effort
+/// (reading 0), no target, not saturated. Then the other formats carry the same values: ROS 2
+/// `effort` (both decoders), the Rerun series, the Parquet joints table (pandas and polars);
+/// and `tumble convert` replays the driven MCAP into the run's own `.rrd`.
 #[test]
 fn every_format_records_the_drives() {
     let dir = tempfile::tempdir().unwrap();
@@ -325,6 +329,8 @@ fn every_format_records_the_drives() {
         );
         for s in rows {
             let t = s.t_ns / 1e9;
+            // Present for every driven joint, even when 0 (cp/slide's table starts at 0 N).
+            assert_eq!(s.has_effort, name != "dp_1/elbow", "{name} at {t} s");
             let (effort, target, sat) = expected(name, t, s.position, s.velocity);
             assert!(
                 close(s.effort, effort),
@@ -432,6 +438,8 @@ fn every_format_records_the_drives() {
                     effort: f(&r[5]),
                     target: r[6].as_f64(),
                     saturated: r[7].as_bool().unwrap(),
+                    // the table has no presence: what the MCAP says
+                    has_effort: s.has_effort,
                 };
                 assert_eq!(&got, s, "{reader} {name}");
                 assert_eq!(f(&r[2]), s.t_ns * 1e-9, "{reader} {name}: time_secs");
@@ -683,4 +691,70 @@ fn a_layout_that_hides_drives_is_refused() {
             .contains("lists 0 joint drives, the mechanisms have 5"),
         "{err}"
     );
+}
+
+/// A recording's efforts drive another run (`effort = { log = ... }` on `/joints`, read by the
+/// scene's own log reader): every driven joint's effort is in the log even where it is 0 (the
+/// elbow's sine motor at t = 0), and the second run's recorded efforts are the first run's,
+/// sample for sample (a motor's effort is its signal, and the log's rows are at those times).
+#[test]
+fn recorded_efforts_drive_another_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let dp = common::root().join("models/double_pendulum.urdf");
+    let scene = |actuators: &str| {
+        format!(
+            "[sim]\ndt = 0.001\nduration = 0.2\nlog_every = 10\n\n[[model]]\nurdf = \"{}\"\n\
+             bodies = \"articulated\"\nbase = \"fixed\"\njoints = {{ shoulder = 1.0 }}\n{actuators}",
+            dp.display()
+        )
+    };
+    std::fs::write(
+        d.join("one.toml"),
+        scene(
+            "[[model.actuator]]\njoint = \"shoulder\"\nkind = \"position\"\ntarget = 0.2\nkp = 50.0\n\
+             kd = 2.0\n[[model.actuator]]\njoint = \"elbow\"\nkind = \"motor\"\n\
+             effort = { sine = { amplitude = 1.0, frequency_hz = 1.0 } }\n",
+        ),
+    )
+    .unwrap();
+    let log = "{ log = \"one.mcap\", topic = \"/joints\" }";
+    std::fs::write(
+        d.join("two.toml"),
+        scene(&format!(
+            "[[model.actuator]]\njoint = \"shoulder\"\nkind = \"motor\"\neffort = {log}\n\
+             [[model.actuator]]\njoint = \"elbow\"\nkind = \"motor\"\neffort = {log}\n"
+        )),
+    )
+    .unwrap();
+    for run in ["one", "two"] {
+        let out = common::tumble(
+            &[
+                "simulate",
+                &format!("{run}.toml"),
+                "--out",
+                run,
+                "--format",
+                "mcap",
+            ],
+            d,
+        );
+        assert!(out.status.success(), "{run}: {}", common::text(&out.stderr));
+    }
+    let one = common::run_py("read_joints.py", &[&d.join("one.mcap")]);
+    let two = common::run_py("read_joints.py", &[&d.join("two.mcap")]);
+    // The elbow's motor is 0 at t = 0, and its effort is in the message all the same.
+    assert_eq!(one["efforts"]["elbow"][0][2], 0.0);
+    assert_eq!(one["efforts"]["elbow"][0][5], true);
+    for joint in ["shoulder", "elbow"] {
+        let (a, b) = (
+            one["efforts"][joint].as_array().unwrap(),
+            two["efforts"][joint].as_array().unwrap(),
+        );
+        assert_eq!(a.len(), 21, "{joint}");
+        for (x, y) in a.iter().zip(b) {
+            assert_eq!(x[0], y[0], "{joint}: time");
+            assert_eq!(f(&x[2]), f(&y[2]), "{joint} at {} ns", x[0]);
+        }
+    }
 }

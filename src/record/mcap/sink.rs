@@ -118,8 +118,9 @@ pub struct McapSink {
     groups: Vec<ChannelGroup>,
     sequence: u32,
     joint_names: Vec<String>,
-    /// Whether a joint is driven (the `/joints` schema and messages carry the drive fields).
-    driven: bool,
+    /// Per joint: whether it is driven (its `/joints` entries carry the drive fields); empty
+    /// without drives.
+    driven: Vec<bool>,
     mechanism_names: Vec<String>,
     buf: Vec<u8>,
     warnings: Vec<String>,
@@ -305,7 +306,13 @@ impl McapSink {
             groups,
             sequence: 0,
             joint_names: layout.joints.iter().map(|j| j.name.clone()).collect(),
-            driven: !layout.drives.is_empty(),
+            driven: if layout.drives.is_empty() {
+                Vec::new()
+            } else {
+                (0..layout.joints.len())
+                    .map(|j| layout.drive_of(j).is_some())
+                    .collect()
+            },
             mechanism_names: layout.mechanisms.iter().map(|m| m.name.clone()).collect(),
             buf: Vec::new(),
             warnings,
@@ -362,8 +369,8 @@ impl Sink for McapSink {
                     time_ns,
                     frame.step,
                     &self.joint_names[joints.clone()],
-                    &frame.joints[joints],
-                    self.driven,
+                    &frame.joints[joints.clone()],
+                    self.driven.get(joints).unwrap_or(&[]),
                 );
                 self.buf.clear();
                 message.encode(&mut self.buf)?;

@@ -137,12 +137,12 @@ impl Integrator for Rk4 {
             let mut forced = std::mem::take(&mut self.forced);
             forced.clear();
             forced.extend(loads.loaded_bodies(&all).map(|i| {
-                    let y = (
-                        *bodies.world_from_body[i].quaternion(),
-                        bodies.angmom_body[i],
-                        bodies.com_world[i],
-                        bodies.linvel_world[i],
-                    );
+                let y = (
+                    *bodies.world_from_body[i].quaternion(),
+                    bodies.angmom_body[i],
+                    bodies.com_world[i],
+                    bodies.linvel_world[i],
+                );
                 (i, rk4_forced(loads, bodies, i, t0, h, y))
             }));
             self.step_unforced(bodies, loads);
