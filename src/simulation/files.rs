@@ -91,6 +91,14 @@ fn accuracy_plan(
             if world.mechanisms.len() == 1 { "" } else { "s" }
         );
     }
+    if !world.body_loads.is_empty() {
+        // The error model is that of torque-free motion (docs/accuracy.md): a load changes it.
+        anyhow::bail!(
+            "{file}: --accuracy (sim.accuracy) is not supported with applied loads yet \
+             ({} [[model.load]] on bodies); choose dt by hand (tumble trade, docs/accuracy.md)",
+            world.body_loads.len()
+        );
+    }
     if !crate::sim::accuracy::model::supports(kind) {
         anyhow::bail!(
             "{file}: --accuracy (sim.accuracy) supports the integrators variational, variational4 \

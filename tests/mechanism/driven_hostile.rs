@@ -412,3 +412,17 @@ fn bad_urdf_damping_and_effort_are_refused() {
         &["model[0].joint_damping applies to bodies = \"articulated\" only"],
     );
 }
+
+/// `--accuracy` plans substeps from the error model of torque-free motion: a scene with
+/// applied loads is refused (with the way out), not planned wrong.
+#[test]
+fn accuracy_with_applied_loads_is_refused() {
+    refused(
+        "[sim]\nduration = 0.01\naccuracy = 1e-3\n[[model]]\nurdf = \"chain3_free.urdf\"\n\
+         [[model.load]]\nlink = \"link1\"\nforce = [0.0, 0.0, 1.0]\ntorque = [0.0, 0.0, 0.0]\n",
+        &[
+            "--accuracy (sim.accuracy) is not supported with applied loads yet",
+            "choose dt by hand",
+        ],
+    );
+}
