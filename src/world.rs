@@ -6,7 +6,7 @@
 //! here knows TOML or integrator choice.
 
 use crate::model::urdf;
-use crate::record::RecordingLayout;
+use crate::record::{ActuatorLaw, DriveLayout, RecordingLayout};
 use crate::sim::BodyInit;
 use crate::sim::integrators::{IntegratorKind, VariationalSettings};
 use crate::sim::mechanism::Mechanism;
@@ -94,5 +94,53 @@ impl World {
         settings: &VariationalSettings,
     ) -> anyhow::Result<Box<dyn crate::sim::Integrator>> {
         crate::sim::integrator_for(kind, dt_secs, settings, &self.mechanisms, self.bodies.len())
+    }
+
+    /// Fills `layout.drives` from the mechanisms' drives ([`Self::drive_layouts`]): what the
+    /// recorders need to know of them before the first frame. Called once every model is
+    /// placed; a run refuses a world whose layout disagrees with its mechanisms
+    /// ([`Self::check_drive_layout`]).
+    pub fn describe_drives(&mut self) {
+        self.layout.drives = self.drive_layouts();
+    }
+
+    /// The mechanisms' drives as the recording layout lists them: the drive on coordinate `c`
+    /// of mechanism `k` is on layout joint `layout.mechanisms[k].joints.start + c` (a
+    /// mechanism's coordinates are its recorded joints, in order).
+    pub fn drive_layouts(&self) -> Vec<DriveLayout> {
+        use crate::sim::mechanism::ActuatorKind;
+        let mut out = Vec::new();
+        for (mechanism, layout) in self.mechanisms.iter().zip(&self.layout.mechanisms) {
+            for d in &mechanism.drives {
+                out.push(DriveLayout {
+                    joint: layout.joints.start + d.coordinate,
+                    actuator: d.actuator.as_ref().map(|a| match a.kind {
+                        ActuatorKind::Motor { .. } => ActuatorLaw::Motor,
+                        ActuatorKind::Position { .. } => ActuatorLaw::Position,
+                        ActuatorKind::Velocity { .. } => ActuatorLaw::Velocity,
+                    }),
+                    effort_limit: d.actuator.as_ref().and_then(|a| a.effort_limit),
+                    damping: d.damping,
+                });
+            }
+        }
+        out
+    }
+
+    /// Fails when `layout.drives` is not what the mechanisms' drives make of it (the world was
+    /// built without [`Self::describe_drives`]): the recordings would leave out what drives
+    /// the joints.
+    pub fn check_drive_layout(&self) -> anyhow::Result<()> {
+        let expected = self.drive_layouts();
+        let drives: usize = self.mechanisms.iter().map(|m| m.drives.len()).sum();
+        if self.layout.drives != expected || expected.len() != drives {
+            anyhow::bail!(
+                "internal error: the recording layout lists {} joint drives, the mechanisms have \
+                 {} (World::describe_drives was not called after the models were placed)",
+                self.layout.drives.len(),
+                drives
+            );
+        }
+        Ok(())
     }
 }

@@ -3,7 +3,7 @@
 //! [`open`]), used by `simulate`, the dataset's per-run recordings and `trade`.
 
 use super::mcap::{McapOptions, McapSink};
-use super::parquet::{BodiesSink, TrajectorySink};
+use super::parquet::{BodiesSink, JointsSink, TrajectorySink};
 use super::rerun::{RerunOptions, RerunSink};
 use super::ros2::Ros2Sink;
 use super::{RecordingLayout, Sink};
@@ -18,8 +18,8 @@ pub enum Format {
     Rrd,
     /// `STEM.ros2.mcap`, a ROS 2 recording ([`super::ros2`]).
     Ros2,
-    /// `STEM.trajectories.parquet` and `STEM.bodies.parquet`, the dataset's tables for one run
-    /// ([`super::parquet`]).
+    /// `STEM.trajectories.parquet` and `STEM.bodies.parquet`, the dataset's tables for one run,
+    /// and `STEM.joints.parquet`, the articulated models' joints ([`super::parquet`]).
     Parquet,
 }
 
@@ -43,7 +43,11 @@ impl Format {
             Format::Mcap => &[OutputFile::Mcap],
             Format::Rrd => &[OutputFile::Rrd],
             Format::Ros2 => &[OutputFile::Ros2],
-            Format::Parquet => &[OutputFile::Trajectories, OutputFile::Bodies],
+            Format::Parquet => &[
+                OutputFile::Trajectories,
+                OutputFile::Bodies,
+                OutputFile::Joints,
+            ],
         }
     }
 }
@@ -58,6 +62,8 @@ pub enum OutputFile {
     Trajectories,
     /// The bodies table ([`BodiesSink`]).
     Bodies,
+    /// The joints table ([`JointsSink`]).
+    Joints,
 }
 
 impl OutputFile {
@@ -69,6 +75,7 @@ impl OutputFile {
             OutputFile::Ros2 => super::ros2::EXTENSION,
             OutputFile::Trajectories => super::parquet::TRAJECTORIES_EXTENSION,
             OutputFile::Bodies => super::parquet::BODIES_EXTENSION,
+            OutputFile::Joints => super::parquet::JOINTS_EXTENSION,
         }
     }
 
@@ -81,6 +88,7 @@ impl OutputFile {
             OutputFile::Ros2 => "tumble-ros2",
             OutputFile::Trajectories => "tumble-parquet",
             OutputFile::Bodies => "tumble-bodies",
+            OutputFile::Joints => "tumble-joints",
         }
     }
 
@@ -205,6 +213,7 @@ pub fn open_file(
         OutputFile::Ros2 => Box::new(Ros2Sink::create(path, layout)?),
         OutputFile::Trajectories => Box::new(TrajectorySink::create(path, layout)?),
         OutputFile::Bodies => Box::new(BodiesSink::new(path, layout)?),
+        OutputFile::Joints => Box::new(JointsSink::create(path, layout)?),
     })
 }
 
@@ -250,7 +259,8 @@ mod tests {
                 "out/a.b.rrd",
                 "out/a.b.ros2.mcap",
                 "out/a.b.trajectories.parquet",
-                "out/a.b.bodies.parquet"
+                "out/a.b.bodies.parquet",
+                "out/a.b.joints.parquet"
             ]
         );
     }

@@ -8,9 +8,14 @@
 //! [{"name", "frame", "mass", "link_from_principal", "principal_moments"}], "topic_groups":
 //! [{"prefix", "frames": [start, end], "bodies": [start, end], "joints": [start, end],
 //! "mechanisms": [start, end]}], "joints": [{"name", "model", "kind", "limits"}],
-//! "mechanisms": [{"name", "bodies": [start, end], "joints": [start, end], "floating"}]}`
+//! "mechanisms": [{"name", "bodies": [start, end], "joints": [start, end], "floating"}],
+//! "drives": [{"joint", "actuator", "effort_limit", "damping"}]}`
 //! (`joints` and `mechanisms` and the groups' `joints`/`mechanisms` ranges are absent from
-//! files written before articulated models existed; they read as empty). Poses are `{"translation": [x,
+//! files written before articulated models existed; they read as empty). `drives`
+//! ([`DriveLayout`]: `joint` an index into `joints`, increasing; `actuator` `"motor"`,
+//! `"position"`, `"velocity"` or null for damping alone; `effort_limit` N m or N, or null;
+//! `damping` N m s/rad or N s/m) is written only when a joint is driven, so a recording without
+//! drives has the JSON it had before drives existed. Poses are `{"translation": [x,
 //! y, z], "rotation_xyzw": [x, y, z, w]}` (metres; unit quaternion, Hamilton convention); geometry
 //! is `{"box": {"size": [..]}}`, `{"cylinder": {"radius", "length"}}`, `{"sphere": {"radius"}}`,
 //! `{"capsule": {"radius", "length"}}` or `{"mesh": {"uri", "path", "scale"}}` (the mesh path as
@@ -24,7 +29,10 @@
 //! straight from the layout into a buffer of the exact size (a counting pass first), so the
 //! JSON is held once, not in a growing buffer beside a copy of the layout.
 
-use super::{BodyLayout, FrameLayout, JointLayout, MechanismLayout, RecordingLayout, TopicGroup};
+use super::{
+    ActuatorLaw, BodyLayout, DriveLayout, FrameLayout, JointLayout, MechanismLayout,
+    RecordingLayout, TopicGroup,
+};
 use crate::model::{Geometry, Visual};
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
@@ -50,6 +58,18 @@ struct LayoutJson {
     joints: Vec<JointJson>,
     #[serde(default)]
     mechanisms: Vec<MechanismJson>,
+    #[serde(default)]
+    drives: Vec<DriveJson>,
+}
+
+/// A joint's drive (read and written: plain data).
+#[derive(Serialize, Deserialize)]
+struct DriveJson {
+    joint: usize,
+    /// `motor`, `position`, `velocity`, or null for damping alone.
+    actuator: Option<String>,
+    effort_limit: Option<f64>,
+    damping: f64,
 }
 
 #[derive(Deserialize)]
@@ -95,6 +115,9 @@ struct LayoutOut<'a> {
     topic_groups: Vec<GroupJson>,
     joints: Vec<JointOut<'a>>,
     mechanisms: Vec<MechanismOut<'a>>,
+    /// Absent without drives: a recording of undriven models keeps the JSON it had.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    drives: Vec<DriveJson>,
 }
 
 #[derive(Serialize)]
@@ -351,6 +374,16 @@ pub fn to_json(layout: &RecordingLayout) -> String {
                 floating: m.floating,
             })
             .collect(),
+        drives: layout
+            .drives
+            .iter()
+            .map(|d| DriveJson {
+                joint: d.joint,
+                actuator: d.actuator.map(|a| a.name().to_string()),
+                effort_limit: d.effort_limit,
+                damping: d.damping,
+            })
+            .collect(),
     };
     // Plain data (strings, finite or non-finite numbers become null): cannot fail. Sized by a
     // counting pass, so the text is built in place once (no doubling buffer).
@@ -460,6 +493,31 @@ pub fn from_json(text: &str) -> anyhow::Result<RecordingLayout> {
             floating: m.floating,
         });
     }
+    let mut drives: Vec<DriveLayout> = Vec::with_capacity(json.drives.len());
+    for d in json.drives {
+        if d.joint >= joints.len() || drives.last().is_some_and(|p| p.joint >= d.joint) {
+            bail!(
+                "drive on joint {} of {} (drives must name joints in increasing order)",
+                d.joint,
+                joints.len()
+            );
+        }
+        let actuator = match d.actuator.as_deref() {
+            None => None,
+            Some(name) => Some(ActuatorLaw::from_name(name).with_context(|| {
+                format!(
+                    "drive on joint {}: unknown actuator {name:?} (motor, position, velocity)",
+                    d.joint
+                )
+            })?),
+        };
+        drives.push(DriveLayout {
+            joint: d.joint,
+            actuator,
+            effort_limit: d.effort_limit,
+            damping: d.damping,
+        });
+    }
     let mut topic_groups = Vec::with_capacity(json.topic_groups.len());
     for g in json.topic_groups {
         let ok = range_ok(g.frames, frames.len())
@@ -486,6 +544,7 @@ pub fn from_json(text: &str) -> anyhow::Result<RecordingLayout> {
         joints,
         mechanisms,
         robot_descriptions: Vec::new(),
+        drives,
     })
 }
 
@@ -597,6 +656,70 @@ mod tests {
             &back.frames[0].visuals,
             &back.frames[1].visuals
         ));
+    }
+
+    /// The drives round-trip; a layout without drives has no `drives` key (its JSON is the one
+    /// written before drives existed); drives out of order, on a joint the layout lacks, or of
+    /// an unknown law are refused.
+    #[test]
+    fn drives_round_trip_and_are_absent_without_drives() {
+        let joint = |name: &str| JointLayout {
+            name: name.into(),
+            model: "m".into(),
+            kind: "revolute".into(),
+            limits: None,
+        };
+        let mut layout = RecordingLayout {
+            name: "driven".into(),
+            joints: vec![joint("a"), joint("b"), joint("c")],
+            ..Default::default()
+        };
+        assert!(!to_json(&layout).contains("drives"));
+        layout.drives = vec![
+            DriveLayout {
+                joint: 0,
+                actuator: Some(ActuatorLaw::Position),
+                effort_limit: Some(2.5),
+                damping: 0.1,
+            },
+            DriveLayout {
+                joint: 2,
+                actuator: None,
+                effort_limit: None,
+                damping: 0.3,
+            },
+        ];
+        let text = to_json(&layout);
+        assert!(
+            text.contains(
+                r#""drives":[{"joint":0,"actuator":"position","effort_limit":2.5,"damping":0.1},"#
+            ),
+            "{text}"
+        );
+        let back = from_json(&text).unwrap();
+        assert_eq!(back.drives, layout.drives);
+        assert_eq!(back.drive_of(2).map(|d| d.kind_name()), Some("damping"));
+        assert!(back.drive_of(1).is_none());
+        for (bad, message) in [
+            (
+                r#"{"joint":2,"actuator":null,"effort_limit":null,"damping":0.3},{"joint":0,"actuator":null,"effort_limit":null,"damping":0.3}"#,
+                "drive on joint 0 of 3",
+            ),
+            (
+                r#"{"joint":3,"actuator":null,"effort_limit":null,"damping":0.3}"#,
+                "drive on joint 3 of 3",
+            ),
+            (
+                r#"{"joint":1,"actuator":"spring","effort_limit":null,"damping":0.3}"#,
+                "unknown actuator \"spring\"",
+            ),
+        ] {
+            let start = text.find(r#""drives":["#).unwrap() + r#""drives":["#.len();
+            let end = text.rfind(']').unwrap();
+            let damaged = format!("{}{bad}{}", &text[..start], &text[end..]);
+            let err = format!("{:#}", from_json(&damaged).unwrap_err());
+            assert!(err.contains(message), "{err}");
+        }
     }
 
     /// Files written before version 2 (every frame's list inline) still read.

@@ -54,6 +54,63 @@ pub struct RecordingLayout {
     /// One per model of the scene, in scene order: its URDF prepared for publishing next to the
     /// frames ([`crate::model::description`]). Read by the ROS 2 sink (`/robot_description`).
     pub robot_descriptions: Vec<RobotDescription>,
+    /// What drives the joints (actuators, damping): at most one entry per joint, sorted by
+    /// [`DriveLayout::joint`]; empty when no joint is driven. It decides which fields, series
+    /// and columns the recordings carry beside [`JointState::effort`] and
+    /// [`JointState::target`] (filled by `crate::world::World::describe_drives`).
+    pub drives: Vec<DriveLayout>,
+}
+
+/// What drives a recorded joint (issue 30): its actuator's law, the actuator's effort limit and
+/// the joint's damping. The values recorded per step are in [`JointState`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct DriveLayout {
+    /// Index into [`RecordingLayout::joints`].
+    pub joint: usize,
+    /// The actuator's law; `None`: damping alone.
+    pub actuator: Option<ActuatorLaw>,
+    /// `|τ_a| ≤ effort_limit` (N m, or N for a prismatic joint) when the actuator's effort is
+    /// limited: the joints whose [`JointState::saturated`] can be true.
+    pub effort_limit: Option<f64>,
+    /// Viscous damping `b` (N m s/rad or N s/m), 0 without.
+    pub damping: f64,
+}
+
+/// An actuator's law, as recordings name it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ActuatorLaw {
+    /// `τ = u(t)`: no target.
+    Motor,
+    /// A position servo `τ = kp (r(t) − θ) − kd θ̇`: its target `r` is a position (rad or m).
+    Position,
+    /// A velocity servo `τ = kd (w(t) − θ̇)`: its target `w` is a velocity (rad/s or m/s).
+    Velocity,
+}
+
+impl ActuatorLaw {
+    /// `motor`, `position`, `velocity` (the layout JSON's and the Parquet `drive` column's).
+    pub fn name(self) -> &'static str {
+        match self {
+            ActuatorLaw::Motor => "motor",
+            ActuatorLaw::Position => "position",
+            ActuatorLaw::Velocity => "velocity",
+        }
+    }
+
+    /// The law named `name` ([`Self::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Self::Motor, Self::Position, Self::Velocity]
+            .into_iter()
+            .find(|law| law.name() == name)
+    }
+}
+
+impl DriveLayout {
+    /// What the drive is called in recordings: its actuator's law ([`ActuatorLaw::name`]), or
+    /// `damping` for damping alone.
+    pub fn kind_name(&self) -> &'static str {
+        self.actuator.map_or("damping", ActuatorLaw::name)
+    }
 }
 
 /// A recorded joint of an articulated model.
@@ -112,6 +169,14 @@ pub struct TopicGroup {
 }
 
 impl RecordingLayout {
+    /// The drive of joint `joint`, if it is driven.
+    pub fn drive_of(&self, joint: usize) -> Option<&DriveLayout> {
+        self.drives
+            .binary_search_by_key(&joint, |d| d.joint)
+            .ok()
+            .map(|i| &self.drives[i])
+    }
+
     /// The topic groups, or the single default group covering everything.
     pub fn groups(&self) -> Vec<TopicGroup> {
         if self.topic_groups.is_empty() {
@@ -199,6 +264,17 @@ pub struct JointState {
     pub position: f64,
     /// rad/s or m/s, from the projected velocities.
     pub velocity: f64,
+    /// The effort applied to the joint, actuator plus damping, N m (or N for a prismatic
+    /// joint); 0 for a joint nothing drives. The continuous-time effort at the sample: the
+    /// drive's law evaluated at the recorded time with the recorded `position` and `velocity`
+    /// (the step itself applies each step's symmetric average, `crate::sim::mechanism::drive`).
+    pub effort: f64,
+    /// The commanded target at the recorded time: a position servo's position (rad or m), a
+    /// velocity servo's velocity (rad/s or m/s); `None` for a motor, damping alone or an
+    /// undriven joint ([`DriveLayout::actuator`] says which).
+    pub target: Option<f64>,
+    /// Whether the actuator's effort limit clamped the effort at the sample.
+    pub saturated: bool,
 }
 
 /// One articulated model's totals at a recorded step, world frame, SI units (from the momenta

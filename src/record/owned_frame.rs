@@ -148,6 +148,9 @@ mod tests {
         let joints = [JointState {
             position: 0.5,
             velocity: -1.0,
+            effort: 2.5,
+            target: Some(0.25),
+            saturated: true,
         }];
         let frame = Frame {
             step: 7,

@@ -456,8 +456,9 @@ mod tests {
         // A pose is 7 doubles, a body state 11. 10 000 bodies: 1.44 MB frames, the minimum of
         // 2; 1000 bodies: 29 (4 MiB / 144 kB); tiny frames: 64.
         assert_eq!(frame_bytes(10_000, 10_000, 0), 10_000 * (56 + 88));
-        // A joint state is 2 doubles; frames, bodies and joints add.
-        assert_eq!(frame_bytes(3, 5, 7), 3 * 56 + 5 * 88 + 7 * 16);
+        // A joint state is 48 bytes (position, velocity, effort, an optional target: 16, the
+        // saturation flag, padded); frames, bodies and joints add.
+        assert_eq!(frame_bytes(3, 5, 7), 3 * 56 + 5 * 88 + 7 * 48);
         assert_eq!(queue_frames(frame_bytes(100_000, 100_000, 0)), 1);
         assert_eq!(queue_frames(frame_bytes(10_000, 10_000, 0)), 2);
         assert_eq!(queue_frames(frame_bytes(1000, 1000, 0)), 29);

@@ -30,6 +30,7 @@
 //! timestamps (8 bytes per sample), the second walks both files in step holding two samples of
 //! each. Errors are accumulated as they are computed.
 
+use super::joint_diff::{JointAccumulator, JointCursor, JointDiff, JointScan};
 use super::stream::{Item, McapStream, Message, StreamEnd};
 use crate::record::layout_json::{LAYOUT_KEY, from_json};
 use crate::record::names::METADATA_NAME;
@@ -52,6 +53,14 @@ pub struct DiffSettings {
     pub pos_tolerance_m: f64,
     /// Largest orientation error (rad) still counted as "same".
     pub rot_tolerance_rad: f64,
+    /// The joints topic of both files; `None`: each file's first of
+    /// [`super::joint_diff::DEFAULT_JOINT_TOPICS`].
+    pub joint_topic: Option<String>,
+    /// Largest joint position difference (rad or m) still counted as "same". `None`: the
+    /// joints are reported but judged only when no frames are compared (then against 0).
+    pub joint_tolerance: Option<f64>,
+    /// Joint times from each file's first joints message ([`JointScan::start_at_zero`]).
+    pub joint_zero_start: bool,
 }
 
 /// Errors of one frame (named `bodies` in the JSON: the frames that bodies move).
@@ -112,10 +121,53 @@ pub struct DiffReport {
     pub unmatched_b: Vec<String>,
     pub pos_tolerance: f64,
     pub rot_tolerance: f64,
-    /// Errors within the tolerances, same frames, same time span.
+    /// Errors within the tolerances, same frames, same time span (and the joints within
+    /// theirs when judged, [`JointsReport::within_tolerance`]): the exit status.
     pub within_tolerance: bool,
     /// Truncated inputs, different spans, ...
     pub warnings: Vec<String>,
+    /// Whether the frames alone are within the tolerances (same frames, same span; true when
+    /// no frames are compared). `within_tolerance` is this and the joints' verdict, if judged.
+    pub frames_within_tolerance: bool,
+    /// Whether frames were compared (both files have the frames topic, in protobuf); when not,
+    /// the frame fields above are empty and `a`, `b` and the span describe the joints topic.
+    pub frames_compared: bool,
+    /// The joint comparison, when both files have joint states naming a common joint.
+    pub joints: Option<JointsReport>,
+}
+
+/// The joint comparison of a diff ([`super::joint_diff`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct JointsReport {
+    /// The joints topic read in each file.
+    pub topic_a: String,
+    pub topic_b: String,
+    /// Messages on each.
+    pub samples_a: usize,
+    pub samples_b: usize,
+    /// Largest difference of any compared joint, rad or m.
+    pub err_max: f64,
+    /// Per joint in both files, in the order of the first file.
+    pub joints: Vec<JointDiff>,
+    pub samples_compared: usize,
+    /// As for frames: `"common timestamps"`, `"a"` or `"b"`.
+    pub aligned_on: String,
+    /// Positions obtained by interpolation.
+    pub interpolated: usize,
+    /// The compared span, s.
+    pub time_start: f64,
+    pub time_end: f64,
+    /// Joints in only one file (not compared).
+    pub unmatched_a: Vec<String>,
+    pub unmatched_b: Vec<String>,
+    /// Subtracted from each file's joint times, s (`--zero-start`: its first message's time;
+    /// else 0).
+    pub offset_a: f64,
+    pub offset_b: f64,
+    /// The tolerance the joints were judged against (null: not judged).
+    pub tolerance: Option<f64>,
+    /// Whether every compared joint is within it (null: not judged).
+    pub within_tolerance: Option<bool>,
 }
 
 /// Angle of the rotation taking `a` to `b`, rad, in `[0, π]`:
@@ -150,15 +202,23 @@ struct Scan {
     end: StreamEnd,
     layout: Option<RecordingLayout>,
     metadata: BTreeMap<String, String>,
+    /// Why the frames of this file cannot be compared (no messages on the frames topic, a ROS 2
+    /// recording): the error `diff` gives when the joints cannot be compared either.
+    frames_error: Option<anyhow::Error>,
+    /// The joints topic, when the file has one.
+    joints: Option<JointScan>,
 }
 
-fn scan(path: &Path, topic: &str) -> anyhow::Result<Scan> {
+fn scan(path: &Path, settings: &DiffSettings) -> anyhow::Result<Scan> {
+    let topic = settings.topic.as_str();
     let mut stream = McapStream::open(path)?;
     let mut times = Vec::new();
     let mut frames = Vec::new();
     let mut layout = None;
     let mut metadata = BTreeMap::new();
     let mut topics = std::collections::BTreeSet::new();
+    let mut frames_error = None;
+    let mut joints = None;
     while let Some(item) = stream.next_item() {
         match item {
             Item::Metadata(m) if m.name == METADATA_NAME => {
@@ -169,12 +229,21 @@ fn scan(path: &Path, topic: &str) -> anyhow::Result<Scan> {
             }
             Item::Message {
                 topic: t,
+                schema,
                 log_time,
                 data,
-                ..
             } => {
+                JointScan::offer(
+                    &mut joints,
+                    settings.joint_topic.as_deref(),
+                    path,
+                    (&t, &schema, log_time, &data),
+                )?;
                 if &*t != topic {
                     topics.insert(t.to_string());
+                    continue;
+                }
+                if frames_error.is_some() {
                     continue;
                 }
                 if let Some(&last) = times.last()
@@ -187,7 +256,10 @@ fn scan(path: &Path, topic: &str) -> anyhow::Result<Scan> {
                     );
                 }
                 if times.is_empty() {
-                    super::steps::refuse_ros2(&stream, path)?;
+                    if let Err(e) = super::steps::refuse_ros2(&stream, path) {
+                        frames_error = Some(e);
+                        continue;
+                    }
                     frames = super::steps::decode_transforms(&data)
                         .with_context(|| format!("{}", path.display()))?
                         .into_iter()
@@ -199,12 +271,12 @@ fn scan(path: &Path, topic: &str) -> anyhow::Result<Scan> {
             _ => {}
         }
     }
-    if times.is_empty() {
+    if times.is_empty() && frames_error.is_none() {
         let end = match stream.end() {
             StreamEnd::Truncated { error, .. } => format!(" (reading stopped: {error})"),
             _ => String::new(),
         };
-        bail!(
+        frames_error = Some(anyhow::anyhow!(
             "{}: no {topic} messages{end}; topics present: {}",
             path.display(),
             if topics.is_empty() {
@@ -212,7 +284,11 @@ fn scan(path: &Path, topic: &str) -> anyhow::Result<Scan> {
             } else {
                 topics.into_iter().collect::<Vec<_>>().join(", ")
             }
-        );
+        ));
+    }
+    if frames_error.is_some() {
+        times.clear();
+        frames.clear();
     }
     Ok(Scan {
         times,
@@ -220,7 +296,21 @@ fn scan(path: &Path, topic: &str) -> anyhow::Result<Scan> {
         end: stream.end().clone(),
         layout,
         metadata,
+        frames_error,
+        joints,
     })
+}
+
+/// [`scan`], failing at once (as `diff` did before joints were compared) when the file's
+/// frames cannot be compared and it has no joints topic either.
+fn scan_or_fail(path: &Path, settings: &DiffSettings) -> anyhow::Result<Scan> {
+    let mut scan = scan(path, settings)?;
+    if scan.joints.is_none()
+        && let Some(e) = scan.frames_error.take()
+    {
+        return Err(e);
+    }
+    Ok(scan)
 }
 
 /// Which times to compare at, and whose they are.
@@ -391,12 +481,14 @@ struct Accumulator {
     rot_end: f64,
 }
 
-fn side(path: &Path, scan: &Scan) -> RunSide {
+/// The file as the diff saw it: on its frames topic, or on `times` (its joints topic's) when
+/// no frames are compared.
+fn side(path: &Path, scan: &Scan, times: &[u64]) -> RunSide {
     RunSide {
         path: path.to_owned(),
-        samples: scan.times.len(),
-        time_start: scan.times[0] as f64 / 1e9,
-        time_end: scan.times[scan.times.len() - 1] as f64 / 1e9,
+        samples: times.len(),
+        time_start: times[0] as f64 / 1e9,
+        time_end: times[times.len() - 1] as f64 / 1e9,
         dt: scan.metadata.get("dt").cloned(),
         integrator: scan.metadata.get("integrator").cloned(),
         complete: scan.end == StreamEnd::Complete,
@@ -467,78 +559,120 @@ fn overlay_layout(
 /// Frames collected before the error series are sent to the `--rrd` recording.
 const SERIES_BATCH: usize = 1000;
 
-/// Compares `a` and `b`; with `rrd`, also writes both runs overlaid plus the error series (see
-/// [`error_entities`], [`overlay_layout`]) to that `.rrd` (via `<rrd>.part`).
+/// Compares `a` and `b`: their frames (module doc) and, when both have joint states naming a
+/// common joint, their joints ([`super::joint_diff`]); a file whose frames cannot be compared
+/// (no frames topic, a ROS 2 recording) is compared on its joints alone. With `rrd`, also
+/// writes both runs overlaid plus the error series (see [`error_entities`],
+/// [`joint_error_entity`], [`overlay_layout`]) to that `.rrd` (via `<rrd>.part`).
 pub fn diff(
     a: &Path,
     b: &Path,
     settings: &DiffSettings,
     rrd: Option<&Path>,
 ) -> anyhow::Result<DiffReport> {
-    let scans = [scan(a, &settings.topic)?, scan(b, &settings.topic)?];
+    let mut scans = [scan_or_fail(a, settings)?, scan_or_fail(b, settings)?];
+    if settings.joint_zero_start {
+        for joints in scans.iter_mut().filter_map(|s| s.joints.as_mut()) {
+            joints.start_at_zero();
+        }
+    }
+    let joint_pair = match (&scans[0].joints, &scans[1].joints) {
+        (Some(x), Some(y)) => Some(match_names(&x.names, &y.names)),
+        _ => None,
+    };
+    let frames_compared = scans.iter().all(|s| s.frames_error.is_none());
+    let joints_compared = joint_pair.as_ref().is_some_and(|m| !m.0.is_empty());
     let mut warnings = Vec::new();
-    for (path, scan) in [a, b].iter().zip(&scans) {
+    if !frames_compared {
+        if !joints_compared {
+            if let Some((_, only_a, only_b)) = &joint_pair {
+                bail!(
+                    "no joint is in both recordings (a: {}; b: {})",
+                    only_a.join(", "),
+                    only_b.join(", ")
+                );
+            }
+            let e = scans.iter_mut().find_map(|s| s.frames_error.take());
+            return Err(e.expect("a file whose frames cannot be compared"));
+        }
+        for s in &scans {
+            if let Some(e) = &s.frames_error {
+                warnings.push(format!("frames not compared, joints only: {e}"));
+            }
+        }
+    }
+    // What each file is judged on: its frames topic, else its joints topic.
+    let sampled = |s: &Scan| -> Vec<u64> {
+        if frames_compared {
+            s.times.clone()
+        } else {
+            s.joints
+                .as_ref()
+                .map(|j| j.times.clone())
+                .unwrap_or_default()
+        }
+    };
+    let sides_times = [sampled(&scans[0]), sampled(&scans[1])];
+    for ((path, scan), times) in [a, b].iter().zip(&scans).zip(&sides_times) {
         let expected = super::convert::expected_recorded_steps(&scan.metadata);
         if let Some(w) = super::convert::truncation_warning(
             path,
             &scan.end,
-            scan.times.len() as u64,
-            Some((
-                scan.times[0] as i64,
-                scan.times[scan.times.len() - 1] as i64,
-            )),
+            times.len() as u64,
+            Some((times[0] as i64, times[times.len() - 1] as i64)),
             expected,
         ) {
             warnings.push(w);
         }
     }
-    let in_b: std::collections::HashSet<&String> = scans[1].frames.iter().collect();
-    let in_a: std::collections::HashSet<&String> = scans[0].frames.iter().collect();
-    let matched: Vec<String> = scans[0]
-        .frames
-        .iter()
-        .filter(|f| in_b.contains(f))
-        .cloned()
-        .collect();
-    let unmatched_a: Vec<String> = scans[0]
-        .frames
-        .iter()
-        .filter(|f| !in_b.contains(f))
-        .cloned()
-        .collect();
-    let unmatched_b: Vec<String> = scans[1]
-        .frames
-        .iter()
-        .filter(|f| !in_a.contains(f))
-        .cloned()
-        .collect();
-    if matched.is_empty() {
+    let (matched, unmatched_a, unmatched_b) = match_names(&scans[0].frames, &scans[1].frames);
+    if frames_compared && matched.is_empty() {
         bail!(
             "no frame id is in both recordings (a: {}; b: {})",
             scans[0].frames.join(", "),
             scans[1].frames.join(", ")
         );
     }
-    let (times, aligned_on) = comparison_times(&scans[0].times, &scans[1].times)?;
-    let span = |s: &Scan| (s.times[0], s.times[s.times.len() - 1]);
-    let same_span = span(&scans[0]) == span(&scans[1]);
+    let frame_times = if frames_compared {
+        Some(comparison_times(&scans[0].times, &scans[1].times)?)
+    } else {
+        None
+    };
+    let joint_times = match (&scans[0].joints, &scans[1].joints) {
+        (Some(x), Some(y)) if joints_compared => {
+            Some(comparison_times(&x.times, &y.times).map_err(|e| {
+                if settings.joint_zero_start {
+                    e
+                } else {
+                    e.context(
+                        "comparing the joints (a log on another clock: --zero-start takes \
+                             each file's times from its first joints message)",
+                    )
+                }
+            })?)
+        }
+        _ => None,
+    };
+    let span = |t: &[u64]| (t[0], t[t.len() - 1]);
+    let same_span = span(&sides_times[0]) == span(&sides_times[1]);
+    let compared = frame_times
+        .as_ref()
+        .or(joint_times.as_ref())
+        .map(|(t, _)| t.as_slice())
+        .expect("frames or joints are compared");
     if !same_span {
         warnings.push(format!(
             "the recordings cover different spans (a: {} .. {} s, b: {} .. {} s); compared on \
              {} .. {} s",
-            span(&scans[0]).0 as f64 / 1e9,
-            span(&scans[0]).1 as f64 / 1e9,
-            span(&scans[1]).0 as f64 / 1e9,
-            span(&scans[1]).1 as f64 / 1e9,
-            times[0] as f64 / 1e9,
-            times[times.len() - 1] as f64 / 1e9,
+            span(&sides_times[0]).0 as f64 / 1e9,
+            span(&sides_times[0]).1 as f64 / 1e9,
+            span(&sides_times[1]).0 as f64 / 1e9,
+            span(&sides_times[1]).1 as f64 / 1e9,
+            compared[0] as f64 / 1e9,
+            compared[compared.len() - 1] as f64 / 1e9,
         ));
     }
 
-    let mut cursors = [
-        Cursor::open(a, &settings.topic, &matched)?,
-        Cursor::open(b, &settings.topic, &matched)?,
-    ];
     let mut sink = match rrd {
         Some(path) => {
             let mut metadata = BTreeMap::new();
@@ -548,72 +682,37 @@ pub fn diff(
             metadata.insert("tool_version".to_string(), crate::VERSION.to_string());
             let layout = overlay_layout(&matched, [&scans[0], &scans[1]], metadata);
             let mut sink = RerunSink::create(path, &layout, &RerunOptions { ellipsoids: false })?;
-            sink.set_plot_views(vec![
-                PlotView::new("position error (m)", &["+ /plots/diff/position_error/**"]),
-                PlotView::new("rotation error (rad)", &["+ /plots/diff/rotation_error/**"]),
-            ]);
+            let mut views = Vec::new();
+            if frames_compared {
+                views.push(PlotView::new(
+                    "position error (m)",
+                    &["+ /plots/diff/position_error/**"],
+                ));
+                views.push(PlotView::new(
+                    "rotation error (rad)",
+                    &["+ /plots/diff/rotation_error/**"],
+                ));
+            }
+            if joints_compared {
+                views.push(PlotView::new(
+                    "joint position difference |θ_A − θ_B| (rad, m)",
+                    &["+ /plots/diff/joint_error/**"],
+                ));
+            }
+            sink.set_plot_views(views);
             Some(sink)
         }
         None => None,
     };
-    let entities: Vec<[rerun::EntityPath; 2]> = matched.iter().map(|f| error_entities(f)).collect();
-    let mut acc = vec![Accumulator::default(); matched.len()];
-    let mut batch_t: Vec<i64> = Vec::new();
-    let mut batch_step: Vec<i64> = Vec::new();
-    let mut batch_err: Vec<Vec<[f64; 2]>> = vec![Vec::new(); matched.len()];
-    let mut overlay: Vec<Isometry3<f64>> = Vec::with_capacity(2 * matched.len());
-
+    let mut frames_result = None;
+    let mut joints_result = None;
     let result = (|| -> anyhow::Result<()> {
-        for (index, &t) in times.iter().enumerate() {
-            let pa = cursors[0].at(t)?;
-            let pb = cursors[1].at(t)?;
-            for (i, (x, y)) in pa.iter().zip(&pb).enumerate() {
-                let pos = (x.translation.vector - y.translation.vector).norm();
-                let rot = rotation_between(&x.rotation, &y.rotation);
-                let s = &mut acc[i];
-                // A NaN error becomes the maximum (and then fails any tolerance).
-                if exceeds(pos, s.pos_max) {
-                    s.pos_max = pos;
-                    s.pos_max_t = t;
-                }
-                if exceeds(rot, s.rot_max) {
-                    s.rot_max = rot;
-                    s.rot_max_t = t;
-                }
-                s.pos_sq += pos * pos;
-                s.rot_sq += rot * rot;
-                s.pos_end = pos;
-                s.rot_end = rot;
-                if sink.is_some() {
-                    batch_err[i].push([pos, rot]);
-                }
-            }
-            if let Some(sink) = sink.as_mut() {
-                overlay.clear();
-                overlay.extend(pa.iter().chain(&pb));
-                let time_ns = i64::try_from(t).context("time beyond i64 ns")?;
-                sink.write(&Frame {
-                    step: index as u64,
-                    time_ns,
-                    world_from_link: &overlay,
-                    bodies: &[],
-                    joints: &[],
-                    mechanisms: &[],
-                })?;
-                batch_t.push(time_ns);
-                batch_step.push(index as i64);
-                if batch_t.len() >= SERIES_BATCH || index + 1 == times.len() {
-                    for (i, [pos_entity, rot_entity]) in entities.iter().enumerate() {
-                        let pos: Vec<f64> = batch_err[i].iter().map(|e| e[0]).collect();
-                        let rot: Vec<f64> = batch_err[i].iter().map(|e| e[1]).collect();
-                        sink.write_series(pos_entity, &["m"], &batch_t, &batch_step, &pos)?;
-                        sink.write_series(rot_entity, &["rad"], &batch_t, &batch_step, &rot)?;
-                        batch_err[i].clear();
-                    }
-                    batch_t.clear();
-                    batch_step.clear();
-                }
-            }
+        if let Some((times, _)) = &frame_times {
+            frames_result = Some(compare_frames(a, b, settings, &matched, times, &mut sink)?);
+        }
+        if let (Some((times, _)), Some((names, _, _))) = (&joint_times, &joint_pair) {
+            let joints = [&scans[0], &scans[1]].map(|s| s.joints.as_ref().expect("joints"));
+            joints_result = Some(compare_joints([a, b], joints, names, times, &mut sink)?);
         }
         Ok(())
     })();
@@ -624,8 +723,180 @@ pub fn diff(
         result?;
     }
 
+    let (bodies, interpolated) = frames_result.unwrap_or_default();
+    let worst = |f: fn(&BodyDiff) -> f64| {
+        bodies
+            .iter()
+            .map(f)
+            .fold(0.0, |m: f64, v| if exceeds(v, m) { v } else { m })
+    };
+    let pos_err_max = worst(|b| b.pos_err_max);
+    let rot_err_max = worst(|b| b.rot_err_max);
+    let frames_within = !frames_compared
+        || (pos_err_max <= settings.pos_tolerance_m
+            && rot_err_max <= settings.rot_tolerance_rad
+            && unmatched_a.is_empty()
+            && unmatched_b.is_empty()
+            && same_span);
+    let joints = match (joints_result, &joint_times, joint_pair) {
+        (Some((joints, interpolated)), Some((times, aligned_on)), Some((_, only_a, only_b))) => {
+            let err_max = joints
+                .iter()
+                .map(|j| j.err_max)
+                .fold(0.0, |m: f64, v| if exceeds(v, m) { v } else { m });
+            let tolerance = match settings.joint_tolerance {
+                Some(t) => Some(t),
+                None if !frames_compared => Some(0.0),
+                None => None,
+            };
+            let [x, y] = [&scans[0], &scans[1]].map(|s| s.joints.as_ref().expect("joints"));
+            Some(JointsReport {
+                topic_a: x.topic.clone(),
+                topic_b: y.topic.clone(),
+                samples_a: x.times.len(),
+                samples_b: y.times.len(),
+                err_max,
+                joints,
+                samples_compared: times.len(),
+                aligned_on: aligned_on.to_string(),
+                interpolated,
+                time_start: times[0] as f64 / 1e9,
+                time_end: times[times.len() - 1] as f64 / 1e9,
+                unmatched_a: only_a,
+                unmatched_b: only_b,
+                offset_a: x.offset_ns as f64 / 1e9,
+                offset_b: y.offset_ns as f64 / 1e9,
+                tolerance,
+                within_tolerance: tolerance.map(|t| err_max <= t),
+            })
+        }
+        _ => None,
+    };
+    let joints_within = joints
+        .as_ref()
+        .and_then(|j| j.within_tolerance)
+        .unwrap_or(true);
+    let (samples_compared, aligned_on, time_start, time_end) = match &frame_times {
+        Some((times, on)) => (
+            times.len(),
+            on.to_string(),
+            times[0] as f64 / 1e9,
+            times[times.len() - 1] as f64 / 1e9,
+        ),
+        None => (
+            0,
+            "none".to_string(),
+            compared[0] as f64 / 1e9,
+            compared[compared.len() - 1] as f64 / 1e9,
+        ),
+    };
+    Ok(DiffReport {
+        pos_err_max,
+        rot_err_max,
+        bodies,
+        a: side(a, &scans[0], &sides_times[0]),
+        b: side(b, &scans[1], &sides_times[1]),
+        samples_compared,
+        aligned_on,
+        interpolated,
+        time_start,
+        time_end,
+        unmatched_a,
+        unmatched_b,
+        pos_tolerance: settings.pos_tolerance_m,
+        rot_tolerance: settings.rot_tolerance_rad,
+        within_tolerance: frames_within && joints_within,
+        frames_within_tolerance: frames_within,
+        warnings,
+        frames_compared,
+        joints,
+    })
+}
+
+/// The names of `a` also in `b` (in `a`'s order), those only in `a`, those only in `b`.
+fn match_names(a: &[String], b: &[String]) -> (Vec<String>, Vec<String>, Vec<String>) {
+    let in_a: std::collections::HashSet<&String> = a.iter().collect();
+    let in_b: std::collections::HashSet<&String> = b.iter().collect();
+    (
+        a.iter().filter(|n| in_b.contains(n)).cloned().collect(),
+        a.iter().filter(|n| !in_b.contains(n)).cloned().collect(),
+        b.iter().filter(|n| !in_a.contains(n)).cloned().collect(),
+    )
+}
+
+/// The frames pass: per matched frame its errors at `times`, and the poses interpolated;
+/// with a sink, the overlay and the error series.
+fn compare_frames(
+    a: &Path,
+    b: &Path,
+    settings: &DiffSettings,
+    matched: &[String],
+    times: &[u64],
+    sink: &mut Option<RerunSink>,
+) -> anyhow::Result<(Vec<BodyDiff>, usize)> {
+    let mut cursors = [
+        Cursor::open(a, &settings.topic, matched)?,
+        Cursor::open(b, &settings.topic, matched)?,
+    ];
+    let entities: Vec<[rerun::EntityPath; 2]> = matched.iter().map(|f| error_entities(f)).collect();
+    let mut acc = vec![Accumulator::default(); matched.len()];
+    let mut batch_t: Vec<i64> = Vec::new();
+    let mut batch_step: Vec<i64> = Vec::new();
+    let mut batch_err: Vec<Vec<[f64; 2]>> = vec![Vec::new(); matched.len()];
+    let mut overlay: Vec<Isometry3<f64>> = Vec::with_capacity(2 * matched.len());
+    for (index, &t) in times.iter().enumerate() {
+        let pa = cursors[0].at(t)?;
+        let pb = cursors[1].at(t)?;
+        for (i, (x, y)) in pa.iter().zip(&pb).enumerate() {
+            let pos = (x.translation.vector - y.translation.vector).norm();
+            let rot = rotation_between(&x.rotation, &y.rotation);
+            let s = &mut acc[i];
+            // A NaN error becomes the maximum (and then fails any tolerance).
+            if exceeds(pos, s.pos_max) {
+                s.pos_max = pos;
+                s.pos_max_t = t;
+            }
+            if exceeds(rot, s.rot_max) {
+                s.rot_max = rot;
+                s.rot_max_t = t;
+            }
+            s.pos_sq += pos * pos;
+            s.rot_sq += rot * rot;
+            s.pos_end = pos;
+            s.rot_end = rot;
+            if sink.is_some() {
+                batch_err[i].push([pos, rot]);
+            }
+        }
+        if let Some(sink) = sink.as_mut() {
+            overlay.clear();
+            overlay.extend(pa.iter().chain(&pb));
+            let time_ns = i64::try_from(t).context("time beyond i64 ns")?;
+            sink.write(&Frame {
+                step: index as u64,
+                time_ns,
+                world_from_link: &overlay,
+                bodies: &[],
+                joints: &[],
+                mechanisms: &[],
+            })?;
+            batch_t.push(time_ns);
+            batch_step.push(index as i64);
+            if batch_t.len() >= SERIES_BATCH || index + 1 == times.len() {
+                for (i, [pos_entity, rot_entity]) in entities.iter().enumerate() {
+                    let pos: Vec<f64> = batch_err[i].iter().map(|e| e[0]).collect();
+                    let rot: Vec<f64> = batch_err[i].iter().map(|e| e[1]).collect();
+                    sink.write_series(pos_entity, &["m"], &batch_t, &batch_step, &pos)?;
+                    sink.write_series(rot_entity, &["rad"], &batch_t, &batch_step, &rot)?;
+                    batch_err[i].clear();
+                }
+                batch_t.clear();
+                batch_step.clear();
+            }
+        }
+    }
     let n = times.len() as f64;
-    let bodies: Vec<BodyDiff> = matched
+    let bodies = matched
         .iter()
         .zip(&acc)
         .map(|(name, s)| BodyDiff {
@@ -640,37 +911,72 @@ pub fn diff(
             rot_err_max_time: s.rot_max_t as f64 / 1e9,
         })
         .collect();
-    let worst = |f: fn(&BodyDiff) -> f64| {
-        bodies
-            .iter()
-            .map(f)
-            .fold(0.0, |m: f64, v| if exceeds(v, m) { v } else { m })
-    };
-    let pos_err_max = worst(|b| b.pos_err_max);
-    let rot_err_max = worst(|b| b.rot_err_max);
-    let within_tolerance = pos_err_max <= settings.pos_tolerance_m
-        && rot_err_max <= settings.rot_tolerance_rad
-        && unmatched_a.is_empty()
-        && unmatched_b.is_empty()
-        && same_span;
-    Ok(DiffReport {
-        pos_err_max,
-        rot_err_max,
-        bodies,
-        a: side(a, &scans[0]),
-        b: side(b, &scans[1]),
-        samples_compared: times.len(),
-        aligned_on: aligned_on.into(),
-        interpolated: cursors[0].interpolated + cursors[1].interpolated,
-        time_start: times[0] as f64 / 1e9,
-        time_end: times[times.len() - 1] as f64 / 1e9,
-        unmatched_a,
-        unmatched_b,
-        pos_tolerance: settings.pos_tolerance_m,
-        rot_tolerance: settings.rot_tolerance_rad,
-        within_tolerance,
-        warnings,
-    })
+    Ok((bodies, cursors[0].interpolated + cursors[1].interpolated))
+}
+
+/// Entity of a joint's difference series in the `--rrd` recording:
+/// `/plots/diff/joint_error/<joint split at '/'>`.
+pub fn joint_error_entity(joint: &str) -> rerun::EntityPath {
+    let mut parts = vec![
+        rerun::EntityPathPart::new("plots"),
+        rerun::EntityPathPart::new("diff"),
+        rerun::EntityPathPart::new("joint_error"),
+    ];
+    parts.extend(
+        joint
+            .split('/')
+            .filter(|p| !p.is_empty())
+            .map(rerun::EntityPathPart::new),
+    );
+    rerun::EntityPath::new(parts)
+}
+
+/// The joints pass ([`super::joint_diff`]): per compared joint its differences at `times`,
+/// and the positions interpolated; with a sink, the difference series.
+fn compare_joints(
+    paths: [&Path; 2],
+    scans: [&JointScan; 2],
+    names: &[String],
+    times: &[u64],
+    sink: &mut Option<RerunSink>,
+) -> anyhow::Result<(Vec<JointDiff>, usize)> {
+    let mut cursors = [
+        JointCursor::open(paths[0], scans[0], names)?,
+        JointCursor::open(paths[1], scans[1], names)?,
+    ];
+    let entities: Vec<rerun::EntityPath> = names.iter().map(|n| joint_error_entity(n)).collect();
+    let mut acc = vec![JointAccumulator::default(); names.len()];
+    let (mut batch_t, mut batch_step) = (Vec::new(), Vec::new());
+    let mut batch_err: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+    for (index, &t) in times.iter().enumerate() {
+        let pa = cursors[0].at(t)?;
+        let pb = cursors[1].at(t)?;
+        for (i, (x, y)) in pa.iter().zip(&pb).enumerate() {
+            let err = (x - y).abs();
+            acc[i].add(t, err);
+            if sink.is_some() {
+                batch_err[i].push(err);
+            }
+        }
+        if let Some(sink) = sink.as_mut() {
+            batch_t.push(i64::try_from(t).context("time beyond i64 ns")?);
+            batch_step.push(index as i64);
+            if batch_t.len() >= SERIES_BATCH || index + 1 == times.len() {
+                for (entity, errs) in entities.iter().zip(&mut batch_err) {
+                    sink.write_series(entity, &["|θ_A − θ_B|"], &batch_t, &batch_step, errs)?;
+                    errs.clear();
+                }
+                batch_t.clear();
+                batch_step.clear();
+            }
+        }
+    }
+    let joints = names
+        .iter()
+        .zip(&acc)
+        .map(|(name, s)| s.report(name, times.len()))
+        .collect();
+    Ok((joints, cursors[0].interpolated + cursors[1].interpolated))
 }
 
 #[cfg(test)]

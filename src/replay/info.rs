@@ -36,6 +36,20 @@ pub struct JointInfo {
     pub kind: String,
     /// The URDF range, rad or m.
     pub limits: Option<[f64; 2]>,
+    /// What drives it, when something does (absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drive: Option<DriveInfo>,
+}
+
+/// A joint's drive ([`crate::record::DriveLayout`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct DriveInfo {
+    /// `motor`, `position`, `velocity`, or `damping` (damping alone).
+    pub kind: String,
+    /// N m or N.
+    pub effort_limit: Option<f64>,
+    /// N m s/rad or N s/m.
+    pub damping: f64,
 }
 
 /// A recorded articulated model.
@@ -206,10 +220,16 @@ pub fn info(path: &Path) -> anyhow::Result<RecordingInfo> {
             layout
                 .joints
                 .iter()
-                .map(|j| JointInfo {
+                .enumerate()
+                .map(|(i, j)| JointInfo {
                     name: j.name.clone(),
                     kind: j.kind.clone(),
                     limits: j.limits,
+                    drive: layout.drive_of(i).map(|d| DriveInfo {
+                        kind: d.kind_name().to_string(),
+                        effort_limit: d.effort_limit,
+                        damping: d.damping,
+                    }),
                 })
                 .collect(),
             layout
@@ -370,7 +390,16 @@ pub fn text_with(info: &RecordingInfo, limit: Option<usize>) -> String {
             let range = j.limits.map_or(String::new(), |[lo, hi]| {
                 format!(", URDF range [{lo}, {hi}]")
             });
-            out.push_str(&format!("  joint {:<18} {}{range}\n", j.name, j.kind));
+            let drive = j.drive.as_ref().map_or(String::new(), |d| {
+                let limit = d
+                    .effort_limit
+                    .map_or(String::new(), |l| format!(", effort limit {l}"));
+                format!(", driven: {}{limit}, damping {}", d.kind, d.damping)
+            });
+            out.push_str(&format!(
+                "  joint {:<18} {}{range}{drive}\n",
+                j.name, j.kind
+            ));
         }
         if let Some(more) = more_joints {
             out.push_str(&format!("  {more}\n"));

@@ -344,6 +344,9 @@ impl StepReader {
                 pending.joints[i] = Some(JointState {
                     position: j.position,
                     velocity: j.velocity,
+                    effort: j.effort.unwrap_or(0.0),
+                    target: j.target,
+                    saturated: j.saturated,
                 });
             }
         } else if topic.ends_with(MECHANISMS_TOPIC) {

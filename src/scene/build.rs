@@ -287,6 +287,8 @@ impl Scene {
         std::sync::Arc::make_mut(&mut world.attachments).shrink_to_fit();
         world.layout.frames.shrink_to_fit();
         world.layout.bodies.shrink_to_fit();
+        // What drives the joints, for the recorders (`RecordingLayout::drives`; a run checks it).
+        world.describe_drives();
         Ok(world)
     }
 

@@ -29,8 +29,11 @@ fn position_text(p: f64) -> String {
 /// Free bodies report their carried state. Bodies of an articulated model report the momenta
 /// projected onto the velocity constraints ([`crate::sim::mechanism::project`]), and each such
 /// model its joint coordinates and totals; compound joints' massless links are placed from the
-/// report. A joint found outside its URDF range at a recorded step is warned about once (on
-/// standard error), naming the joint and the time.
+/// report. A driven joint reports its effort (actuator plus damping), target and saturation
+/// from its drive's continuous-time law ([`crate::sim::mechanism::JointDrive::effort`]) at the
+/// recorded time (`time_ns / 1e9`), with the recorded position and velocity. A joint found
+/// outside its URDF range at a recorded step is warned about once (on standard error), naming
+/// the joint and the time.
 pub struct FrameBuilder {
     attachments: Arc<Vec<Attachment>>,
     interior: Vec<InteriorFrame>,
@@ -185,10 +188,27 @@ impl FrameBuilder {
             };
         }
         let joints = self.mechanism_ranges[k].1.clone();
+        // The drives are sorted by coordinate: one pass beside the joints.
+        let mut drives = model.drives.iter().peekable();
         for (c, j) in joints.enumerate() {
-            out.joints[j] = JointState {
-                position: report.position[c],
-                velocity: report.velocity[c],
+            let (position, velocity) = (report.position[c], report.velocity[c]);
+            let drive = drives.next_if(|d| d.coordinate == c);
+            out.joints[j] = match drive {
+                None => JointState {
+                    position,
+                    velocity,
+                    ..JointState::default()
+                },
+                Some(d) => {
+                    let effort = d.effort(time_secs, position, velocity);
+                    JointState {
+                        position,
+                        velocity,
+                        effort: effort.total(),
+                        target: d.target(time_secs),
+                        saturated: effort.saturated,
+                    }
+                }
             };
             if let Some([lo, hi]) = model.coordinates[c].limits {
                 let p = report.position[c];

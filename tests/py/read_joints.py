@@ -7,7 +7,14 @@ reader and `mcap-protobuf-support` (readers nobody on the tumble team wrote), pl
                         kinetic, potential, energy, residual_m, residual_rad], ...]},
  "total_energy": [[log_time_ns, step, total_energy of /bodies], ...],
  "frames": {child_frame_id: [[log_time_ns, tx, ty, tz, qx, qy, qz, qw], ...]},
- "schemas": {topic: schema_name}, "times_agree": bool}
+ "schemas": {topic: schema_name}, "times_agree": bool,
+ "efforts": {name: [[log_time_ns, step, effort, target, saturated, has_effort], ...]},
+ "joint_fields": [field names of tumble.JointState as the file's schema declares them]}
+
+In "efforts", `target` is null where the message has none (`HasField` of the proto3 optional
+field, when the schema declares it; null too when it does not), `has_effort` whether the
+message carries an effort (`HasField`, false where the schema does not declare it); `effort`
+0.0 and `saturated` false where absent or undeclared (the proto3 defaults).
 """
 import json
 import sys
@@ -24,6 +31,7 @@ def stamp_ns(ts):
 
 def main(path):
     joints, mechanisms, total, frames, schemas = {}, {}, [], {}, {}
+    efforts, joint_fields = {}, []
     times_agree = True
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
@@ -34,6 +42,13 @@ def main(path):
                 times_agree &= stamp_ns(decoded.timestamp) == t
                 for j in decoded.joints:
                     joints.setdefault(j.name, []).append([t, decoded.step, j.position, j.velocity])
+                    fields = j.DESCRIPTOR.fields_by_name
+                    joint_fields = [f.name for f in j.DESCRIPTOR.fields]
+                    target = j.target if "target" in fields and j.HasField("target") else None
+                    has_effort = "effort" in fields and j.HasField("effort")
+                    efforts.setdefault(j.name, []).append(
+                        [t, decoded.step, j.effort if "effort" in fields else 0.0, target,
+                         bool(j.saturated) if "saturated" in fields else False, has_effort])
             elif channel.topic.endswith("/mechanisms"):
                 times_agree &= stamp_ns(decoded.timestamp) == t
                 for m in decoded.mechanisms:
@@ -50,7 +65,8 @@ def main(path):
                     frames.setdefault(tf.child_frame_id, []).append(
                         [t, tr.x, tr.y, tr.z, q.x, q.y, q.z, q.w])
     json.dump({"joints": joints, "mechanisms": mechanisms, "total_energy": total,
-               "frames": frames, "schemas": schemas, "times_agree": bool(times_agree)},
+               "frames": frames, "schemas": schemas, "times_agree": bool(times_agree),
+               "efforts": efforts, "joint_fields": joint_fields},
               sys.stdout)
 
 

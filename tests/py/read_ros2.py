@@ -23,7 +23,8 @@ DECODED = {"frames": {child_frame_id: [[log_time, stamp_ns, tx, ty, tz, qx, qy, 
            "bodies": {name: [[log_time, stamp_ns, step, ke, pe, Lx, Ly, Lz, wx, wy, wz, vx, vy, vz]]},
            "total_energy": [[log_time, total_energy]],
            "descriptions": {topic: [[log_time, urdf text]]},
-           "joints": {name: [[log_time, stamp_ns, position, velocity, len(effort), frame_id]]},
+           "joints": {name: [[log_time, stamp_ns, position, velocity, len(effort), frame_id,
+                              effort (null when the message's effort is empty)]]},
            "counts": {topic: n}}
 """
 import json
@@ -67,10 +68,13 @@ def add(out, topic, log_time, msg):
         if len(msg.position) != len(msg.name) or len(msg.velocity) != len(msg.name):
             raise SystemExit(f"{topic}: {len(msg.name)} names, {len(msg.position)} positions, "
                              f"{len(msg.velocity)} velocities")
-        for name, p, v in zip(msg.name, msg.position, msg.velocity):
+        if len(msg.effort) not in (0, len(msg.name)):
+            raise SystemExit(f"{topic}: {len(msg.name)} names, {len(msg.effort)} efforts")
+        efforts = list(msg.effort) if len(msg.effort) else [None] * len(msg.name)
+        for name, p, v, e in zip(msg.name, msg.position, msg.velocity, efforts):
             out["joints"].setdefault(name, []).append(
                 [log_time, stamp_ns(msg.header.stamp), p, v, len(msg.effort),
-                 msg.header.frame_id])
+                 msg.header.frame_id, None if e is None else float(e)])
     elif topic.endswith("/robot_description"):
         out["descriptions"].setdefault(topic, []).append([log_time, msg.data])
 

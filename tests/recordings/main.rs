@@ -7,6 +7,8 @@
 mod common;
 
 mod dataset;
+mod drives;
+mod joint_diff;
 mod partial_step;
 mod recordings;
 mod replay;

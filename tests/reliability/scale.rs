@@ -294,8 +294,9 @@ fn threads_write_the_same_bytes() {
     }
 }
 
-/// `--format` writes exactly the files it names, and the Parquet tables read in pandas with one
-/// trajectory row per body and recorded step.
+/// `--format` writes exactly the files it names (`parquet` its three tables, the joints table
+/// without rows for a scene without articulated models), and the Parquet tables read in pandas
+/// with one trajectory row per body and recorded step.
 #[test]
 fn format_writes_exactly_what_it_names() {
     let dir = tempfile::tempdir().unwrap();
@@ -311,11 +312,20 @@ fn format_writes_exactly_what_it_names() {
         ("rrd", vec!["x.rrd"]),
         (
             "parquet",
-            vec!["x.bodies.parquet", "x.trajectories.parquet"],
+            vec![
+                "x.bodies.parquet",
+                "x.joints.parquet",
+                "x.trajectories.parquet",
+            ],
         ),
         (
             "mcap,parquet",
-            vec!["x.bodies.parquet", "x.mcap", "x.trajectories.parquet"],
+            vec![
+                "x.bodies.parquet",
+                "x.joints.parquet",
+                "x.mcap",
+                "x.trajectories.parquet",
+            ],
         ),
         ("ros2,rrd", vec!["x.ros2.mcap", "x.rrd"]),
     ] {
@@ -355,6 +365,14 @@ fn format_writes_exactly_what_it_names() {
         serde_json::json!(["b_0/box", "b_1/box", "b_2/box"])
     );
     assert_eq!(py["steps"], serde_json::json!([0, 10, 20]));
+    // No articulated model: the joints table is there, with its columns and no rows.
+    let joints = common::run_py(
+        "read_parquet_joints.py",
+        &[&d.join("parquet/x.joints.parquet")],
+    );
+    assert_eq!(joints["pandas"]["rows"], 0);
+    assert_eq!(joints["polars"]["rows"], 0);
+    assert_eq!(joints["polars"]["columns"].as_array().unwrap().len(), 11);
     let bad = tumble(&["simulate", "s.toml", "--format", "mcap,csv"], d);
     assert_eq!(bad.status.code(), Some(2));
     assert!(

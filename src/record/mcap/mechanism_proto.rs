@@ -3,7 +3,9 @@
 //! recording has articulated models (per topic group, under its prefix like `/tf`).
 //!
 //! ```text
-//! message JointState      { string name = 1; double position = 2; double velocity = 3; }
+//! message JointState      { string name = 1; double position = 2; double velocity = 3;
+//!                           optional double effort = 4; optional double target = 5;
+//!                           bool saturated = 6; }
 //! message JointStates     { google.protobuf.Timestamp timestamp = 1; uint64 step = 2;
 //!                           repeated JointState joints = 3; }
 //! message MechanismState  { string name = 1; Vector3 linear_momentum = 2;
@@ -19,12 +21,27 @@
 //! momenta and energies from the momenta projected onto the velocity constraints, world frame,
 //! SI units; `angular_momentum` is about the model's centre of mass `com`; `residual_m` the
 //! largest anchor gap of any joint (m), `residual_rad` the largest axis misalignment (rad).
+//!
+//! `effort`, `target` and `saturated` are a driven joint's ([`crate::record::JointState`]):
+//! the effort applied, actuator plus damping (N m or N; the continuous-time law at the
+//! recorded time, position and velocity), present for every driven joint even when it is 0
+//! (proto3 `optional`: a log read back tells "no effort" from "an effort of 0"); the commanded
+//! target (a position servo's position, a velocity servo's velocity; absent for a motor,
+//! damping alone or an undriven joint); and whether the effort limit clamped it. An undriven
+//! joint carries none of the three (effort and target absent, reading as 0, not saturated), so
+//! its message is the one it was before drives existed; and the schema lists the three fields
+//! only in recordings with a driven joint ([`joint_states_descriptor`]), so a recording without
+//! drives is byte for byte the one it was. A reader decodes both with either schema (fields it
+//! does not know are skipped).
 //! Each schema is a self-contained `FileDescriptorSet` (`tumble.Vector3` from
 //! `tumble/BodyStates.proto`, which it includes, as `/bodies` does).
 
 use prost::Message as _;
 use prost_types::field_descriptor_proto::{Label, Type};
-use prost_types::{DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet};
+use prost_types::{
+    DescriptorProto, FieldDescriptorProto, FileDescriptorProto, FileDescriptorSet,
+    OneofDescriptorProto,
+};
 
 /// Schema names.
 pub const JOINT_STATES_SCHEMA: &str = "tumble.JointStates";
@@ -39,6 +56,12 @@ pub struct JointState {
     pub position: f64,
     #[prost(double, tag = "3")]
     pub velocity: f64,
+    #[prost(double, optional, tag = "4")]
+    pub effort: Option<f64>,
+    #[prost(double, optional, tag = "5")]
+    pub target: Option<f64>,
+    #[prost(bool, tag = "6")]
+    pub saturated: bool,
 }
 
 /// `tumble.JointStates`
@@ -143,20 +166,43 @@ fn stamp_and_step() -> [FieldDescriptorProto; 2] {
     ]
 }
 
-/// The `FileDescriptorSet` of [`JointStates`] (field numbers as the `prost` tags above).
-pub fn joint_states_descriptor() -> Vec<u8> {
+/// The `FileDescriptorSet` of [`JointStates`] (field numbers as the `prost` tags above). With
+/// `driven` (the recording has a driven joint) `JointState` lists `effort` and `target` (each
+/// proto3 `optional`: a synthetic oneof `_effort`, `_target`, as `protoc` describes them) and
+/// `saturated`; without, the three are left out and the schema is the one recordings had
+/// before drives.
+pub fn joint_states_descriptor(driven: bool) -> Vec<u8> {
     let [ts, step] = stamp_and_step();
+    let mut joint_state = message(
+        "JointState",
+        vec![
+            field("name", 1, Type::String, None),
+            field("position", 2, Type::Double, None),
+            field("velocity", 3, Type::Double, None),
+        ],
+    );
+    if driven {
+        let optional = |name: &str, number, oneof| FieldDescriptorProto {
+            oneof_index: Some(oneof),
+            proto3_optional: Some(true),
+            ..field(name, number, Type::Double, None)
+        };
+        joint_state.field.extend([
+            optional("effort", 4, 0),
+            optional("target", 5, 1),
+            field("saturated", 6, Type::Bool, None),
+        ]);
+        for name in ["_effort", "_target"] {
+            joint_state.oneof_decl.push(OneofDescriptorProto {
+                name: Some(name.into()),
+                ..Default::default()
+            });
+        }
+    }
     descriptor(
         "tumble/JointStates.proto",
         vec![
-            message(
-                "JointState",
-                vec![
-                    field("name", 1, Type::String, None),
-                    field("position", 2, Type::Double, None),
-                    field("velocity", 3, Type::Double, None),
-                ],
-            ),
+            joint_state,
             message(
                 "JointStates",
                 vec![ts, step, repeated("joints", 3, ".tumble.JointState")],
@@ -215,12 +261,15 @@ fn vec3(v: &nalgebra::Vector3<f64>) -> Option<super::proto::Vector3> {
     })
 }
 
-/// The `/joints` message of a group's joints.
+/// The `/joints` message of a group's joints; `driven[i]`: whether joint `i` is driven (empty:
+/// none is). An undriven joint's drive fields are left out, so a recording without drives (whose
+/// schema declares no drive field, [`joint_states_descriptor`]) never carries one.
 pub fn joint_states(
     time_ns: u64,
     step: u64,
     names: &[String],
     states: &[crate::record::JointState],
+    driven: &[bool],
 ) -> JointStates {
     JointStates {
         timestamp: Some(timestamp(time_ns)),
@@ -228,10 +277,17 @@ pub fn joint_states(
         joints: names
             .iter()
             .zip(states)
-            .map(|(name, s)| JointState {
-                name: name.clone(),
-                position: s.position,
-                velocity: s.velocity,
+            .enumerate()
+            .map(|(i, (name, s))| {
+                let driven = driven.get(i).copied().unwrap_or(false);
+                JointState {
+                    name: name.clone(),
+                    position: s.position,
+                    velocity: s.velocity,
+                    effort: driven.then_some(s.effort),
+                    target: s.target.filter(|_| driven),
+                    saturated: s.saturated && driven,
+                }
             })
             .collect(),
     }
@@ -280,5 +336,47 @@ pub fn from_proto(m: &MechanismState) -> crate::record::MechanismState {
         potential_energy: m.potential_energy,
         residual_m: m.residual_m,
         residual_rad: m.residual_rad,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A recording without drives writes the bytes it wrote before drives existed, whatever
+    /// the frame holds; with drives, the three fields are encoded (the target only when set).
+    #[test]
+    fn drive_fields_are_written_only_in_driven_recordings() {
+        let names = ["j".to_string()];
+        let plain = crate::record::JointState {
+            position: 0.5,
+            velocity: -1.0,
+            ..Default::default()
+        };
+        let driven_state = crate::record::JointState {
+            effort: 2.0,
+            target: Some(0.25),
+            saturated: true,
+            ..plain
+        };
+        let bytes = |s, driven: &[bool]| joint_states(7, 1, &names, &[s], driven).encode_to_vec();
+        assert_eq!(bytes(driven_state, &[]), bytes(plain, &[]));
+        assert_eq!(bytes(driven_state, &[false]), bytes(plain, &[]));
+        let decoded = JointStates::decode(&*bytes(driven_state, &[true])).unwrap();
+        let j = &decoded.joints[0];
+        assert_eq!(
+            (j.effort, j.target, j.saturated),
+            (Some(2.0), Some(0.25), true)
+        );
+        // An effort and a target of 0 are still present (proto3 `optional` keeps them).
+        let zero = crate::record::JointState {
+            target: Some(0.0),
+            ..plain
+        };
+        let decoded = JointStates::decode(&*bytes(zero, &[true])).unwrap();
+        assert_eq!(
+            (decoded.joints[0].effort, decoded.joints[0].target),
+            (Some(0.0), Some(0.0))
+        );
     }
 }

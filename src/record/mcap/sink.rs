@@ -118,6 +118,9 @@ pub struct McapSink {
     groups: Vec<ChannelGroup>,
     sequence: u32,
     joint_names: Vec<String>,
+    /// Per joint: whether it is driven (its `/joints` entries carry the drive fields); empty
+    /// without drives.
+    driven: Vec<bool>,
     mechanism_names: Vec<String>,
     buf: Vec<u8>,
     warnings: Vec<String>,
@@ -194,7 +197,7 @@ impl McapSink {
                 writer.add_schema(
                     mp::JOINT_STATES_SCHEMA,
                     "protobuf",
-                    &mp::joint_states_descriptor(),
+                    &mp::joint_states_descriptor(!layout.drives.is_empty()),
                 )?,
                 writer.add_schema(
                     mp::MECHANISM_STATES_SCHEMA,
@@ -303,6 +306,13 @@ impl McapSink {
             groups,
             sequence: 0,
             joint_names: layout.joints.iter().map(|j| j.name.clone()).collect(),
+            driven: if layout.drives.is_empty() {
+                Vec::new()
+            } else {
+                (0..layout.joints.len())
+                    .map(|j| layout.drive_of(j).is_some())
+                    .collect()
+            },
             mechanism_names: layout.mechanisms.iter().map(|m| m.name.clone()).collect(),
             buf: Vec::new(),
             warnings,
@@ -359,7 +369,8 @@ impl Sink for McapSink {
                     time_ns,
                     frame.step,
                     &self.joint_names[joints.clone()],
-                    &frame.joints[joints],
+                    &frame.joints[joints.clone()],
+                    self.driven.get(joints).unwrap_or(&[]),
                 );
                 self.buf.clear();
                 message.encode(&mut self.buf)?;

@@ -28,7 +28,15 @@ use std::path::{Path, PathBuf};
 pub const ROW_GROUP_ROWS: usize = 128 * 1024;
 
 /// String columns that are dictionary-encoded (few distinct values).
-const DICTIONARY_COLUMNS: &[&str] = &["body", "model", "integrator", "status", "link"];
+const DICTIONARY_COLUMNS: &[&str] = &[
+    "body",
+    "model",
+    "integrator",
+    "status",
+    "link",
+    "joint",
+    "drive",
+];
 
 /// The writer properties of every dataset file: zstd level 1 when `compressed`, else none.
 pub fn writer_properties(compressed: bool) -> anyhow::Result<WriterProperties> {

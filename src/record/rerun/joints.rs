@@ -11,7 +11,7 @@
 //! | `/plots/mechanisms/<model>/constraint_residual` | [gap (m), misalignment (rad)] |
 //!
 //! `<joint>` and `<model>` are the layout's names split at `/` (one path part each), as for
-//! bodies.
+//! bodies. Driven joints add their effort, target and saturation series ([`super::drives`]).
 //!
 //! **Many models** (more than [`BATCH_MODELS_MAX`], e.g. `copies = 1000` of a robot): an entity
 //! per joint and per model series made Rerun's start-up, chunk store and footer cost about 4 ms
@@ -33,23 +33,14 @@
 
 use super::blueprint::PlotView;
 use super::chunks::static_chunk;
-use super::paths::ENERGY_SERIES;
+use super::drives::DriveSeries;
+use super::paths::{ENERGY_SERIES, named_path as path};
 use super::values::nonzero;
 use super::writer::ChunkWriter;
-use crate::record::{Frame, RecordingLayout};
+use crate::record::{ActuatorLaw, Frame, RecordingLayout};
 use anyhow::Result;
 use rerun::log::Chunk;
 use rerun::{EntityPath, EntityPathPart, TimeColumn};
-
-fn path(parts: &[&str], name: &str) -> EntityPath {
-    let mut p: Vec<EntityPathPart> = parts.iter().map(|s| EntityPathPart::new(*s)).collect();
-    p.extend(
-        name.split('/')
-            .filter(|s| !s.is_empty())
-            .map(EntityPathPart::new),
-    );
-    EntityPath::new(p)
-}
 
 /// Entity of a joint's position series.
 pub fn joint_position_entity_path(joint: &str) -> EntityPath {
@@ -104,6 +95,8 @@ pub(super) struct JointPlots {
     series: Vec<Vec<Vec<f64>>>,
     energy0: Vec<Option<f64>>,
     in_mechanism: Vec<bool>,
+    /// The driven joints' series ([`super::drives`]).
+    drives: DriveSeries,
 }
 
 impl JointPlots {
@@ -169,6 +162,7 @@ impl JointPlots {
                 .collect(),
             energy0: vec![None; layout.mechanisms.len()],
             in_mechanism,
+            drives: DriveSeries::new(layout, batched),
         }
     }
 
@@ -200,14 +194,23 @@ impl JointPlots {
                     &[&rerun::SeriesLines::new().with_names(labels.iter().map(String::as_str))],
                 )?);
             }
+            chunks.extend(self.drives.static_chunks()?);
             return Ok(chunks);
         }
-        for ((p, v), name) in self.positions.iter().zip(&self.velocities).zip(&self.names) {
-            for entity in [p, v] {
-                chunks.push(static_chunk(
-                    entity.clone(),
-                    &[&rerun::SeriesLines::new().with_names([name.as_str()])],
-                )?);
+        for (j, ((p, v), name)) in self
+            .positions
+            .iter()
+            .zip(&self.velocities)
+            .zip(&self.names)
+            .enumerate()
+        {
+            for (entity, law) in [(p, ActuatorLaw::Position), (v, ActuatorLaw::Velocity)] {
+                let mut lines = rerun::SeriesLines::new().with_names([name.as_str()]);
+                // A servo's measured series in its target's colour ([`super::drives`]).
+                if let Some(colour) = self.drives.measured_colour(j, law) {
+                    lines = lines.with_colors([colour]);
+                }
+                chunks.push(static_chunk(entity.clone(), &[&lines])?);
             }
         }
         for entities in &self.models {
@@ -218,6 +221,7 @@ impl JointPlots {
                 )?);
             }
         }
+        chunks.extend(self.drives.static_chunks()?);
         Ok(chunks)
     }
 
@@ -251,6 +255,7 @@ impl JointPlots {
             s[3].extend(m.angular_momentum.iter().map(|x| x + 0.0));
             s[4].extend([m.residual_m, m.residual_rad]);
         }
+        self.drives.push(frame);
         Ok(())
     }
 
@@ -308,7 +313,7 @@ impl JointPlots {
                 )?;
                 self.series[0][i].clear();
             }
-            return Ok(());
+            return self.drives.send(rec, times, rows);
         }
         for (j, (p, v)) in self.positions.iter().zip(&self.velocities).enumerate() {
             rec.send_columns(
@@ -335,18 +340,35 @@ impl JointPlots {
                 self.series[k][i].clear();
             }
         }
-        Ok(())
+        self.drives.send(rec, times, rows)
     }
 
-    /// The blueprint's plots for articulated models: each model's energy change and constraint
-    /// residual, and all joint positions.
+    /// The blueprint's plots for articulated models: all joint positions (with the position
+    /// servos' targets), the drives' plots ([`super::drives`]), each model's energy change and
+    /// constraint residual.
     pub(super) fn plot_views(&self, layout: &RecordingLayout) -> Vec<PlotView> {
         let mut views = Vec::new();
+        let targets = self.drives.position_plot_contents();
+        let with_targets = |first: &str| -> Vec<String> {
+            std::iter::once(first.to_string())
+                .chain(targets.iter().cloned())
+                .collect()
+        };
+        let positions_plot = |first: &str| {
+            let contents = with_targets(first);
+            let contents: Vec<&str> = contents.iter().map(String::as_str).collect();
+            PlotView::new(
+                if targets.is_empty() {
+                    "joint positions (rad, m)"
+                } else {
+                    "joint positions and targets (rad, m)"
+                },
+                &contents,
+            )
+        };
         if self.batched {
-            views.push(PlotView::new(
-                "joint positions (rad, m)",
-                &["+ /plots/joints/position"],
-            ));
+            views.push(positions_plot("+ /plots/joints/position"));
+            views.extend(self.drives.plot_views(&self.velocities));
             views.push(PlotView::new(
                 "every model's energy change (E − E₀)/|E₀|",
                 &["+ /plots/mechanisms/energy_change"],
@@ -358,11 +380,9 @@ impl JointPlots {
             return views;
         }
         if !self.positions.is_empty() {
-            views.push(PlotView::new(
-                "joint positions (rad, m)",
-                &["+ /plots/joints/position/**"],
-            ));
+            views.push(positions_plot("+ /plots/joints/position/**"));
         }
+        views.extend(self.drives.plot_views(&self.velocities));
         for m in &layout.mechanisms {
             let change = format!("+ {}", mechanism_entity_path(&m.name, "energy_change"));
             let residual = format!(

@@ -36,7 +36,7 @@
 //! | `/plots/scene/energy`                         | `Scalars` [kinetic, potential, total] summed over all bodies (J), `SeriesLines` (static) | both timelines |
 //! | `/plots/scene/energy_change`                  | `Scalars` [(E − E₀)/\|E₀\|], E the total above, E₀ its first recorded value | both timelines |
 //! | `/plots/scene/angular_momentum_change`        | `Scalars` [max over bodies \|L − L₀\|/\|L₀\|] | both timelines |
-//! | `/plots/joints/…`, `/plots/mechanisms/<model>/…` | articulated models only: joint positions and velocities, each model's energy, momenta and constraint residual ([`joints`]) | both timelines |
+//! | `/plots/joints/…`, `/plots/mechanisms/<model>/…` | articulated models only: joint positions and velocities, each model's energy, momenta and constraint residual ([`joints`]); driven joints' efforts, targets and saturation ([`drives`]) | both timelines |
 //!
 //! # Blueprint
 //!
@@ -99,6 +99,7 @@ pub mod batched;
 pub mod blueprint;
 pub mod chunks;
 pub mod columns;
+pub mod drives;
 pub mod footer;
 pub mod joints;
 pub mod paths;

@@ -59,6 +59,18 @@ pub fn scene_angmom_change_entity_path() -> EntityPath {
     entity(&["plots", "scene", "angular_momentum_change"])
 }
 
+/// `parts`, then `name` split at `/` (one path part each, empty parts dropped): the entity of a
+/// named series such as a joint's (`/plots/joints/position/<joint>`).
+pub(super) fn named_path(parts: &[&str], name: &str) -> EntityPath {
+    let mut p: Vec<EntityPathPart> = parts.iter().map(|s| EntityPathPart::new(*s)).collect();
+    p.extend(
+        name.split('/')
+            .filter(|s| !s.is_empty())
+            .map(EntityPathPart::new),
+    );
+    EntityPath::new(p)
+}
+
 pub(super) fn entity(parts: &[&str]) -> EntityPath {
     EntityPath::new(parts.iter().map(|p| EntityPathPart::new(*p)).collect())
 }

@@ -24,7 +24,12 @@
 //! `sensor_msgs/msg/JointState` ([`msgs::joint_state`], QoS as `/bodies`): one
 //! message per recorded step and topic group that holds joints, `name` = the joint names
 //! prefixed as the frame ids are (`name/joint`, as the rewritten `/robot_description` names
-//! them), `position` in rad or m, `velocity` in rad/s or m/s, `effort` empty. Only the joints
+//! them), `position` in rad or m, `velocity` in rad/s or m/s, and `effort`: in a recording with
+//! a driven joint ([`super::RecordingLayout::drives`]) every joint's effort applied, actuator
+//! plus damping, N m or N (0 for an undriven joint; the values of the `.mcap`'s `/joints`),
+//! else empty (nothing applies an effort; the message is the one it was before drives
+//! existed). `sensor_msgs/JointState` has no field for a target or a saturation: those are in
+//! the protobuf `/joints` of the `.mcap`. Only the joints
 //! the scene keeps moving are listed (fixed and locked joints are merged into bodies; mimic
 //! joints follow their leader, as `robot_state_publisher` computes them). A file without
 //! articulated models has no `/joint_states` channel.
@@ -36,6 +41,7 @@
 //! file is written under `<path>.part` and renamed onto `path` only once complete.
 
 pub mod cdr;
+pub mod cdr_read;
 pub mod msgs;
 pub mod sink;
 

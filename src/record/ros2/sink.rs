@@ -31,9 +31,13 @@ pub struct Ros2Sink {
     frame_ids: Vec<String>,
     body_names: Vec<String>,
     joint_names: Vec<String>,
-    /// Reused per message: the group's joint positions and velocities.
+    /// Reused per message: the group's joint positions, velocities and efforts.
     positions: Vec<f64>,
     velocities: Vec<f64>,
+    efforts: Vec<f64>,
+    /// Whether a joint is driven: then `effort` is filled (0 for an undriven joint), else it
+    /// is left empty as before drives existed.
+    driven: bool,
     buf: Vec<u8>,
 }
 
@@ -157,6 +161,8 @@ impl Ros2Sink {
             joint_names: layout.joints.iter().map(|j| j.name.clone()).collect(),
             positions: Vec::new(),
             velocities: Vec::new(),
+            efforts: Vec::new(),
+            driven: !layout.drives.is_empty(),
             buf,
         })
     }
@@ -209,13 +215,17 @@ impl Sink for Ros2Sink {
                 self.positions.extend(states.iter().map(|j| j.position));
                 self.velocities.clear();
                 self.velocities.extend(states.iter().map(|j| j.velocity));
+                self.efforts.clear();
+                if self.driven {
+                    self.efforts.extend(states.iter().map(|j| j.effort));
+                }
                 msgs::joint_state(
                     &mut self.buf,
                     stamp,
                     &self.joint_names[joints],
                     &self.positions,
                     &self.velocities,
-                    &[],
+                    &self.efforts,
                 )?;
                 self.write_message(channel, time_ns)?;
             }
