@@ -65,6 +65,11 @@ pub fn layout(world: &World, kinds: &[IntegratorKind], dt: f64) -> RecordingLayo
             m.joints = m.joints.start + joints_start..m.joints.end + joints_start;
             layout.mechanisms.push(m);
         }
+        for d in &world.layout.drives {
+            let mut d = d.clone();
+            d.joint += joints_start;
+            layout.drives.push(d);
+        }
         layout.topic_groups.push(TopicGroup {
             prefix: format!("/{prefix}"),
             frames: frames_start..layout.frames.len(),

@@ -315,6 +315,15 @@ fn trade_measures_orders_two_four_six_on_a_driven_double_pendulum() {
         dir.path(),
     );
     assert!(out.status.success(), "{}", text(&out.stderr));
+    // The side-by-side recording carries every run's drives.
+    let info = tumble(&["info", "t/trade.mcap"], dir.path());
+    let info = text(&info.stdout);
+    for kind in ["variational", "variational4", "variational6"] {
+        assert!(
+            info.contains(&format!("joint {kind}/shoulder continuous, driven: position")),
+            "{info}"
+        );
+    }
     let (_, rows) = read_csv(&dir.path().join("t/trade.csv"));
     // Columns 3 pos_err, 4 rot_err, 5 energy_err (the balance's residual). Measured (pos,
     // rot, energy): variational 2.00, 2.00, 2.00 / 2.00, 2.00, 2.00; variational4 4.02, 3.99,
