@@ -330,10 +330,7 @@ fn robot_description(
 /// A note when `kind` composes steps of negative size (`variational4`, `variational6`) and a
 /// mechanism has a damper (URDF damping, a servo's `kd`): there the damper anti-damps, stable
 /// only while it is resolved in time (docs/forces.md, Limits).
-fn composition_damping_note(
-    kind: crate::sim::IntegratorKind,
-    world: &World,
-) -> Option<String> {
+fn composition_damping_note(kind: crate::sim::IntegratorKind, world: &World) -> Option<String> {
     use crate::sim::IntegratorKind;
     use crate::sim::mechanism::ActuatorKind;
     if !matches!(

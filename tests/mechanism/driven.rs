@@ -525,7 +525,11 @@ fn compositions_with_damping_get_a_note() {
     let with = |integrator: &str, damping: bool| {
         let sim = format!("[sim]\nduration = 0.01\nintegrator = \"{integrator}\"\n");
         let rest = ARM.trim_start_matches("[sim]\nduration = 0.01\n");
-        let extra = if damping { "" } else { "joint_damping = false\n" };
+        let extra = if damping {
+            ""
+        } else {
+            "joint_damping = false\n"
+        };
         world(dir.path(), &format!("{sim}{rest}{extra}"))
     };
     assert!(note(&with("variational4", true)));

@@ -320,7 +320,9 @@ fn trade_measures_orders_two_four_six_on_a_driven_double_pendulum() {
     let info = text(&info.stdout);
     for kind in ["variational", "variational4", "variational6"] {
         assert!(
-            info.contains(&format!("joint {kind}/shoulder continuous, driven: position")),
+            info.contains(&format!(
+                "joint {kind}/shoulder continuous, driven: position"
+            )),
             "{info}"
         );
     }
