@@ -243,12 +243,101 @@ mod tests {
         assert_eq!((e.actuator, e.saturated), (10.0, true));
         let e = d.effort(0.0, 3.0, 0.0);
         assert_eq!((e.actuator, e.saturated), (-10.0, true));
+        // Exactly at the limit (80 · 0.125 = 10): not saturated.
+        let e = d.effort(0.0, 0.875, 0.0);
+        assert_eq!((e.actuator, e.saturated), (10.0, false));
         let s = d.step_effort(0.0, 0.01, -1.0, -1.0);
         assert!(s.effort.saturated);
         assert_eq!(s.slope, -0.5 / 0.01);
         let inside = d.step_effort(0.0, 0.01, 0.99, 0.99);
         assert!(!inside.effort.saturated);
         assert_eq!(inside.slope, -0.5 / 0.01 - 40.0 - 4.0 / 0.01);
+    }
+
+    /// The stopping rule's scale (`StepEffort::magnitude`): the sum of the sizes of the terms,
+    /// by hand for each law.
+    #[test]
+    fn the_magnitude_sums_the_terms_sizes() {
+        let (h, t0, t1) = (0.01, 0.2, 0.3);
+        // rate terms (|θ0| + |θ1|)/h = 50; damping 0.5 · 50 = 25; kp (|r| + (|θ0| + |θ1|)/2) =
+        // 80 · 1.25 = 100; kd · 50 = 200.
+        let s = servo(80.0, 4.0, None).step_effort(0.0, h, t0, t1);
+        assert!((s.magnitude - 325.0).abs() < 1e-12, "{}", s.magnitude);
+        let v = JointDrive {
+            coordinate: 0,
+            actuator: Some(Actuator {
+                kind: ActuatorKind::Velocity {
+                    target: Signal::Constant(-3.0),
+                    kd: 2.0,
+                },
+                effort_limit: None,
+            }),
+            damping: 0.0,
+        };
+        // kd (|w| + 50) = 2 · 53.
+        assert!((v.step_effort(0.0, h, t0, t1).magnitude - 106.0).abs() < 1e-12);
+        let m = JointDrive {
+            coordinate: 0,
+            actuator: Some(Actuator {
+                kind: ActuatorKind::Motor {
+                    effort: Signal::Constant(-0.7),
+                },
+                effort_limit: None,
+            }),
+            damping: 0.1,
+        };
+        // |u| + b · 50.
+        assert!((m.step_effort(0.0, h, t0, t1).magnitude - 5.7).abs() < 1e-12);
+    }
+
+    /// The step efforts and slopes of each law, by hand (θ0 = 0.2, θ1 = 0.3, h = 0.01: the
+    /// rate is 10).
+    #[test]
+    fn step_efforts_and_slopes_follow_the_laws() {
+        let (h, t0, t1) = (0.01, 0.2, 0.3);
+        // kp (r − θ_mid) − kd rate = 80 · 0.75 − 4 · 10 = 20; damping −0.5 · 10 = −5;
+        // slope −b/h − kp/2 − kd/h = −50 − 40 − 400.
+        let s = servo(80.0, 4.0, None).step_effort(0.0, h, t0, t1);
+        assert!((s.effort.actuator - 20.0).abs() < 1e-12, "{s:?}");
+        assert!((s.effort.damping + 5.0).abs() < 1e-12, "{s:?}");
+        assert!((s.slope + 490.0).abs() < 1e-9, "{s:?}");
+        let v = JointDrive {
+            coordinate: 0,
+            actuator: Some(Actuator {
+                kind: ActuatorKind::Velocity {
+                    target: Signal::Sine {
+                        amplitude: 1.0,
+                        frequency_hz: 25.0,
+                        phase: 0.0,
+                        offset: -3.0,
+                    },
+                    kd: 2.0,
+                },
+                effort_limit: None,
+            }),
+            damping: 0.0,
+        };
+        // The target averaged over the ends: −3 + (sin 0 + sin(2π · 25 · 0.01))/2 = −2.5;
+        // kd (w − rate) = 2 · (−12.5); slope −kd/h = −200.
+        let s = v.step_effort(0.0, h, t0, t1);
+        assert!((s.effort.actuator + 25.0).abs() < 1e-12, "{s:?}");
+        assert!((s.slope + 200.0).abs() < 1e-9, "{s:?}");
+        // A motor: the effort averaged over the ends, no slope.
+        let m = JointDrive {
+            coordinate: 0,
+            actuator: Some(Actuator {
+                kind: ActuatorKind::Motor {
+                    effort: Signal::Table {
+                        times_secs: vec![0.0, 0.01],
+                        values: vec![1.0, 2.0],
+                    },
+                },
+                effort_limit: None,
+            }),
+            damping: 0.0,
+        };
+        let s = m.step_effort(0.0, h, t0, t1);
+        assert_eq!((s.effort.actuator, s.slope), (1.5, 0.0));
     }
 
     /// The step effort is symmetric: swapping the ends and the sign of `h` gives the same
