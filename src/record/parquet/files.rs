@@ -223,3 +223,21 @@ pub fn recording_info(dir: &Path, name: &str) -> anyhow::Result<FileInfo> {
         sha256,
     })
 }
+
+/// Closes a Parquet table streamed into its `.part` file `part` (a sink's writer): the footer,
+/// the buffer, the write-back, then `fsync`; every error names the file.
+pub fn close_streamed(
+    writer: ArrowWriter<BufWriter<crate::record::writeback::WritebackFile>>,
+    part: &Path,
+) -> anyhow::Result<()> {
+    let file = writer
+        .into_inner()
+        .with_context(|| format!("cannot finish {}", part.display()))?
+        .into_inner()
+        .map_err(|e| e.into_error())
+        .with_context(|| format!("cannot write {}", part.display()))?
+        .finish()
+        .with_context(|| format!("cannot sync {}", part.display()))?;
+    file.sync_all()
+        .with_context(|| format!("cannot sync {}", part.display()))
+}

@@ -19,7 +19,7 @@
 //!
 //! Values are the frame's ([`crate::record::JointState`]), the same as the MCAP `/joints`.
 
-use super::files::{ROW_GROUP_ROWS, writer_properties};
+use super::files::{ROW_GROUP_ROWS, close_streamed, writer_properties};
 use super::tables::field;
 use crate::fsutil::part_path;
 use crate::record::writeback::WritebackFile;
@@ -185,18 +185,8 @@ impl Sink for JointsSink {
 
     fn complete(mut self: Box<Self>) -> anyhow::Result<()> {
         self.flush()?;
-        let part = part_path(&self.path);
         let writer = self.writer.take().context("the file is closed")?;
-        let file = writer
-            .into_inner()
-            .with_context(|| format!("cannot finish {}", part.display()))?
-            .into_inner()
-            .map_err(|e| e.into_error())
-            .with_context(|| format!("cannot write {}", part.display()))?
-            .finish()
-            .with_context(|| format!("cannot sync {}", part.display()))?;
-        file.sync_all()
-            .with_context(|| format!("cannot sync {}", part.display()))
+        close_streamed(writer, &part_path(&self.path))
     }
 }
 
