@@ -149,6 +149,7 @@ fn a_stiff_servo_settles_at_its_target() {
     let mut loads = Loads::uniform_gravity(Vector3::new(0.0, 0.0, -9.81));
     let mut theta = 0.0;
     let mut worst: f64 = 0.0;
+    let mut iters = 0;
     for k in 0..200 {
         loads.set_time(f64::from(k) * h);
         let stats = step(
@@ -162,6 +163,7 @@ fn a_stiff_servo_settles_at_its_target() {
         );
         assert_eq!(stats.newton_failures, 0, "step {k}");
         assert_eq!(stats.substepped, 0, "step {k}");
+        iters = iters.max(stats.newton_iters_max);
         theta = angle(&model, &bodies, theta);
         worst = worst.max((theta - 0.8).abs());
     }
@@ -173,6 +175,9 @@ fn a_stiff_servo_settles_at_its_target() {
     let steady = 9.81 * (0.8f64).sin() / kp;
     assert!((theta - (0.8 - steady)).abs() < 1e-9, "{theta}");
     assert!(worst < 0.35, "{worst}");
+    // Newton on the drive row converges quadratically (an exact Jacobian): measured at most
+    // 4 iterations per step (a Jacobian off by the row's scale converges linearly, if at all).
+    assert!(iters <= 5, "{iters}");
 }
 
 /// The pendulum spinning at 3 rad/s about its pivot under joint damping `b` without gravity,
