@@ -151,6 +151,10 @@ impl Loads {
     /// The loads of the bodies `range` of the batch, indexed from `range.start` (a partition's
     /// view).
     pub fn part(&self, range: Range<usize>) -> Self {
+        if self.bodies.is_empty() {
+            // Gravity only: a copy (the empty list shared), nothing allocated.
+            return self.clone();
+        }
         let bodies: Vec<BodyLoad> = self
             .bodies
             .iter()
