@@ -106,22 +106,23 @@ impl Workspace {
                     }
                 });
             }
-        }
-        for i in (0..n).filter(|_| model.drives.is_empty()) {
-            let gi = first + i;
-            let inv_j = bodies.inv_inertia_body[gi];
-            let m = self.angmom_plus[i];
-            // ξ ≈ h J⁻¹ (M⁺ − ξ × M⁺ / 2) (from J ξ = h T(ξ)ᵀ M⁺ to second order), with the
-            // previous ξ (warm) or the first-order guess (cold) on the right.
-            let first_guess = m.component_mul(&inv_j) * h;
-            let xi_ref = warm.map_or(first_guess, |w| {
-                if w.history {
-                    w.xi[i] * 2.0 - w.xi_prev[i]
-                } else {
-                    w.xi[i]
-                }
-            });
-            self.xi[i] = (m - xi_ref.cross(&m) * 0.5).component_mul(&inv_j) * h;
+        } else {
+            for i in 0..n {
+                let gi = first + i;
+                let inv_j = bodies.inv_inertia_body[gi];
+                let m = self.angmom_plus[i];
+                // ξ ≈ h J⁻¹ (M⁺ − ξ × M⁺ / 2) (from J ξ = h T(ξ)ᵀ M⁺ to second order), with the
+                // previous ξ (warm) or the first-order guess (cold) on the right.
+                let first_guess = m.component_mul(&inv_j) * h;
+                let xi_ref = warm.map_or(first_guess, |w| {
+                    if w.history {
+                        w.xi[i] * 2.0 - w.xi_prev[i]
+                    } else {
+                        w.xi[i]
+                    }
+                });
+                self.xi[i] = (m - xi_ref.cross(&m) * 0.5).component_mul(&inv_j) * h;
+            }
         }
         let mut previous = f64::INFINITY;
         let mut iterations = 0;
