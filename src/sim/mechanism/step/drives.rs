@@ -142,9 +142,9 @@ impl Workspace {
             let scale = nu
                 .abs()
                 .max(0.5 * h.abs() * effort.magnitude)
-                .max(self.impulse_scale[child])
-                .max(0.5 * h.abs() * effort.slope.abs() * theta_roundoff / tol);
-            ratio = ratio.max(relative(r.abs(), tol * scale));
+                .max(self.impulse_scale[child]);
+            let floor = 0.5 * h.abs() * effort.slope.abs() * theta_roundoff;
+            ratio = ratio.max(relative(r.abs(), tol * scale + floor));
         }
         Ok(ratio)
     }
