@@ -29,6 +29,10 @@ pub struct World {
     pub interior_frames: Vec<InteriorFrame>,
     /// Applied loads on bodies (a scene's `[[model.load]]`), batch indices of `bodies`.
     pub body_loads: Vec<crate::sim::loads::BodyLoad>,
+    /// The ground and the colliders (a scene's `[ground]` and the models' `collisions`), batch
+    /// indices of `bodies`; inactive ([`crate::sim::contact::ContactModel::is_active`]) when
+    /// nothing can touch.
+    pub contact: crate::sim::contact::ContactModel,
     /// What the build decided that the user should know (e.g. joints locked because no mass
     /// hangs from them), one line each; the command prints them.
     pub notes: Vec<String>,

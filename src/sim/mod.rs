@@ -3,6 +3,7 @@
 pub mod accuracy;
 pub mod bodies;
 pub mod choose;
+pub mod contact;
 pub mod guard;
 pub mod integrators;
 pub mod limits;

@@ -23,6 +23,7 @@
 use super::guard::{Divergence, Guard};
 use super::mechanism::Mechanism;
 use super::{Bodies, BodyInit, Integrator, StepStats};
+use crate::sim::contact::{ContactModel, ContactPhase, ContactPoint};
 use crate::sim::loads::Loads;
 use nalgebra::Isometry3;
 use rayon::prelude::*;
@@ -173,6 +174,9 @@ pub struct Partitions<'a> {
     starts: Vec<usize>,
     len: usize,
     pool: Option<rayon::ThreadPool>,
+    /// The contact phase run before every step ([`Partitions::set_contact`]); `None`: nothing
+    /// can touch, and the partitions step whole windows on their own.
+    contact: Option<ContactPhase>,
 }
 
 /// Read access to the partitions' bodies from the pool's threads.
@@ -324,7 +328,25 @@ impl<'a> Partitions<'a> {
             uniform: None,
             len: inits.len(),
             pool,
+            contact: None,
         })
+    }
+
+    /// Runs `model`'s contact phase before every step from now on (nothing when the model is
+    /// inactive: [`ContactModel::is_active`]).
+    pub fn set_contact(&mut self, model: ContactModel) {
+        self.contact = model.is_active().then(|| ContactPhase::new(model, self.len));
+    }
+
+    /// The contacts of the last step (empty without contact).
+    pub fn contacts(&self) -> &[ContactPoint] {
+        self.contact.as_ref().map_or(&[], |c| &c.contacts)
+    }
+
+    /// The energy the contact impulses changed so far, J (≤ 0 up to round-off: contact never
+    /// creates energy; `docs/contact.md`).
+    pub fn contact_work(&self) -> f64 {
+        self.contact.as_ref().map_or(0.0, |c| c.work)
     }
 
     /// The energy flows of every partition's integrator, summed.

@@ -1,0 +1,1 @@
+//! The impulses: Coulomb's friction cone and non-penetration, solved contact by contact.
