@@ -70,6 +70,7 @@ use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSe
 mod actuator;
 mod articulated;
 mod build;
+mod contact;
 mod drives;
 mod entry;
 mod joint_states;
@@ -81,7 +82,8 @@ pub mod signal;
 pub mod signal_log;
 
 pub use build::{LoadedModels, LoadedTable};
-pub use entry::{BaseMode, BodiesMode, ModelEntry, SimSettings};
+pub use contact::{DEFAULT_FRICTION, DEFAULT_RESTITUTION, GroundEntry};
+pub use entry::{BaseMode, BodiesMode, Collisions, ModelEntry, SimSettings};
 pub mod bounds;
 pub mod triangles;
 use anyhow::{Context, bail};
@@ -103,6 +105,8 @@ struct SceneFile {
     models: Vec<ModelEntry>,
     #[serde(default)]
     mass: MassSettings,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    ground: Option<GroundEntry>,
 }
 
 /// Reads the scene text: the distributions of each `[[model]]` first
@@ -145,6 +149,8 @@ pub struct Scene {
     pub models: Vec<ModelEntry>,
     /// The `[mass]` table (scene-wide mass settings), after command-line overrides.
     pub mass: MassSettings,
+    /// The `[ground]` table (`None`: no ground; [`Scene::ground`] resolves it).
+    pub ground: Option<GroundEntry>,
 }
 
 /// Command-line overrides of `[sim]` values (`None` = keep the scene's).
@@ -187,6 +193,7 @@ impl Scene {
             sim: file.sim,
             models: file.models,
             mass: file.mass,
+            ground: file.ground,
         };
         scene.validate()?;
         Ok(scene)
@@ -201,6 +208,7 @@ impl Scene {
             sim: SimSettings::default(),
             models: vec![ModelEntry::at(urdf.to_path_buf(), [0.0; 3])],
             mass: MassSettings::default(),
+            ground: None,
         }
     }
 
@@ -353,6 +361,8 @@ impl Scene {
                 names.join(", ")
             );
         }
+        // --- contact (issue 31): `[ground]` (the models' keys below) ---
+        self.ground()?;
         if self.models.is_empty() {
             bail!("{file}: no [[model]] entry: the scene simulates nothing");
         }
@@ -401,6 +411,7 @@ impl Scene {
             finite3(&format!("{key}.rpy"), &m.rpy)?;
             finite3(&format!("{key}.linvel"), &m.linvel)?;
             finite3(&format!("{key}.angvel"), &m.angvel)?;
+            contact::check_model_keys(&key, m)?;
             if let Some(copies) = m.copies
                 && !(1..=placement::MAX_COPIES).contains(&copies)
             {
@@ -554,6 +565,7 @@ impl Scene {
                 sim: s.clone(),
                 models: self.models.clone(),
                 mass: self.mass.clone(),
+                ground: self.ground.clone(),
             })
             .unwrap_or_default(),
         );
