@@ -672,3 +672,404 @@ pub(crate) fn finish(contact: &mut ContactModel) {
     contact.colliders.shrink_to_fit();
     contact.excluded_body_pairs.shrink_to_fit();
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::Path;
+
+    fn parse(text: &str) -> anyhow::Result<Scene> {
+        Scene::parse(text, Path::new("s.toml"))
+    }
+
+    fn ground(text: &str) -> Ground {
+        let scene = parse(&format!("{text}\n[[model]]\nurdf = \"m.urdf\"\n")).unwrap();
+        scene.ground().unwrap().expect("a ground")
+    }
+
+    fn error(text: &str) -> String {
+        format!("{:#}", parse(text).unwrap_err())
+    }
+
+    const MODEL: &str = "[[model]]\nurdf = \"m.urdf\"\n";
+
+    #[test]
+    fn no_table_no_ground() {
+        assert_eq!(parse(MODEL).unwrap().ground().unwrap(), None);
+    }
+
+    /// `height` is along −g/|g|: the normal is −g/|g|, the point height · normal.
+    #[test]
+    fn height_is_along_minus_gravity() {
+        let g = ground("[ground]\nheight = 0.25\n");
+        assert_eq!(g.normal.into_inner(), Vector3::z());
+        assert_eq!(g.point, Vector3::new(0.0, 0.0, 0.25));
+        assert_eq!((g.friction, g.restitution), (0.8, 0.0));
+        // An empty table is a level ground through the origin.
+        let g = ground("[ground]\n");
+        assert_eq!(
+            (g.normal.into_inner(), g.point),
+            (Vector3::z(), Vector3::zeros())
+        );
+        // Gravity along −x with a 3-4-5 tilt: g = (−3, 0, −4), |g| = 5, n = (0.6, 0, 0.8).
+        let g = ground("[sim]\ngravity = [-3.0, 0.0, -4.0]\n[ground]\nheight = 2.0\n");
+        assert!((g.normal.into_inner() - Vector3::new(0.6, 0.0, 0.8)).norm() < 1e-15);
+        assert!((g.point - Vector3::new(1.2, 0.0, 1.6)).norm() < 1e-15);
+        assert!((g.height_of(&Vector3::new(0.0, 7.0, 0.0)) + 2.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn normal_is_normalized_and_point_defaults_to_the_origin() {
+        let g = ground("[ground]\nnormal = [0.0, 3.0, 4.0]\nfriction = 0.3\nrestitution = 0.5\n");
+        assert_eq!(g.normal.into_inner(), Vector3::new(0.0, 0.6, 0.8));
+        assert_eq!(g.point, Vector3::zeros());
+        assert_eq!((g.friction, g.restitution), (0.3, 0.5));
+        let g = ground("[ground]\nnormal = [1e-300, 0, 0]\npoint = [1, 2, 3]\n");
+        assert_eq!(g.normal.into_inner(), Vector3::x());
+        assert_eq!(g.point, Vector3::new(1.0, 2.0, 3.0));
+        // Zero gravity is fine with a normal.
+        let g = ground("[sim]\ngravity = [0, 0, 0]\n[ground]\nnormal = [0, 0, 2]\n");
+        assert_eq!(g.normal.into_inner(), Vector3::z());
+    }
+
+    /// Each mistake is one message naming the file and the key.
+    #[test]
+    fn bad_grounds_name_the_key() {
+        for (table, needle) in [
+            (
+                "friction = -0.1",
+                "s.toml: ground.friction must be a finite number >= 0",
+            ),
+            (
+                "friction = nan",
+                "ground.friction must be a finite number >= 0",
+            ),
+            (
+                "friction = inf",
+                "ground.friction must be a finite number >= 0",
+            ),
+            (
+                "restitution = 1.5",
+                "s.toml: ground.restitution must be a number between 0 and 1",
+            ),
+            (
+                "restitution = -0.5",
+                "ground.restitution must be a number between 0 and 1",
+            ),
+            (
+                "restitution = nan",
+                "ground.restitution must be a number between 0 and 1",
+            ),
+            (
+                "normal = [0, 0, 0]",
+                "s.toml: ground.normal has zero length",
+            ),
+            (
+                "normal = [0, nan, 1]",
+                "ground.normal must hold three finite numbers",
+            ),
+            ("normal = [0, 1]", "invalid length 2"),
+            (
+                "normal = [0, 0, 1]\npoint = [0, inf, 0]",
+                "ground.point must hold three finite",
+            ),
+            (
+                "height = 0.0\nnormal = [0, 0, 1]",
+                "ground: give either `height`",
+            ),
+            (
+                "height = 1.0\npoint = [0, 0, 1]",
+                "ground.point goes with `normal`",
+            ),
+            ("point = [0, 0, 1]", "ground.point goes with `normal`"),
+            ("height = inf", "ground.height must be a finite number"),
+            ("heigth = 0.0", "unknown field `heigth`"),
+        ] {
+            let e = error(&format!("[ground]\n{table}\n{MODEL}"));
+            assert!(e.contains(needle), "{table}: {e}");
+        }
+        let e = error(&format!(
+            "[sim]\ngravity = [0, 0, 0]\n[ground]\nheight = 0\n{MODEL}"
+        ));
+        assert!(
+            e.contains("s.toml: ground.height is measured along −gravity, and sim.gravity is zero")
+                && e.contains("`normal`"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn model_keys_default_and_refuse_bad_values() {
+        let scene = parse(MODEL).unwrap();
+        assert_eq!(scene.models[0].collisions(), Collisions::None);
+        let scene = parse(&format!(
+            "{MODEL}collisions = \"visual\"\nself_collision = true\nfriction = 0.2\n"
+        ))
+        .unwrap();
+        let m = &scene.models[0];
+        assert_eq!(m.collisions(), Collisions::Visual);
+        assert_eq!(
+            (m.self_collision, m.friction, m.restitution),
+            (Some(true), Some(0.2), None)
+        );
+        for (keys, needle) in [
+            (
+                "collisions = \"mesh\"",
+                "s.toml: model[0].collisions: unknown value \"mesh\" (expected one of: \"none\", \"urdf\", \"visual\")",
+            ),
+            (
+                "collisions = \"urdf\"\nfriction = -1",
+                "model[0].friction must be a finite number >= 0",
+            ),
+            (
+                "collisions = \"urdf\"\nfriction = nan",
+                "model[0].friction must be a finite number >= 0",
+            ),
+            (
+                "collisions = \"urdf\"\nrestitution = 1.01",
+                "model[0].restitution must be a number between 0 and 1",
+            ),
+            (
+                "friction = 0.5",
+                "model[0].friction applies to a model that collides",
+            ),
+            (
+                "collisions = \"none\"\nself_collision = true",
+                "model[0].self_collision applies to a model that collides",
+            ),
+            (
+                "restitution = 0.5",
+                "model[0].restitution applies to a model that collides",
+            ),
+            ("collisions = 1", "invalid type"),
+        ] {
+            let e = error(&format!("{MODEL}{keys}\n"));
+            assert!(e.contains(needle), "{keys}: {e}");
+        }
+    }
+
+    /// The new keys stay out of the recorded settings unless given (recordings of scenes
+    /// without contact are unchanged), and are recorded when given.
+    #[test]
+    fn settings_json_holds_the_keys_only_when_given() {
+        let plain = parse(MODEL).unwrap().metadata()["settings_json"].clone();
+        for key in [
+            "ground",
+            "collisions",
+            "friction",
+            "restitution",
+            "self_collision",
+        ] {
+            assert!(!plain.contains(key), "{plain}");
+        }
+        let contact = parse(&format!(
+            "[ground]\nheight = 0.5\n{MODEL}collisions = \"urdf\"\nfriction = 0.3\n"
+        ))
+        .unwrap()
+        .metadata()["settings_json"]
+            .clone();
+        for key in [
+            "\"ground\":{\"height\":0.5}",
+            "\"collisions\":\"urdf\"",
+            "\"friction\":0.3",
+        ] {
+            assert!(contact.contains(key), "{key} not in {contact}");
+        }
+    }
+
+    fn no_cache() -> HashMap<(PathBuf, [u64; 3]), Shape> {
+        HashMap::new()
+    }
+
+    #[test]
+    fn primitives_become_shapes_with_half_sizes() {
+        let shape = |g: Geometry| shape_of("collision #0", &g, &mut no_cache());
+        assert_eq!(
+            shape(Geometry::Box {
+                size: Vector3::new(0.2, 0.4, 0.6)
+            })
+            .unwrap(),
+            Shape::Box {
+                half_extents: Vector3::new(0.1, 0.2, 0.3)
+            }
+        );
+        assert_eq!(
+            shape(Geometry::Cylinder {
+                radius: 0.1,
+                length: 0.5
+            })
+            .unwrap(),
+            Shape::Cylinder {
+                radius: 0.1,
+                half_length: 0.25
+            }
+        );
+        assert_eq!(
+            shape(Geometry::Capsule {
+                radius: 0.1,
+                length: 0.0
+            })
+            .unwrap(),
+            Shape::Capsule {
+                radius: 0.1,
+                half_length: 0.0
+            }
+        );
+        assert_eq!(
+            shape(Geometry::Sphere { radius: 0.3 }).unwrap(),
+            Shape::Sphere { radius: 0.3 }
+        );
+        for (g, needle) in [
+            (
+                Geometry::Box {
+                    size: Vector3::new(0.2, 0.0, 0.6),
+                },
+                "box size along y must be positive and finite (got 0)",
+            ),
+            (
+                Geometry::Box {
+                    size: Vector3::new(0.2, 0.1, f64::NAN),
+                },
+                "box size along z must be positive and finite",
+            ),
+            (
+                Geometry::Sphere { radius: -1.0 },
+                "sphere radius must be positive",
+            ),
+            (
+                Geometry::Cylinder {
+                    radius: 0.1,
+                    length: 0.0,
+                },
+                "cylinder length must be positive",
+            ),
+            (
+                Geometry::Capsule {
+                    radius: 0.1,
+                    length: -0.1,
+                },
+                "capsule length must be finite and >= 0",
+            ),
+            (
+                Geometry::Mesh {
+                    uri: "m.stl".into(),
+                    path: Some("m.stl".into()),
+                    scale: Vector3::new(1.0, 0.0, 1.0),
+                },
+                "mesh `m.stl`: scale [1, 0, 1] must be finite and non-zero",
+            ),
+            (
+                Geometry::Mesh {
+                    uri: "gone.stl".into(),
+                    path: None,
+                    scale: Vector3::repeat(1.0),
+                },
+                "mesh `gone.stl` not found",
+            ),
+        ] {
+            let e = format!("{:#}", shape(g).unwrap_err());
+            assert!(e.contains(needle), "{e}");
+        }
+    }
+
+    /// The hull keeps the extreme points only; degenerate sets are refused.
+    #[test]
+    fn convex_hulls_of_points() {
+        let mut points: Vec<Vector3<f64>> = (0..8)
+            .map(|k| {
+                Vector3::new(
+                    if k & 1 == 0 { -1.0 } else { 1.0 },
+                    if k & 2 == 0 { -2.0 } else { 2.0 },
+                    if k & 4 == 0 { -3.0 } else { 3.0 },
+                )
+            })
+            .collect();
+        points.push(Vector3::new(0.1, 0.2, 0.3));
+        points.push(Vector3::new(0.0, 2.0, 0.0));
+        let Shape::ConvexHull { points: hull } = convex_hull(&points).unwrap() else {
+            panic!("a hull")
+        };
+        assert_eq!(hull.len(), 8, "{hull:?}");
+        for p in hull.iter() {
+            assert_eq!((p.x.abs(), p.y.abs(), p.z.abs()), (1.0, 2.0, 3.0));
+        }
+        let tetra = [Vector3::zeros(), Vector3::x(), Vector3::y(), Vector3::z()];
+        assert!(convex_hull(&tetra).is_ok());
+        for (points, needle) in [
+            (
+                tetra[..3].to_vec(),
+                "3 vertices: a convex hull needs at least 4 points",
+            ),
+            (vec![Vector3::x(); 5], "all 5 vertices are one point"),
+            (
+                (0..5)
+                    .map(|k| Vector3::new(k as f64, 2.0 * k as f64, 0.0))
+                    .collect(),
+                "all 5 vertices lie on one line",
+            ),
+            (
+                vec![
+                    Vector3::zeros(),
+                    Vector3::x(),
+                    Vector3::y(),
+                    Vector3::new(1.0, 1.0, 1e-12),
+                ],
+                "all 4 vertices lie in one plane",
+            ),
+            (
+                vec![
+                    Vector3::zeros(),
+                    Vector3::x(),
+                    Vector3::y(),
+                    Vector3::new(0.0, 0.0, f64::NAN),
+                ],
+                "a vertex is not finite",
+            ),
+        ] {
+            let e = convex_hull(&points).unwrap_err().to_string();
+            assert!(e.contains(needle), "{e}");
+        }
+    }
+
+    /// A mesh file's vertices, scaled, make the hull: the interior vertex left out.
+    #[test]
+    fn a_mesh_becomes_the_hull_of_its_scaled_vertices() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("tetra.obj");
+        // A tetrahedron split at an interior point (0.1, 0.1, 0.1) of its base's inside.
+        std::fs::write(
+            &path,
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 0.1 0.1 0.1\n\
+             f 1 3 2\nf 1 2 4\nf 2 3 5\nf 3 4 5\nf 4 2 5\nf 1 4 3\n",
+        )
+        .unwrap();
+        let mut cache = no_cache();
+        let geometry = Geometry::Mesh {
+            uri: "tetra.obj".into(),
+            path: Some(path.clone()),
+            scale: Vector3::new(2.0, -3.0, 0.5),
+        };
+        let shape = shape_of("collision #0", &geometry, &mut cache).unwrap();
+        let Shape::ConvexHull { points } = &shape else {
+            panic!("{shape:?}")
+        };
+        let mut got: Vec<[f64; 3]> = points.iter().map(|p| [p.x, p.y, p.z]).collect();
+        got.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        assert_eq!(
+            got,
+            vec![
+                [0.0, -3.0, 0.0],
+                [0.0, 0.0, 0.0],
+                [0.0, 0.0, 0.5],
+                [2.0, 0.0, 0.0]
+            ]
+        );
+        assert!(shape.to_parry().is_some());
+        // Read once: the cached hull is returned for the same file and scale.
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(
+            shape_of("collision #1", &geometry, &mut cache).unwrap(),
+            shape
+        );
+    }
+}
