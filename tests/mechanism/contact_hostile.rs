@@ -88,7 +88,10 @@ fn bad_ground_values_are_refused() {
         refused(&format!("[ground]\n{table}\n{PENDULUM}"), expected);
     }
     refused(
-        &format!("[sim]\ngravity = [0, 0, 0]\n[ground]\nheight = 0\n{PENDULUM}"),
+        &format!(
+            "[ground]\nheight = 0\n{}",
+            PENDULUM.replace("[sim]\n", "[sim]\ngravity = [0, 0, 0]\n")
+        ),
         &[
             "ground.height is measured along −gravity, and sim.gravity is zero",
             "`normal`",
@@ -149,9 +152,15 @@ fn collisions_on_models_without_the_geometry_are_refused() {
             "no link has <collision> geometry",
         ],
     );
-    refused(
-        &format!("{PENDULUM}collisions = \"visual\"\nbodies = \"articulated\"\n"),
-        &["collisions = \"visual\"", "no link has <visual> geometry"],
+    refused_probe(
+        "collisions = \"visual\"\nbodies = \"rigid\"\n",
+        &probe("<collision><geometry><sphere radius=\"0.1\"/></geometry></collision>"),
+        &[],
+        &[
+            "model[0]: collisions = \"visual\": model `probe`",
+            "no link has <visual> geometry",
+            "collisions = \"urdf\" for its <collision> geometry",
+        ],
     );
     // Geometry only on a massless link: with bodies = "links" no body carries it.
     let urdf = probe("").replace(

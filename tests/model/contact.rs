@@ -376,9 +376,10 @@ fn visual_geometry_collides_when_asked() {
         (c.colliders[0].body, &c.colliders[0].shape),
         (0, &sphere(0.07))
     );
+    let q_base = rotation([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]);
     assert_pose(
         &c.colliders[0].body_from_shape,
-        &Isometry3::identity(),
+        &pose([0.0; 3], q_base.inverse()),
         "visual sphere",
     );
 }
