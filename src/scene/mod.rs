@@ -36,6 +36,10 @@
 //! copies = 10000                # the table stands for N models named <name>_<index> (default: one, named `name`; docs/scale.md)
 //! seed = 7                      # copy i draws its distributions from streams seeded by (seed, i) (default 0)
 //! joint_damping = true          # articulated: the URDF's <dynamics damping> on every moving joint (default true)
+//! collisions = "none"           # "none" | "urdf" (<collision>) | "visual" (<visual>): what collides (crate::scene::contact)
+//! self_collision = false        # the links of one copy collide with each other (default false)
+//! friction = 0.8                # Coulomb coefficient of the model's colliders (default 0.8)
+//! restitution = 0.0             # restitution of the model's colliders, in [0, 1] (default 0)
 //!
 //! [[model.actuator]]            # articulated: one per driven joint (crate::scene::actuator)
 //! joint = "elbow"
@@ -51,6 +55,11 @@
 //! frame = "world"               # | "link"
 //! # position, rpy, linvel, angvel: a value or a distribution ({ uniform = [lo, hi] }, log_uniform, normal, choice);
 //! # orientation = "uniform" | [x, y, z, w] instead of rpy ([`crate::scene::placement`])
+//!
+//! [ground]                      # a half-space (absent: no ground; crate::scene::contact)
+//! height = 0.0                  # m along -gravity (or normal = [x, y, z], point = [x, y, z])
+//! friction = 0.8                # (default 0.8)
+//! restitution = 0.0             # (default 0)
 //!
 //! [mass]                        # scene-wide defaults of the mass settings (flags --inertia, --density, --geometry override them)
 //! inertia = "urdf"              # (default "urdf")
