@@ -512,6 +512,7 @@ pub(crate) fn attach(
 ) -> (usize, LeftOut) {
     let mut left_out = LeftOut::default();
     let mut added = 0;
+    let first_frame = frames.start;
     for f in frames {
         let link = &world.layout.frames[f].link;
         let Some(shapes) = table.shapes.get(link).filter(|s| !s.is_empty()) else {
@@ -519,7 +520,14 @@ pub(crate) fn attach(
         };
         let attachment: Attachment = world.attachments[f];
         if attachment.body == Attachment::WORLD {
-            let why = if world.interior_frames.iter().any(|i| i.frame == f) {
+            // This copy's interior frames are the last ones pushed.
+            let interior = world
+                .interior_frames
+                .iter()
+                .rev()
+                .take_while(|i| i.frame >= first_frame)
+                .any(|i| i.frame == f);
+            let why = if interior {
                 "a massless link inside a compound joint: no body carries it"
             } else {
                 "welded to the world (base = \"fixed\"): it does not move"
