@@ -293,6 +293,11 @@ fn collision_meshes_outside_the_allowed_folders_are_refused() {
         "collisions = \"urdf\"\n",
         &urdf,
         &[],
-        &["outside.obj", "outside"],
+        &[
+            "model[0]",
+            "probe.urdf",
+            "link `body`: collision #0",
+            "outside.obj: refused: outside the folders meshes are read from",
+        ],
     );
 }
