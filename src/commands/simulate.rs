@@ -460,9 +460,21 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             (s.energy_final - s.energy_initial) / s.energy_initial.abs()
         )
     };
+    let momentum = if s.contact {
+        format!(
+            "angular momentum relative change max {:.2e} over the bodies without colliders \
+             (contact exchanges the others' momenta with the ground)",
+            s.angmom_rel_change_max
+        )
+    } else {
+        format!(
+            "angular momentum relative change max {:.2e}",
+            s.angmom_rel_change_max
+        )
+    };
     println!(
-        "energy {:.9e} J -> {:.9e} J ({energy_change}); angular momentum relative change max {:.2e}",
-        s.energy_initial, s.energy_final, s.angmom_rel_change_max
+        "energy {:.9e} J -> {:.9e} J ({energy_change}); {momentum}",
+        s.energy_initial, s.energy_final
     );
     let flow = s.energy_flow;
     if flow != Default::default() {

@@ -361,11 +361,14 @@ impl Simulation {
                 .collect()
         };
         summary.energy_flow = self.parts.energy_flow();
+        summary.contact = self.parts.has_contact();
         summary.angmom_rel_change_max = self
             .angmom0
             .iter()
             .zip(&angmom1)
-            .map(|(l0, l1)| (l1 - l0).norm() / l0.norm().max(f64::MIN_POSITIVE))
+            .enumerate()
+            .filter(|(i, _)| self.articulated || !self.parts.collides(*i))
+            .map(|(_, (l0, l1))| (l1 - l0).norm() / l0.norm().max(f64::MIN_POSITIVE))
             .fold(0.0, f64::max);
         summary
     }
