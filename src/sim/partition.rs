@@ -335,7 +335,9 @@ impl<'a> Partitions<'a> {
     /// Runs `model`'s contact phase before every step from now on (nothing when the model is
     /// inactive: [`ContactModel::is_active`]).
     pub fn set_contact(&mut self, model: ContactModel) {
-        self.contact = model.is_active().then(|| ContactPhase::new(model, self.len));
+        self.contact = model
+            .is_active()
+            .then(|| ContactPhase::new(model, self.len));
     }
 
     /// The contacts of the last step (empty without contact).
