@@ -395,6 +395,10 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     }
     let threads = thread_count(args.threads)?;
     let mut world = scene.build()?;
+    // The files only some scenes write (the contacts table), once the scene says.
+    for path in formats.paths_of(&stem, &world.layout) {
+        check_not_overwriting(&path, args.force)?;
+    }
     for warning in &world.warnings {
         eprintln!("warning: {warning}");
     }

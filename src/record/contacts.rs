@@ -100,7 +100,7 @@ pub fn check(contacts: &[ContactState], bodies: usize) -> anyhow::Result<()> {
 pub fn in_group<'a>(
     contacts: &'a [ContactState],
     bodies: &'a std::ops::Range<usize>,
-) -> impl Iterator<Item = &'a ContactState> + 'a {
+) -> impl Iterator<Item = &'a ContactState> + Clone + 'a {
     contacts.iter().filter(move |c| bodies.contains(&c.body_a))
 }
 
