@@ -401,3 +401,55 @@ impl FrameBuilder {
         );
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A contact with the ground records `body_b = None`, one between bodies its index; the
+    /// force is the impulse over the step (a thousand times it at dt = 1 ms); the rest is
+    /// copied; `out` is appended to.
+    #[test]
+    fn contact_states_name_the_ground_and_divide_the_impulse_by_the_step() {
+        let points = [
+            ContactPoint {
+                body_a: 3,
+                body_b: GROUND,
+                point_world: Vector3::new(0.5, -0.25, 0.0),
+                normal_world: Vector3::z(),
+                impulse_world: Vector3::new(1e-4, -2e-4, 5.886e-2),
+                gap_m: -3e-7,
+            },
+            ContactPoint {
+                body_a: 1,
+                body_b: 2,
+                point_world: Vector3::new(1.0, 2.0, 3.0),
+                normal_world: -Vector3::x(),
+                impulse_world: Vector3::new(-0.002, 0.0, 0.0),
+                gap_m: 1e-9,
+            },
+        ];
+        let mut out = vec![ContactState {
+            body_a: 0,
+            body_b: None,
+            point_world: Vector3::zeros(),
+            normal_world: Vector3::z(),
+            force_world: Vector3::zeros(),
+            impulse_world: Vector3::zeros(),
+            gap_m: 0.0,
+        }];
+        contact_states(&points, 1e-3, &mut out);
+        assert_eq!(out.len(), 3);
+        let (ground, pair) = (&out[1], &out[2]);
+        assert_eq!((ground.body_a, ground.body_b), (3, None));
+        assert_eq!((pair.body_a, pair.body_b), (1, Some(2)));
+        for (state, point) in [ground, pair].into_iter().zip(&points) {
+            let expected = point.impulse_world * 1e3;
+            assert!((state.force_world - expected).norm() <= 1e-15 * expected.norm());
+            assert_eq!(state.impulse_world, point.impulse_world);
+            assert_eq!(state.point_world, point.point_world);
+            assert_eq!(state.normal_world, point.normal_world);
+            assert_eq!(state.gap_m, point.gap_m);
+        }
+    }
+}

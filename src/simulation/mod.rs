@@ -24,7 +24,7 @@ mod summary;
 mod tests;
 
 pub use files::{AccuracyReport, Outputs, SimulateOptions, output_paths, simulate, simulate_world};
-pub use frames::FrameBuilder;
+pub use frames::{FrameBuilder, contact_states};
 pub use summary::{Diverged, RunSummary, time_ns};
 
 use crate::record::{OwnedFrame, Sink};
