@@ -169,9 +169,13 @@ fn close(a: &Vector3<f64>, b: &Vector3<f64>, tol: f64) -> bool {
     (a - b).norm() <= tol * b.norm().max(1.0)
 }
 
-/// The contacts as a reader's CONTACT rows should hold them: `[body_a, body_b, ground, point,
-/// normal, force, impulse, gap]`, with the force worked out here as impulse / dt.
-fn expected(names: &[String], step: u64) -> Vec<(String, String, bool, [Vector3<f64>; 4], f64)> {
+/// A contact as a reader's CONTACT row should hold it: body_a, body_b, ground, [point, normal,
+/// force, impulse], gap.
+type Expected = (String, String, bool, [Vector3<f64>; 4], f64);
+
+/// The contacts of step `step` as the readers should give them, with the force worked out here
+/// as impulse / dt.
+fn expected(names: &[String], step: u64) -> Vec<Expected> {
     points(step)
         .iter()
         .map(|p| {
