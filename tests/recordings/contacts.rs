@@ -490,6 +490,14 @@ fn every_format_records_the_contacts_and_the_ground() {
         )
     );
 
+    // Rerun's own check of the file (every archetype's components as the viewer expects them).
+    let verify = std::process::Command::new(common::venv_bin("rerun"))
+        .args(["rrd", "verify"])
+        .arg(file(&stem, "rrd"))
+        .output()
+        .unwrap();
+    assert!(verify.status.success(), "{}", common::text(&verify.stderr));
+
     // `tumble convert`: the MCAP replays into the run's own `.rrd`, byte for byte (the
     // contacts read back from `/contacts`, the ground from the layout).
     let replayed = dir.path().join("replayed.rrd");
