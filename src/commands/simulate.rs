@@ -471,15 +471,22 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     let flow = s.energy_flow;
     if flow != Default::default() {
         let change = s.energy_final - s.energy_initial;
-        let open = change - (flow.input_work - flow.dissipated);
+        let open = change - (flow.input_work - flow.dissipated + flow.contact_work);
         let scale = change
             .abs()
             .max(flow.input_work.abs())
             .max(flow.dissipated)
+            .max(flow.contact_work.abs())
             .max(f64::MIN_POSITIVE);
+        // The contact term only where there is contact (the line of runs without is unchanged).
+        let contact = if flow.contact_work != 0.0 {
+            format!(" + contact {:.6e} J", flow.contact_work)
+        } else {
+            String::new()
+        };
         println!(
-            "energy balance: change {change:.6e} J = input work {:.6e} J - dissipated {:.6e} J \
-             + not closed {open:.3e} J ({:.2e} of the largest term)",
+            "energy balance: change {change:.6e} J = input work {:.6e} J - dissipated {:.6e} J\
+             {contact} + not closed {open:.3e} J ({:.2e} of the largest term)",
             flow.input_work,
             flow.dissipated,
             open.abs() / scale

@@ -334,15 +334,23 @@ impl<'a> Partitions<'a> {
 
     /// Runs `model`'s contact phase before every step from now on (nothing when the model is
     /// inactive: [`ContactModel::is_active`]).
-    pub fn set_contact(&mut self, model: ContactModel) {
-        self.contact = model
-            .is_active()
-            .then(|| ContactPhase::new(model, self.len));
+    pub fn set_contact(&mut self, model: ContactModel) -> anyhow::Result<()> {
+        self.contact = if model.is_active() {
+            Some(ContactPhase::new(model)?)
+        } else {
+            None
+        };
+        Ok(())
     }
 
     /// The contacts of the last step (empty without contact).
     pub fn contacts(&self) -> &[ContactPoint] {
         self.contact.as_ref().map_or(&[], |c| &c.contacts)
+    }
+
+    /// Sweeps of the last step's contact solve (0 without contact).
+    pub fn contact_sweeps(&self) -> u32 {
+        self.contact.as_ref().map_or(0, |c| c.stats.sweeps)
     }
 
     /// The energy the contact impulses changed so far, J (≤ 0 up to round-off: contact never
@@ -353,9 +361,14 @@ impl<'a> Partitions<'a> {
 
     /// The energy flows of every partition's integrator, summed.
     pub fn energy_flow(&self) -> crate::sim::integrators::EnergyFlow {
-        self.parts
+        let flow = self
+            .parts
             .iter()
-            .fold(Default::default(), |a, p| a + p.integrator.energy_flow())
+            .fold(Default::default(), |a, p| a + p.integrator.energy_flow());
+        crate::sim::integrators::EnergyFlow {
+            contact_work: self.contact_work(),
+            ..flow
+        }
     }
 
     /// The partition holding body `i`.
@@ -411,9 +424,58 @@ impl<'a> Partitions<'a> {
     /// Steps every partition from step `from + 1` to step `to` (each stops at its first
     /// divergence) and merges what they report.
     pub fn advance(&mut self, from: u64, to: u64, loads: &Loads) -> Window {
-        let step_part = |part: &mut Part<'_>| {
+        if self.contact.is_some() {
+            return self.advance_in_contact(from, to, loads);
+        }
+        for part in &mut self.parts {
             part.stats.clear();
             part.stop = None;
+        }
+        self.step_parts(from, to, loads);
+        self.window(from, to)
+    }
+
+    /// [`Partitions::advance`] with contact: step by step, the contact phase over the whole
+    /// batch (on this thread, in one order: the same bits for every thread count), then every
+    /// partition's step.
+    fn advance_in_contact(&mut self, from: u64, to: u64, loads: &Loads) -> Window {
+        for part in &mut self.parts {
+            part.stats.clear();
+            part.stop = None;
+        }
+        let dt = self.dt();
+        let alpha = self
+            .parts
+            .first()
+            .map_or(0.5, |p| p.integrator.gravity_drift());
+        for step in from + 1..=to {
+            let mut contact = self.contact.take().expect("contact phase");
+            {
+                let mut bodies: Vec<&mut Bodies> =
+                    self.parts.iter_mut().map(|p| &mut p.bodies).collect();
+                contact.start(&mut bodies, &self.starts, dt, loads.gravity(), alpha);
+            }
+            self.step_parts(step - 1, step, loads);
+            {
+                let mut bodies: Vec<&mut Bodies> =
+                    self.parts.iter_mut().map(|p| &mut p.bodies).collect();
+                contact.end(&mut bodies, &self.starts);
+            }
+            self.contact = Some(contact);
+            if self.parts.iter().any(|p| p.stop.is_some()) {
+                break;
+            }
+        }
+        self.window(from, to)
+    }
+
+    /// Steps every partition from step `from + 1` to step `to`, each stopping at its first
+    /// divergence, appending to its statistics.
+    fn step_parts(&mut self, from: u64, to: u64, loads: &Loads) {
+        let step_part = |part: &mut Part<'_>| {
+            if part.stop.is_some() {
+                return;
+            }
             // The partition's own view of the loads (its bodies re-based), its time set per
             // step: `t_k = (k − 1) dt` at the start of step `k`, a product, not a running sum.
             let mut part_loads = loads.part(part.first..part.first + part.bodies.len());
@@ -448,6 +510,10 @@ impl<'a> Partitions<'a> {
             }),
             None => self.parts.iter_mut().for_each(step_part),
         }
+    }
+
+    /// What the window `from + 1 ..= to` did: the earliest divergence, the statistics up to it.
+    fn window(&self, from: u64, to: u64) -> Window {
         let stop = self
             .parts
             .iter()

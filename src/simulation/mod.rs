@@ -123,7 +123,7 @@ impl Simulation {
             })
             .collect::<anyhow::Result<Vec<_>>>()?;
         let loads = world.loads(settings.gravity);
-        let parts = Partitions::with_ranges(
+        let mut parts = Partitions::with_ranges(
             &inits,
             &ranges,
             integrators,
@@ -133,6 +133,7 @@ impl Simulation {
             settings.divergence_energy_ratio,
             settings.stop_on_newton_failure,
         )?;
+        parts.set_contact(world.contact.clone())?;
         // The partitions hold the states now; owned initial states are freed here.
         drop(inits);
         let articulated = !world.mechanisms.is_empty();

@@ -1,1 +1,126 @@
-//! The broad phase: which colliders may touch this step.
+//! The broad phase: which colliders may touch this step. Each collider is a sphere (its centre
+//! and reach, grown by how far its body can move in the step); sort and sweep along the axis
+//! where the centres spread most finds the overlapping boxes of those spheres in
+//! `O(n log n + pairs)`, and the pairs come out in one order for any thread count.
+
+use nalgebra::Vector3;
+
+/// A collider's bounding sphere for the step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bound {
+    pub centre: Vector3<f64>,
+    /// Reach plus the motion bound, m.
+    pub radius_m: f64,
+}
+
+/// Reused buffers.
+#[derive(Debug, Default, Clone)]
+pub struct Sweep {
+    order: Vec<(f64, u32)>,
+}
+
+impl Sweep {
+    /// The pairs `(i, j)`, `i < j`, of `bounds` whose boxes overlap, sorted, into `pairs`
+    /// (cleared first).
+    pub fn pairs(&mut self, bounds: &[Bound], pairs: &mut Vec<(u32, u32)>) {
+        pairs.clear();
+        if bounds.len() < 2 {
+            return;
+        }
+        let axis = spread_axis(bounds);
+        self.order.clear();
+        self.order.extend(
+            bounds
+                .iter()
+                .enumerate()
+                .map(|(i, b)| (b.centre[axis] - b.radius_m, i as u32)),
+        );
+        self.order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        for (k, &(lo, i)) in self.order.iter().enumerate() {
+            let bi = &bounds[i as usize];
+            let hi = bi.centre[axis] + bi.radius_m;
+            debug_assert!(lo <= hi);
+            for &(lo_j, j) in &self.order[k + 1..] {
+                if lo_j > hi {
+                    break;
+                }
+                let bj = &bounds[j as usize];
+                let reach = bi.radius_m + bj.radius_m;
+                let d = bi.centre - bj.centre;
+                if d.x.abs() <= reach && d.y.abs() <= reach && d.z.abs() <= reach {
+                    pairs.push((i.min(j), i.max(j)));
+                }
+            }
+        }
+        pairs.sort_unstable();
+    }
+}
+
+/// The axis along which the centres' variance is largest (the first of equals).
+fn spread_axis(bounds: &[Bound]) -> usize {
+    let n = bounds.len() as f64;
+    let mean = bounds.iter().fold(Vector3::zeros(), |a, b| a + b.centre) / n;
+    let var = bounds
+        .iter()
+        .fold(Vector3::zeros(), |a, b| a + (b.centre - mean).map(|x| x * x));
+    let mut axis = 0;
+    for k in 1..3 {
+        if var[k] > var[axis] {
+            axis = k;
+        }
+    }
+    axis
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Brute force over every pair: the boxes of the spheres overlap on all three axes.
+    fn brute(bounds: &[Bound]) -> Vec<(u32, u32)> {
+        let mut out = Vec::new();
+        for i in 0..bounds.len() {
+            for j in i + 1..bounds.len() {
+                let d = bounds[i].centre - bounds[j].centre;
+                let r = bounds[i].radius_m + bounds[j].radius_m;
+                if d.iter().all(|x| x.abs() <= r) {
+                    out.push((i as u32, j as u32));
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn the_sweep_finds_exactly_the_pairs_brute_force_finds() {
+        // A deterministic scatter of 400 spheres of mixed sizes in a 4 m cube.
+        let mut s = 12345u64;
+        let mut next = || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let bounds: Vec<Bound> = (0..400)
+            .map(|_| Bound {
+                centre: Vector3::new(4.0 * next(), 4.0 * next(), 1.0 * next()),
+                radius_m: 0.02 + 0.2 * next(),
+            })
+            .collect();
+        let mut pairs = Vec::new();
+        Sweep::default().pairs(&bounds, &mut pairs);
+        let expected = brute(&bounds);
+        // 400 spheres: a few hundred overlapping pairs, so the comparison means something.
+        assert!(expected.len() > 100, "{}", expected.len());
+        assert_eq!(pairs, expected);
+    }
+
+    #[test]
+    fn the_sweep_axis_is_the_widest_spread() {
+        let b = |x: f64, y: f64, z: f64| Bound {
+            centre: Vector3::new(x, y, z),
+            radius_m: 0.1,
+        };
+        assert_eq!(spread_axis(&[b(0.0, 0.0, 0.0), b(0.0, 5.0, 1.0)]), 1);
+        assert_eq!(spread_axis(&[b(0.0, 0.0, 0.0), b(0.5, 0.2, 1.0)]), 2);
+        assert_eq!(spread_axis(&[b(3.0, 0.0, 0.0), b(0.5, 0.2, 1.0)]), 0);
+    }
+}

@@ -89,6 +89,19 @@ impl ContactModel {
     pub fn is_active(&self) -> bool {
         !self.colliders.is_empty() && (self.ground.is_some() || self.colliders.len() > 1)
     }
+
+    /// Whether two colliders may touch: not on one body, not on an excluded pair, and within
+    /// one group only with self-collision.
+    pub fn may_touch(&self, a: &Collider, b: &Collider) -> bool {
+        if a.body == b.body {
+            return false;
+        }
+        if a.group == b.group && !(a.self_collision && b.self_collision) {
+            return false;
+        }
+        let pair = (a.body.min(b.body), a.body.max(b.body));
+        self.excluded_body_pairs.binary_search(&pair).is_err()
+    }
 }
 
 /// Whom a contact is with.
@@ -110,3 +123,6 @@ pub struct ContactPoint {
     /// Signed gap at the start of the step, m (negative: penetration).
     pub gap_m: f64,
 }
+
+#[cfg(test)]
+mod tests;

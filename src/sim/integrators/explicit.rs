@@ -41,6 +41,11 @@ impl ExplicitEuler {
 }
 
 impl Integrator for ExplicitEuler {
+    /// `c += h v` (explicit) or `c += h (v + h g)` (semi-implicit).
+    fn gravity_drift(&self) -> f64 {
+        0.0
+    }
+
     fn name(&self) -> &'static str {
         "euler"
     }
@@ -65,6 +70,7 @@ impl Integrator for ExplicitEuler {
         EnergyFlow {
             input_work: self.ledger.work,
             dissipated: 0.0,
+            ..Default::default()
         }
     }
 }
@@ -110,6 +116,11 @@ impl SemiImplicitEuler {
 }
 
 impl Integrator for SemiImplicitEuler {
+    /// `c += h v` (explicit) or `c += h (v + h g)` (semi-implicit).
+    fn gravity_drift(&self) -> f64 {
+        1.0
+    }
+
     fn name(&self) -> &'static str {
         "semi-implicit"
     }
@@ -134,6 +145,7 @@ impl Integrator for SemiImplicitEuler {
         EnergyFlow {
             input_work: self.ledger.work,
             dissipated: 0.0,
+            ..Default::default()
         }
     }
 }

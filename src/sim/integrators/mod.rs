@@ -80,13 +80,16 @@ impl StepStats {
 
 /// Energy that entered or left the bodies through their inputs (applied loads, joint
 /// actuators, joint damping), summed over the steps taken: the terms of the energy balance
-/// `E(T) − E(0) = input_work − dissipated + (the scheme's own error)`.
+/// `E(T) − E(0) = input_work − dissipated + contact_work + (the scheme's own error)`.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct EnergyFlow {
     /// Work of the applied loads and the actuators, J.
     pub input_work: f64,
     /// Energy removed by joint damping (≥ 0), J.
     pub dissipated: f64,
+    /// The kinetic energy contact impulses changed (≤ 0 up to round-off: contact never
+    /// creates energy), J.
+    pub contact_work: f64,
 }
 
 impl std::ops::Add for EnergyFlow {
@@ -96,6 +99,7 @@ impl std::ops::Add for EnergyFlow {
         Self {
             input_work: self.input_work + other.input_work,
             dissipated: self.dissipated + other.dissipated,
+            contact_work: self.contact_work + other.contact_work,
         }
     }
 }
@@ -128,6 +132,12 @@ pub trait Integrator: Send {
     /// The energy the inputs brought in and took out so far ([`EnergyFlow`]).
     fn energy_flow(&self) -> EnergyFlow {
         EnergyFlow::default()
+    }
+    /// The coefficient `α` of the step of a free centre of mass in uniform gravity,
+    /// `c_{k+1} = c_k + h v_k + α h² g` (the contact phase predicts the free motion with it:
+    /// `sim::contact::phase`). `1/2` for the schemes exact on a parabola.
+    fn gravity_drift(&self) -> f64 {
+        0.5
     }
 }
 

@@ -299,6 +299,11 @@ impl MoserVeselov {
 }
 
 impl Integrator for MoserVeselov {
+    /// The potential's quadrature ([`crate::sim::integrators::translation::Potential::alpha`]).
+    fn gravity_drift(&self) -> f64 {
+        self.settings.potential.alpha()
+    }
+
     fn name(&self) -> &'static str {
         "moser-veselov"
     }
@@ -339,6 +344,7 @@ impl Integrator for MoserVeselov {
         crate::sim::integrators::EnergyFlow {
             input_work: self.ledger.work,
             dissipated: 0.0,
+            ..Default::default()
         }
     }
 }

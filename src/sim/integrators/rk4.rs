@@ -165,6 +165,7 @@ impl Integrator for Rk4 {
         EnergyFlow {
             input_work: self.ledger.work,
             dissipated: 0.0,
+            ..Default::default()
         }
     }
 }

@@ -199,6 +199,7 @@ impl Integrator for Articulated {
             a + EnergyFlow {
                 input_work: ws.drive_work.actuators + ws.load_work.work,
                 dissipated: ws.drive_work.damping,
+                ..Default::default()
             }
         })
     }

@@ -49,6 +49,11 @@ impl Variational {
 }
 
 impl Integrator for Variational {
+    /// The potential's quadrature ([`crate::sim::integrators::translation::Potential::alpha`]).
+    fn gravity_drift(&self) -> f64 {
+        self.settings.potential.alpha()
+    }
+
     fn name(&self) -> &'static str {
         "variational"
     }
@@ -84,6 +89,7 @@ impl Integrator for Variational {
         EnergyFlow {
             input_work: self.ledger.work,
             dissipated: 0.0,
+            ..Default::default()
         }
     }
 }
