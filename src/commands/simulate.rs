@@ -548,6 +548,13 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             "  pandas: pd.read_parquet(\"{}\")   (columns: docs/scale.md, the dataset's trajectories table)",
             OutputFile::Trajectories.path(&stem).display()
         );
+        let contacts = OutputFile::Contacts.path(&stem);
+        if out.written.contains(&contacts) {
+            println!(
+                "  pandas: pd.read_parquet(\"{}\")   (one row per contact and recorded step: docs/datasets.md)",
+                contacts.display()
+            );
+        }
     }
     if let Some(ros2) = &out.ros2 {
         println!(

@@ -7,7 +7,10 @@
 //! contact point along the force on body `a` ([`super::ContactState::force_world`]), of length
 //! `|F| · scale` with the scale of [`force_scale`]: [`REFERENCE_ARROW_M`] for the weight of the
 //! recording's typical model (the median over models of a model's total mass, at standard
-//! gravity), so a model resting on its contacts shows arrows adding up to about 0.2 m.
+//! gravity), so a model resting on its contacts shows arrows adding up to about 0.2 m. An arrow
+//! is at most [`ARROW_MAX_M`] long ([`arrow_vector`]): an impact's impulse over one step is a
+//! force of thousands of newtons (a 8 kg cube landing at 3 m/s: 25 kN at dt = 1 ms), which the
+//! scale would draw tens of metres long; the recorded force keeps its value.
 
 use super::{ContactState, GroundLayout, RecordingLayout};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
@@ -23,6 +26,8 @@ pub const POINT_COLOR: [f64; 4] = [0.9, 0.1, 0.1, 1.0];
 pub const FORCE_COLOR: [f64; 4] = [1.0, 0.8, 0.0, 1.0];
 /// Length of the arrow of the reference weight ([`force_scale`]), m.
 pub const REFERENCE_ARROW_M: f64 = 0.2;
+/// Longest force arrow drawn, m (five reference weights).
+pub const ARROW_MAX_M: f64 = 1.0;
 /// The gravity the reference weight is taken at, m/s² (standard gravity).
 pub const STANDARD_GRAVITY: f64 = 9.80665;
 /// Radius of a drawn contact point, and of an arrow's shaft, m.
@@ -73,6 +78,18 @@ pub fn force_scale(layout: &RecordingLayout) -> f64 {
         .copied()
         .unwrap_or(1.0);
     REFERENCE_ARROW_M / (mass * STANDARD_GRAVITY)
+}
+
+/// The arrow drawn for `force` (N) at `scale` m per N ([`force_scale`]): `force · scale`,
+/// shortened to [`ARROW_MAX_M`] when longer (same direction).
+pub fn arrow_vector(force: &Vector3<f64>, scale: f64) -> Vector3<f64> {
+    let v = force * scale;
+    let length = v.norm();
+    if length > ARROW_MAX_M {
+        v * (ARROW_MAX_M / length)
+    } else {
+        v
+    }
 }
 
 /// The name of a contact's body `b`: the layout's body name, or [`GROUND_NAME`].
@@ -171,5 +188,18 @@ mod tests {
         assert!((scale * 5.0 * STANDARD_GRAVITY - REFERENCE_ARROW_M).abs() < 1e-15);
         let empty = force_scale(&RecordingLayout::default());
         assert!((empty * STANDARD_GRAVITY - REFERENCE_ARROW_M).abs() < 1e-15);
+    }
+
+    /// An arrow is the force times the scale up to 1 m, then 1 m along the force.
+    #[test]
+    fn arrows_are_capped_at_their_longest() {
+        let f = Vector3::new(3.0, 0.0, 4.0);
+        assert_eq!(arrow_vector(&f, 0.1), f * 0.1);
+        let long = arrow_vector(&f, 1.0);
+        assert!(
+            (long - Vector3::new(0.6, 0.0, 0.8)).norm() < 1e-15,
+            "{long}"
+        );
+        assert_eq!(arrow_vector(&Vector3::zeros(), 1.0), Vector3::zeros());
     }
 }

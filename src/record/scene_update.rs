@@ -10,7 +10,7 @@
 //! | `/scene`   | the link frame id  | the link frame id  | one per URDF `<visual>`, placed at its `<origin>` in the link frame |
 //! | `/inertia` | `inertia/<body>`   | the body's link frame | one sphere primitive: the body's equivalent uniform ellipsoid ([`BodyLayout::inertia_ellipsoid_radii`]) in its principal frame, translucent |
 //! | `/scene`   | `ground`           | `world`            | with a ground ([`super::RecordingLayout::ground`]): one cube, the slab of [`super::contacts::ground_pose`], grey |
-//! | `/contacts/scene` | `contacts`  | `world`            | one message per recorded step when the run can have contacts: per contact a sphere at its point (red) and an arrow along the force on body `a` (yellow, [`super::contacts::force_scale`] m per N; none for a zero force); the entity replaces the previous step's, so a step without contacts shows none |
+//! | `/contacts/scene` | `contacts`  | `world`            | one message per recorded step when the run can have contacts: per contact a sphere at its point (red) and an arrow along the force on body `a` (yellow, [`super::contacts::force_scale`] m per N, at most [`super::contacts::ARROW_MAX_M`]; none for a zero force); the entity replaces the previous step's, so a step without contacts shows none |
 //!
 //! URDF geometry → primitives: `<box>` → `CubePrimitive` (size = the box's sides), `<sphere>` →
 //! `SpherePrimitive` (size = diameter), `<cylinder>` → `CylinderPrimitive` (Foxglove's cylinder
@@ -301,14 +301,15 @@ pub fn ground_update(ground: &GroundLayout, timestamp: Timestamp) -> SceneUpdate
 pub const ARROW_HEAD_MAX_M: f64 = 0.05;
 
 /// The arrow of force `force` (N) at `point`, `scale` m per N ([`super::contacts::force_scale`]):
-/// its tail at the point, pointing along the force, `|force| · scale` long (head included);
-/// `None` for a zero or non-finite force.
+/// its tail at the point, pointing along the force, `|force| · scale` long (head included; at
+/// most [`super::contacts::ARROW_MAX_M`], [`super::contacts::arrow_vector`]); `None` for a zero
+/// or non-finite force.
 pub fn force_arrow(
     point: &nalgebra::Vector3<f64>,
     force: &nalgebra::Vector3<f64>,
     scale: f64,
 ) -> Option<ArrowPrimitive> {
-    let length = force.norm() * scale;
+    let length = super::contacts::arrow_vector(force, scale).norm();
     if !(length.is_finite() && length > 0.0) {
         return None;
     }

@@ -5,7 +5,7 @@
 //! |---|---|---|
 //! | `/world/ground` | `CoordinateFrame("world")`, `Boxes3D`: the slab of [`crate::record::contacts::ground_pose`] ([`crate::record::contacts::GROUND_SIZE_M`] square, [`crate::record::contacts::GROUND_THICKNESS_M`] thick, its top face the ground's surface), grey | static |
 //! | `/world/contacts/points` | `Points3D`: the contact points of the step that ended at the row's time (m), red; `CoordinateFrame("world")`, radius and colour static | both timelines |
-//! | `/world/contacts/forces` | `Arrows3D`: from each contact point, the force on body `a` times [`crate::record::contacts::force_scale`] (m per N: the median model's weight is [`crate::record::contacts::REFERENCE_ARROW_M`] long), yellow; `CoordinateFrame("world")`, radius and colour static | both timelines |
+//! | `/world/contacts/forces` | `Arrows3D`: from each contact point, the force on body `a` times [`crate::record::contacts::force_scale`] (m per N: the median model's weight is [`crate::record::contacts::REFERENCE_ARROW_M`] long; at most [`crate::record::contacts::ARROW_MAX_M`]), yellow; `CoordinateFrame("world")`, radius and colour static | both timelines |
 //!
 //! Every recorded row holds the step's list, empty when nothing touches (so the viewer shows
 //! no stale contact). The values are the frame's ([`crate::record::ContactState`]), as f32.
@@ -15,8 +15,8 @@ use super::paths::entity;
 use super::values::f32x3;
 use super::writer::ChunkWriter;
 use crate::record::contacts::{
-    FORCE_COLOR, GROUND_COLOR, POINT_COLOR, POINT_RADIUS_M, SHAFT_RADIUS_M, force_scale,
-    ground_pose, ground_size,
+    FORCE_COLOR, GROUND_COLOR, POINT_COLOR, POINT_RADIUS_M, SHAFT_RADIUS_M, arrow_vector,
+    force_scale, ground_pose, ground_size,
 };
 use crate::record::names::WORLD_FRAME;
 use crate::record::{Frame, RecordingLayout};
@@ -125,7 +125,8 @@ impl ContactSeries {
         self.counts.push(frame.contacts.len());
         for c in frame.contacts {
             self.points.push(f32x3(&c.point_world));
-            self.vectors.push(f32x3(&(c.force_world * self.scale)));
+            self.vectors
+                .push(f32x3(&arrow_vector(&c.force_world, self.scale)));
         }
     }
 
