@@ -134,7 +134,9 @@ impl World {
         let (ground, contacts) = self.contact_layout();
         if self.layout.ground != ground || self.layout.contacts != contacts {
             anyhow::bail!(
-                "internal error: the recording layout says ground {}, contacts {}; the contact                  model says ground {}, contacts {} (World::describe_contact was not called after                  the contact model was filled)",
+                "internal error: the recording layout says ground {}, contacts {}; the contact \
+                 model says ground {}, contacts {} (World::describe_contact was not called after \
+                 the contact model was filled)",
                 self.layout.ground.is_some(),
                 self.layout.contacts,
                 ground.is_some(),

@@ -585,7 +585,11 @@ fn a_world_with_a_ground_records_its_contacts_and_draws_the_ground() {
         .err()
         .unwrap();
     assert!(
-        format!("{refused:#}").contains("World::describe_contact"),
+        format!("{refused:#}").contains(
+            "the recording layout says ground false, contacts false; the contact model says \
+             ground true, contacts true (World::describe_contact was not called after the \
+             contact model was filled)"
+        ),
         "{refused:#}"
     );
     assert!(
