@@ -72,7 +72,8 @@ pub struct Link {
     pub problems: Vec<String>,
     /// Shared (an [`std::sync::Arc`]) by every copy of the model placed in a scene.
     pub visuals: std::sync::Arc<[Visual]>,
-    /// The `<collision>` elements (used for mass properties only; tumble has no contacts).
+    /// The `<collision>` elements: mass properties (inertia policies) and, with a scene's
+    /// `collisions = "urdf"`, colliders (`crate::scene::contact`).
     pub collisions: Vec<Collision>,
     /// The URDF's `<inertial>` as written (`None` when absent), kept whatever the inertia
     /// policy puts in `inertial`, so that the two can be compared.

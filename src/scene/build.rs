@@ -6,7 +6,7 @@
 
 use super::placement::{self, Placement};
 use super::{BodiesMode, ModelEntry, Scene, URDF_METADATA_PREFIX, articulated, bounds};
-use super::{actuator, links, load, rigid};
+use super::{actuator, contact, links, load, rigid};
 use crate::model::policy;
 use crate::model::{Model, urdf};
 use crate::record::RobotDescription;
@@ -29,6 +29,8 @@ pub struct LoadedTable {
     pub(crate) actuators: Vec<actuator::ResolvedActuator>,
     /// Its loads, signals read ([`load::resolve_all`]); every copy gets them.
     pub(crate) loads: Vec<load::LinkLoad>,
+    /// Its colliders' shapes and settings (`None`: `collisions = "none"`); every copy gets them.
+    pub(crate) colliders: Option<contact::TableColliders>,
 }
 
 /// Every table's model ([`Scene::load_models`]).
@@ -66,6 +68,9 @@ impl Scene {
         let mut warnings = Vec::new();
         let mut loaded: HashMap<String, Arc<Model>> = HashMap::new();
         let mut tables = Vec::with_capacity(self.models.len());
+        // Collision meshes, each read and made a hull once (their triangles count against the
+        // budget above).
+        let mut hulls = contact::HullCache::default();
         for (i, entry) in self.models.iter().enumerate() {
             let urdf_path = self.base_dir.join(&entry.urdf);
             let package_paths: Vec<PathBuf> = entry
@@ -131,6 +136,7 @@ impl Scene {
             let label = entry.name.clone().unwrap_or_else(|| model.name.clone());
             let actuators = actuator::resolve_all(&key, entry, &model, &label, &self.base_dir)?;
             let loads = load::resolve_all(&key, entry, &model, &label, &self.base_dir)?;
+            let colliders = contact::table_colliders(&key, entry, &model, &label, &mut hulls)?;
             let text_key = format!("{URDF_METADATA_PREFIX}{}", entry.urdf.display());
             if let std::collections::btree_map::Entry::Vacant(slot) =
                 urdf_texts.entry(text_key.clone())
@@ -161,6 +167,7 @@ impl Scene {
                 description,
                 actuators,
                 loads,
+                colliders,
             });
         }
         Ok(LoadedModels {
@@ -191,6 +198,9 @@ impl Scene {
         world.layout.bodies.reserve(capacity);
         let mut frame_ids: HashSet<String> = HashSet::with_capacity(capacity);
         let mut body_names: HashSet<String> = HashSet::new();
+        world.contact.ground = self.ground()?;
+        // One collision group per model copy, whatever its table.
+        let mut group: u32 = 0;
         for (i, (entry, table)) in self.models.iter().zip(&loaded.tables).enumerate() {
             let model = &table.model;
             let urdf_path = &table.urdf_path;
@@ -209,6 +219,7 @@ impl Scene {
                 let label = prefix.clone().unwrap_or_else(|| model.name.clone());
                 let place = place(i, copy);
                 let before = world.layout.frames.len();
+                let mechanisms_before = world.mechanisms.len();
                 let population_before = world.population();
                 match entry.bodies {
                     BodiesMode::Links => {
@@ -240,8 +251,33 @@ impl Scene {
                     .with_context(context)?,
                 }
                 let copy_frames = before..world.layout.frames.len();
-                load::attach(&mut world, copy_frames, &table.loads, entry, &label)
+                load::attach(&mut world, copy_frames.clone(), &table.loads, entry, &label)
                     .with_context(context)?;
+                if let Some(colliders) = &table.colliders {
+                    let (added, left_out) =
+                        contact::attach(&mut world, copy_frames.clone(), colliders, group);
+                    if copy == 0 {
+                        let key = format!("{}: model[{i}]", self.source.display());
+                        contact::check_first_copy(
+                            &key, entry, model, &label, colliders, added, &left_out, &mut world,
+                        )?;
+                    }
+                    let copy_mechanisms = mechanisms_before..world.mechanisms.len();
+                    contact::exclude_joint_pairs(
+                        &mut world,
+                        model,
+                        entry.bodies,
+                        copy_frames,
+                        copy_mechanisms,
+                    );
+                }
+                group = group.checked_add(1).with_context(|| {
+                    format!(
+                        "{}: more than {} model copies: too many collision groups",
+                        self.source.display(),
+                        u32::MAX
+                    )
+                })?;
                 if copy == 0 && copies > 1 {
                     // The other copies cost what the first did: refuse a world too big for the
                     // machine before building it (issue 28: 100 000 copies of a 7-link chain
@@ -278,6 +314,7 @@ impl Scene {
             bounds::check_initial_states(self, &world, i, entry, first_body..world.bodies.len())?;
         }
         bounds::check_total_energy(self, &world)?;
+        contact::finish(&mut world.contact);
         if let Some(note) = composition_damping_note(self.integrator(), &world) {
             world.notes.push(note);
         }

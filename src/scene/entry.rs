@@ -10,7 +10,9 @@ use std::path::PathBuf;
 
 /// `[x, y, z]`: exactly three numbers. (Through `toml`, serde's own `[f64; 3]` reads the first
 /// three elements of a longer array and silently drops the rest.)
-fn vec3<'de, D: serde::Deserializer<'de>>(deserializer: D) -> Result<[f64; 3], D::Error> {
+pub(super) fn vec3<'de, D: serde::Deserializer<'de>>(
+    deserializer: D,
+) -> Result<[f64; 3], D::Error> {
     let v = Vec::<f64>::deserialize(deserializer)?;
     <[f64; 3]>::try_from(v.as_slice())
         .map_err(|_| serde::de::Error::invalid_length(v.len(), &"an array of 3 numbers"))
@@ -114,6 +116,21 @@ pub struct ModelEntry {
     /// default, damping on).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub joint_damping: Option<bool>,
+    /// Which geometry collides (issue 31): `"none"` (default), `"urdf"` (the `<collision>`
+    /// elements) or `"visual"` (the `<visual>` elements), as written (checked by
+    /// [`Scene::validate`](super::Scene::validate), read by [`ModelEntry::collisions`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub collisions: Option<String>,
+    /// Whether the links of one copy collide with each other (default `false`; a joint's
+    /// parent and child never do).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub self_collision: Option<bool>,
+    /// Coulomb coefficient of the model's colliders (default 0.8; a pair takes the smaller).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
+    /// Restitution of the model's colliders (default 0; a pair takes the larger).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub restitution: Option<f64>,
     /// Mass settings of this model (refine the scene's `[mass]`).
     #[serde(default)]
     pub inertia: Option<InertiaPolicy>,
@@ -167,6 +184,40 @@ pub enum BodiesMode {
     Articulated,
 }
 
+/// `collisions = "none" | "urdf" | "visual"`: which of a model's geometry collides.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Collisions {
+    /// No collider: the model passes through the ground and everything else (the default).
+    #[default]
+    None,
+    /// Each link's `<collision>` elements.
+    Urdf,
+    /// Each link's `<visual>` elements.
+    Visual,
+}
+
+impl Collisions {
+    /// The spellings, in the order messages list them.
+    pub const NAMES: [&'static str; 3] = ["none", "urdf", "visual"];
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "none" => Some(Collisions::None),
+            "urdf" => Some(Collisions::Urdf),
+            "visual" => Some(Collisions::Visual),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Collisions::None => "none",
+            Collisions::Urdf => "urdf",
+            Collisions::Visual => "visual",
+        }
+    }
+}
+
 /// `base = "floating" | "fixed"` (articulated models).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -199,6 +250,10 @@ impl ModelEntry {
             actuators: Vec::new(),
             loads: Vec::new(),
             joint_damping: None,
+            collisions: None,
+            self_collision: None,
+            friction: None,
+            restitution: None,
             inertia: None,
             density: None,
             geometry: None,
@@ -208,6 +263,14 @@ impl ModelEntry {
             seed: None,
             draws: placement::Draws::default(),
         }
+    }
+
+    /// The `collisions` key ([`Collisions::None`] when absent or, before validation, unknown).
+    pub fn collisions(&self) -> Collisions {
+        self.collisions
+            .as_deref()
+            .and_then(Collisions::from_name)
+            .unwrap_or_default()
     }
 
     /// How many models the table stands for.

@@ -36,6 +36,10 @@
 //! copies = 10000                # the table stands for N models named <name>_<index> (default: one, named `name`; docs/scale.md)
 //! seed = 7                      # copy i draws its distributions from streams seeded by (seed, i) (default 0)
 //! joint_damping = true          # articulated: the URDF's <dynamics damping> on every moving joint (default true)
+//! collisions = "none"           # "none" | "urdf" (<collision>) | "visual" (<visual>): what collides (crate::scene::contact)
+//! self_collision = false        # the links of one copy collide with each other (default false)
+//! friction = 0.8                # Coulomb coefficient of the model's colliders (default 0.8)
+//! restitution = 0.0             # restitution of the model's colliders, in [0, 1] (default 0)
 //!
 //! [[model.actuator]]            # articulated: one per driven joint (crate::scene::actuator)
 //! joint = "elbow"
@@ -51,6 +55,11 @@
 //! frame = "world"               # | "link"
 //! # position, rpy, linvel, angvel: a value or a distribution ({ uniform = [lo, hi] }, log_uniform, normal, choice);
 //! # orientation = "uniform" | [x, y, z, w] instead of rpy ([`crate::scene::placement`])
+//!
+//! [ground]                      # a half-space (absent: no ground; crate::scene::contact)
+//! height = 0.0                  # m along -gravity (or normal = [x, y, z], point = [x, y, z])
+//! friction = 0.8                # (default 0.8)
+//! restitution = 0.0             # (default 0)
 //!
 //! [mass]                        # scene-wide defaults of the mass settings (flags --inertia, --density, --geometry override them)
 //! inertia = "urdf"              # (default "urdf")
@@ -70,6 +79,7 @@ use crate::sim::integrators::{IntegratorKind, Jacobian, Potential, VariationalSe
 mod actuator;
 mod articulated;
 mod build;
+mod contact;
 mod drives;
 mod entry;
 mod joint_states;
@@ -81,7 +91,8 @@ pub mod signal;
 pub mod signal_log;
 
 pub use build::{LoadedModels, LoadedTable};
-pub use entry::{BaseMode, BodiesMode, ModelEntry, SimSettings};
+pub use contact::{DEFAULT_FRICTION, DEFAULT_RESTITUTION, GroundEntry};
+pub use entry::{BaseMode, BodiesMode, Collisions, ModelEntry, SimSettings};
 pub mod bounds;
 pub mod triangles;
 use anyhow::{Context, bail};
@@ -103,6 +114,8 @@ struct SceneFile {
     models: Vec<ModelEntry>,
     #[serde(default)]
     mass: MassSettings,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    ground: Option<GroundEntry>,
 }
 
 /// Reads the scene text: the distributions of each `[[model]]` first
@@ -145,6 +158,8 @@ pub struct Scene {
     pub models: Vec<ModelEntry>,
     /// The `[mass]` table (scene-wide mass settings), after command-line overrides.
     pub mass: MassSettings,
+    /// The `[ground]` table (`None`: no ground; [`Scene::ground`] resolves it).
+    pub ground: Option<GroundEntry>,
 }
 
 /// Command-line overrides of `[sim]` values (`None` = keep the scene's).
@@ -187,6 +202,7 @@ impl Scene {
             sim: file.sim,
             models: file.models,
             mass: file.mass,
+            ground: file.ground,
         };
         scene.validate()?;
         Ok(scene)
@@ -201,6 +217,7 @@ impl Scene {
             sim: SimSettings::default(),
             models: vec![ModelEntry::at(urdf.to_path_buf(), [0.0; 3])],
             mass: MassSettings::default(),
+            ground: None,
         }
     }
 
@@ -353,6 +370,8 @@ impl Scene {
                 names.join(", ")
             );
         }
+        // --- contact (issue 31): `[ground]` (the models' keys below) ---
+        self.ground()?;
         if self.models.is_empty() {
             bail!("{file}: no [[model]] entry: the scene simulates nothing");
         }
@@ -401,6 +420,7 @@ impl Scene {
             finite3(&format!("{key}.rpy"), &m.rpy)?;
             finite3(&format!("{key}.linvel"), &m.linvel)?;
             finite3(&format!("{key}.angvel"), &m.angvel)?;
+            contact::check_model_keys(&key, m)?;
             if let Some(copies) = m.copies
                 && !(1..=placement::MAX_COPIES).contains(&copies)
             {
@@ -554,6 +574,7 @@ impl Scene {
                 sim: s.clone(),
                 models: self.models.clone(),
                 mass: self.mass.clone(),
+                ground: self.ground.clone(),
             })
             .unwrap_or_default(),
         );

@@ -235,6 +235,17 @@ impl Guard {
         }
     }
 
+    /// Exempts the bodies `local` (indices of this guard's batch) from the energy test: their
+    /// rotational energy changes by contact (a ball rolling down a slope); they are watched
+    /// for finiteness only.
+    pub fn exempt_bodies(&mut self, local: impl IntoIterator<Item = usize>) {
+        for i in local {
+            if let Some(t) = self.watch.two_t_max.get_mut(i) {
+                *t = f64::INFINITY;
+            }
+        }
+    }
+
     /// The per-body test ([`Watch`]), for an integrator that runs it inside its step.
     pub fn watch(&self) -> &Watch {
         &self.watch

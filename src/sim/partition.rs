@@ -335,6 +335,13 @@ impl<'a> Partitions<'a> {
     /// Runs `model`'s contact phase before every step from now on (nothing when the model is
     /// inactive: [`ContactModel::is_active`]).
     pub fn set_contact(&mut self, model: ContactModel) -> anyhow::Result<()> {
+        if model.is_active() {
+            // Bodies in contact exchange rotational energy with the ground and each other.
+            for c in &model.colliders {
+                let part = &mut self.parts[locate(c.body, self.uniform, &self.starts)];
+                part.guard.exempt_bodies([c.body - part.first]);
+            }
+        }
         self.contact = if model.is_active() {
             Some(ContactPhase::new(model)?)
         } else {

@@ -7,6 +7,7 @@
 mod common;
 
 mod arm_servo;
+mod contact_hostile;
 mod copies;
 mod driven;
 mod driven_hostile;

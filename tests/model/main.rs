@@ -8,6 +8,7 @@
 mod common;
 
 mod bounds;
+mod contact;
 mod corpus;
 mod fuzz;
 mod hostile;

@@ -82,10 +82,11 @@ pub(super) fn visual(
     }
 }
 
-/// A `<collision>` element. Its geometry is only used for mass properties (inertia policy
-/// `geometry` or `auto`, `inspect --compare`), so what is wrong with it (an unresolved mesh, a
-/// zero size) is reported when it is used, not as a problem of the link at load time; a mesh
-/// refused by [`crate::model::confine`] is a problem of the link all the same.
+/// A `<collision>` element. Its geometry is used for mass properties (inertia policy
+/// `geometry` or `auto`, `inspect --compare`) and for colliders (a scene's `collisions =
+/// "urdf"`), so what is wrong with it (an unresolved mesh, a zero size) is reported when it is
+/// used, not as a problem of the link at load time; a mesh refused by
+/// [`crate::model::confine`] is a problem of the link all the same.
 pub(super) fn collision(c: &urdf_rs::Collision, k: usize, meshes: &mut Meshes) -> Collision {
     let label = match &c.name {
         Some(name) => format!("collision `{name}`"),

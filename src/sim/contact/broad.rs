@@ -35,7 +35,8 @@ impl Sweep {
                 .enumerate()
                 .map(|(i, b)| (b.centre[axis] - b.radius_m, i as u32)),
         );
-        self.order.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        self.order
+            .sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
         for (k, &(lo, i)) in self.order.iter().enumerate() {
             let bi = &bounds[i as usize];
             let hi = bi.centre[axis] + bi.radius_m;
@@ -60,9 +61,9 @@ impl Sweep {
 fn spread_axis(bounds: &[Bound]) -> usize {
     let n = bounds.len() as f64;
     let mean = bounds.iter().fold(Vector3::zeros(), |a, b| a + b.centre) / n;
-    let var = bounds
-        .iter()
-        .fold(Vector3::zeros(), |a, b| a + (b.centre - mean).map(|x| x * x));
+    let var = bounds.iter().fold(Vector3::zeros(), |a, b| {
+        a + (b.centre - mean).map(|x| x * x)
+    });
     let mut axis = 0;
     for k in 1..3 {
         if var[k] > var[axis] {
@@ -96,7 +97,9 @@ mod tests {
         // A deterministic scatter of 400 spheres of mixed sizes in a 4 m cube.
         let mut s = 12345u64;
         let mut next = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (s >> 11) as f64 / (1u64 << 53) as f64
         };
         let bounds: Vec<Bound> = (0..400)

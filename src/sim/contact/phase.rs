@@ -44,6 +44,8 @@ pub struct ContactPhase {
     pub work: f64,
     /// The last solve.
     pub stats: SolveStats,
+    /// Below this approach speed a contact does not bounce, m/s (`2 |g| h`).
+    bounce_min: f64,
     /// Stop when no impulse changes by more than this times the largest.
     pub rel_tol: f64,
     /// Sweeps at most.
@@ -104,6 +106,7 @@ impl ContactPhase {
             contacts: Vec::new(),
             work: 0.0,
             stats: SolveStats::default(),
+            bounce_min: 0.0,
             rel_tol: 1e-10,
             max_sweeps: 500,
             prepared,
@@ -175,6 +178,19 @@ impl ContactPhase {
             self.rel_tol,
             self.max_sweeps,
         );
+        if std::env::var("TUMBLE_CONTACT_DEBUG").is_ok() {
+            for row in &self.rows {
+                eprintln!(
+                    "start row {} gap {:e} r_a {:?} u_free {:?} target {:e} lambda {:?}",
+                    row.source,
+                    self.raw[row.source].gap_m,
+                    row.r_a,
+                    row.u_free,
+                    row.target_n,
+                    row.lambda
+                );
+            }
+        }
         // The impulses onto the bodies' momenta, and their energy.
         for (s, &body) in self.slot_body.iter().enumerate() {
             let r = &self.responses[s];
@@ -193,8 +209,9 @@ impl ContactPhase {
         for row in &self.rows {
             let u = row.velocity(&self.responses);
             let gap_end = self.raw[row.source].gap_m + dt_secs * u.x;
+            // A bounce inside the step is held too: its end velocity is set to leave.
             self.closing
-                .push(row.lambda.x > 0.0 && gap_end <= CLOSED_M);
+                .push(row.lambda.x > 0.0 && (gap_end <= CLOSED_M || row.leave_n > 0.0));
         }
     }
 
@@ -219,49 +236,49 @@ impl ContactPhase {
                 rot * Matrix3::from_diagonal(&b.inv_inertia_body[j]) * rot.transpose();
             self.end_responses
                 .push(Response::new(1.0 / b.mass[j], inv_inertia_world));
-            velocities.push((
-                b.com_world[j],
-                b.world_from_body[j],
-                b.linvel_world[j],
-                b.angvel_world(j),
-            ));
+            velocities.push((b.linvel_world[j], b.angvel_world(j)));
         }
         for (i, row) in self.rows.iter().enumerate() {
             if !self.closing[i] {
                 continue;
             }
-            // The arms to the same material points at the end of the step.
-            let arm = |slot: usize, r: &Vector3<f64>| {
-                let (c, q, _, _) = velocities[slot];
-                let before = &self.slots[slot];
-                let _ = c;
-                q * (before.rotation.inverse() * r)
-            };
+            // The arms of the start: where the contact is relative to the centres of mass
+            // (for a ball, exactly where it is at the end; for a face, to O(h ω)).
             let point_velocity = |slot: usize, r: &Vector3<f64>| {
-                let (_, _, v, w) = velocities[slot];
+                let (v, w) = velocities[slot];
                 v + w.cross(r)
             };
-            let r_a = arm(row.a, &row.r_a);
-            let mut rel = point_velocity(row.a, &r_a);
-            let r_b = match row.b {
-                Some(b) => {
-                    let r_b = arm(b, &row.r_b);
-                    rel -= point_velocity(b, &r_b);
-                    r_b
-                }
-                None => Vector3::zeros(),
-            };
+            let mut rel = point_velocity(row.a, &row.r_a);
+            if let Some(b) = row.b {
+                rel -= point_velocity(b, &row.r_b);
+            }
+            let u_free = row.frame.transpose() * rel;
+            // An impact that ends exactly at the end of the step leaves with the restitution
+            // here (one that ends inside the step left in the start solve's target).
+            let approach = -u_free.x;
+            let target_n = if row.restitution > 0.0 && approach > self.bounce_min {
+                row.restitution * approach
+            } else {
+                0.0
+            }
+            .max(row.leave_n);
             let mut end = Row {
                 source: i,
-                r_a,
-                r_b,
-                u_free: row.frame.transpose() * rel,
-                target_n: 0.0,
+                u_free,
+                target_n,
                 lambda: Vector3::zeros(),
                 ..*row
             };
             if end.prepare(&self.end_responses) {
                 self.end_rows.push(end);
+            }
+        }
+        if std::env::var("TUMBLE_CONTACT_DEBUG").is_ok() {
+            for row in &self.end_rows {
+                eprintln!(
+                    "end row {} r_a {:?} u_free {:?} lambda {:?}",
+                    row.source, row.r_a, row.u_free, row.lambda
+                );
             }
         }
         let end_stats = solve::solve(
@@ -333,7 +350,8 @@ impl ContactPhase {
             self.bounds.clear();
             for c in 0..self.prepared.len() {
                 let slot = &self.slots[self.collider_slot[c]];
-                let centre = slot.com + slot.rotation * self.prepared[c].body_from_parry.translation.vector;
+                let centre =
+                    slot.com + slot.rotation * self.prepared[c].body_from_parry.translation.vector;
                 self.bounds.push(Bound {
                     centre,
                     radius_m: self.prepared[c].radius_m + slot.motion_m + MARGIN_M,
@@ -342,7 +360,10 @@ impl ContactPhase {
             self.sweep.pairs(&self.bounds, &mut self.pairs);
             let pairs = std::mem::take(&mut self.pairs);
             for &(i, j) in &pairs {
-                let (ci, cj) = (&self.model.colliders[i as usize], &self.model.colliders[j as usize]);
+                let (ci, cj) = (
+                    &self.model.colliders[i as usize],
+                    &self.model.colliders[j as usize],
+                );
                 if !self.model.may_touch(ci, cj) {
                     continue;
                 }
@@ -383,6 +404,7 @@ impl ContactPhase {
         // Below this approach speed a contact does not bounce: a resting body's free normal
         // velocity is about |g| h / 2, and a bounce off that would never settle.
         let bounce_min = 2.0 * gravity.norm() * h + 1e-9;
+        self.bounce_min = bounce_min;
         for (source, ((raw, between), key)) in self
             .raw
             .iter()
@@ -428,9 +450,13 @@ impl ContactPhase {
             // (the fraction `s` of the step spent closing the gap).
             let mut target_n = -raw.gap_m / h;
             let approach = -u_free.x;
+            let mut leave_n = 0.0;
             if e > 0.0 && approach > bounce_min {
                 let s = (raw.gap_m.max(0.0) / (approach * h)).min(1.0);
-                target_n += e * approach * (1.0 - s);
+                if s < 1.0 {
+                    target_n += e * approach * (1.0 - s);
+                    leave_n = e * approach;
+                }
             }
             let mut row = Row {
                 source,
@@ -442,6 +468,8 @@ impl ContactPhase {
                 u_free,
                 target_n,
                 mu,
+                restitution: e,
+                leave_n,
                 w: Matrix3::zeros(),
                 w_inv: Matrix3::zeros(),
                 lambda: Vector3::zeros(),

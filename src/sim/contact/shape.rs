@@ -42,10 +42,9 @@ impl Shape {
                 radius,
                 half_length,
             } => radius + half_length,
-            Shape::ConvexHull { points } => points
-                .iter()
-                .map(|p| p.coords.norm())
-                .fold(0.0, f64::max),
+            Shape::ConvexHull { points } => {
+                points.iter().map(|p| p.coords.norm()).fold(0.0, f64::max)
+            }
         }
     }
 

@@ -90,6 +90,11 @@ pub struct Row {
     pub target_n: f64,
     /// Coulomb's coefficient.
     pub mu: f64,
+    /// Newton's restitution.
+    pub restitution: f64,
+    /// For a bounce inside the step: the normal velocity it leaves with at the end of the
+    /// step (`e` times its approach), m/s; 0 otherwise.
+    pub leave_n: f64,
     /// The Delassus block `W = Cᵀ (K_a + K_b) C` and its inverse.
     pub w: Matrix3<f64>,
     pub w_inv: Matrix3<f64>,
@@ -144,31 +149,42 @@ impl Row {
         }
     }
 
-    /// The block's solution given the others' impulses (the module's rule).
+    /// The block's solution given the others' impulses and the contact's velocity `u` (the
+    /// module's rule): the normal row first (`λ_n ≥ 0`, `u_n ≥ b_n`), then the tangential
+    /// pair: sticking (`u_t = 0`) when that needs at most `μ λ_n`, otherwise `μ λ_n` against
+    /// the slip.
     pub fn local_solve(&self, u: &Vector3<f64>) -> Vector3<f64> {
-        let residual = Vector3::new(u.x - self.target_n, u.y, u.z);
-        let stick = self.lambda - self.w_inv * residual;
-        if stick.x <= 0.0 {
-            return Vector3::zeros();
-        }
-        let t = Vector3::new(0.0, stick.y, stick.z);
-        let t_norm = t.norm();
-        if t_norm <= self.mu * stick.x {
-            return stick;
-        }
-        // Sliding: λ = λ_n (1, μ d); the normal row u_n + W_n·(λ − λ_old) = b_n.
-        let d = t / t_norm;
-        let dir = Vector3::new(1.0, self.mu * d.y, self.mu * d.z);
-        let w_n = self.w.row(0).transpose();
-        let denom = w_n.dot(&dir);
-        let lambda_n = if denom > 0.0 {
-            ((self.target_n - u.x + w_n.dot(&self.lambda)) / denom).max(0.0)
-        } else {
-            // A block whose friction would pull the normal velocity down (possible for
-            // strongly coupled arms): the radial projection of the sticking solution.
-            stick.x
+        let lambda_n = (self.lambda.x - (u.x - self.target_n) / self.w[(0, 0)]).max(0.0);
+        let dn = lambda_n - self.lambda.x;
+        // The velocity with the new normal impulse.
+        let ut = nalgebra::Vector2::new(u.y + self.w[(1, 0)] * dn, u.z + self.w[(2, 0)] * dn);
+        let lt = nalgebra::Vector2::new(self.lambda.y, self.lambda.z);
+        let w_tt = nalgebra::Matrix2::new(
+            self.w[(1, 1)],
+            self.w[(1, 2)],
+            self.w[(2, 1)],
+            self.w[(2, 2)],
+        );
+        let limit = self.mu * lambda_n;
+        let stick = match w_tt.try_inverse() {
+            Some(inv) => lt - inv * ut,
+            None => nalgebra::Vector2::zeros(),
         };
-        dir * lambda_n
+        let t = if stick.norm() <= limit {
+            stick
+        } else {
+            // Sliding: maximum dissipation puts the friction against the slip velocity (the
+            // current one: at the fixed point, the final one); a contact that is not yet
+            // slipping takes the direction of the sticking impulse.
+            let slip = ut;
+            let d = if slip.norm() > 1e-300 {
+                -slip / slip.norm()
+            } else {
+                stick / stick.norm()
+            };
+            d * limit
+        };
+        Vector3::new(lambda_n, t.x, t.y)
     }
 }
 
