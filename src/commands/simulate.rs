@@ -395,6 +395,10 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     }
     let threads = thread_count(args.threads)?;
     let mut world = scene.build()?;
+    // The files only some scenes write (the contacts table), once the scene says.
+    for path in formats.paths_of(&stem, &world.layout) {
+        check_not_overwriting(&path, args.force)?;
+    }
     for warning in &world.warnings {
         eprintln!("warning: {warning}");
     }
@@ -556,6 +560,13 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             "  pandas: pd.read_parquet(\"{}\")   (columns: docs/scale.md, the dataset's trajectories table)",
             OutputFile::Trajectories.path(&stem).display()
         );
+        let contacts = OutputFile::Contacts.path(&stem);
+        if out.written.contains(&contacts) {
+            println!(
+                "  pandas: pd.read_parquet(\"{}\")   (one row per contact and recorded step: docs/datasets.md)",
+                contacts.display()
+            );
+        }
     }
     if let Some(ros2) = &out.ros2 {
         println!(

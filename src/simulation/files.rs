@@ -137,7 +137,9 @@ pub fn simulate(
     simulate_world(scene, &mut scene.build()?, stem, &options)
 }
 
-/// The files `formats` names for `stem`, in the order of [`Outputs::written`].
+/// The files `formats` names for `stem` whatever the scene, in the order of
+/// [`Outputs::written`]; a run that can have contacts writes `STEM.contacts.parquet` too
+/// ([`FormatSet::paths_of`]).
 pub fn output_paths(stem: &Path, formats: &FormatSet) -> Vec<PathBuf> {
     formats.paths(stem)
 }
@@ -221,7 +223,7 @@ pub fn simulate_world(
     let ros2 = formats
         .contains(Format::Ros2)
         .then(|| OutputFile::Ros2.path(stem));
-    let written = output_paths(stem, &formats);
+    let written = formats.paths_of(stem, &world.layout);
     let outputs: Vec<&Path> = written.iter().map(PathBuf::as_path).collect();
     // Each file is encoded on its own thread, beside the stepping; the threads share one copy
     // of each frame (`record::pipelined`).

@@ -24,7 +24,7 @@ mod summary;
 mod tests;
 
 pub use files::{AccuracyReport, Outputs, SimulateOptions, output_paths, simulate, simulate_world};
-pub use frames::FrameBuilder;
+pub use frames::{FrameBuilder, contact_states};
 pub use summary::{Diverged, RunSummary, time_ns};
 
 use crate::record::{OwnedFrame, Sink};
@@ -102,8 +102,10 @@ impl Simulation {
         threads: usize,
         settings: &RunSettings,
     ) -> anyhow::Result<Self> {
-        // The recorders learn what drives the joints from the layout alone.
+        // The recorders learn what drives the joints, and whether there is a ground and
+        // contacts, from the layout alone.
         world.check_drive_layout()?;
+        world.check_contact_layout()?;
         let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
         let ranges = crate::sim::partition::ranges(inits.len(), threads, &mechanism_ranges);
         let mechanisms: Vec<Vec<Arc<Mechanism>>> = ranges
