@@ -507,6 +507,6 @@ impl ContactPhase {
                 gap_m: raw.gap_m,
             });
         }
-        self.previous.sort_unstable_by(|x, y| x.0.cmp(&y.0));
+        self.previous.sort_unstable_by_key(|p| p.0);
     }
 }
