@@ -99,6 +99,13 @@ fn accuracy_plan(
             world.body_loads.len()
         );
     }
+    if world.contact.is_active() {
+        // The error model is that of free flight: contact changes the motion it predicts.
+        anyhow::bail!(
+            "{file}: --accuracy (sim.accuracy) is not supported with contact ([ground] or \
+             colliding models); choose dt by hand (docs/contact.md)"
+        );
+    }
     if !crate::sim::accuracy::model::supports(kind) {
         anyhow::bail!(
             "{file}: --accuracy (sim.accuracy) supports the integrators variational, variational4 \
@@ -187,7 +194,8 @@ pub fn simulate_world(
             &|part| Ok(plan.integrator(&variational, part.range.clone())),
             options.threads,
             &settings,
-        )?
+        )
+        .with_context(|| scene.source.display().to_string())?
     } else {
         // A mechanism's bodies are coupled by its joint rows: the batch is cut between
         // mechanisms, each partition's integrator steps its own (docs/mechanisms.md). The
@@ -207,7 +215,8 @@ pub fn simulate_world(
             },
             options.threads,
             &settings,
-        )?
+        )
+        .with_context(|| scene.source.display().to_string())?
     };
     let formats = options.formats;
     if formats.contains(Format::Mcap) || formats.contains(Format::Rrd) {
