@@ -659,9 +659,7 @@ fn a_world_with_a_ground_records_its_contacts_and_draws_the_ground() {
 }
 
 /// End to end with the contact physics: box `a` (6 kg, 0.1 × 0.2 × 0.3 m) resting on a level
-/// frictionless ground, its collider the box itself, spinning slowly about the vertical (a body
-/// starting without rotational energy is stopped by the divergence guard at the first rotation
-/// contact's round-off gives it). Every recorded step after the first holds its contacts with
+/// frictionless ground, its collider the box itself. Every recorded step after the first holds its contacts with
 /// the ground, at the ground's surface, the normal up; the forces sum to its weight
 /// `m g = 58.86 N` (the impulses to `m g dt`: the force is the impulse over the step, not the
 /// impulse), and the Parquet table holds the MCAP's values.
@@ -671,7 +669,7 @@ fn a_box_resting_on_the_ground_records_its_weight() {
     let text = SCENE
         .replace(
             "position = [0.0, 0.0, 1.0]",
-            "position = [0.0, 0.0, 0.15]\nangvel = [0.0, 0.0, 0.5]",
+            "position = [0.0, 0.0, 0.15]",
         )
         .replace(
             "BOX",
@@ -744,9 +742,10 @@ fn a_box_resting_on_the_ground_records_its_weight() {
             assert!(close(&force, &(impulse / DT), 1e-15), "{force} {impulse}");
             total += force;
         }
-        // Measured: four contacts, |Σ F_z / (m g) − 1| ≤ 4.4e-16, Σ F_xy = 0.
+        // Measured: four contacts, |Σ F_z / (m g) − 1| ≤ 1.1e-12 (the active-set solve's
+        // diagonal shift, docs/contact.md), Σ F_xy = 0.
         assert!(
-            (total.z / weight - 1.0).abs() < 1e-12 && total.xy().norm() < 1e-12 * weight,
+            (total.z / weight - 1.0).abs() < 1e-10 && total.xy().norm() < 1e-10 * weight,
             "step {}: total force {total} N, weight {weight} N",
             m[2]
         );
