@@ -178,7 +178,7 @@ fn slide(v0: f64, mu: f64, dt: f64) -> (f64, f64) {
         if b.linvel_world[j].x.abs() <= 1e-12 {
             return (b.com_world[j].x, k as f64 * dt);
         }
-        assert!(k < 10_000_000);
+        assert!(k < 100_000, "still sliding after 100 s");
     }
 }
 
@@ -314,7 +314,7 @@ fn bounces(h: f64, e: f64, n: usize, dt: f64) -> (Vec<f64>, f64) {
     let mut apexes = Vec::new();
     let mut last_vz = 0.0;
     let mut k = 0;
-    while apexes.len() < n && k < 20_000_000 {
+    while apexes.len() < n && k < 100_000 {
         w.advance(k, k + 1, &loads);
         k += 1;
         let (b, j) = w.body(0);
