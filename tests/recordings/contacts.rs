@@ -667,10 +667,7 @@ fn a_world_with_a_ground_records_its_contacts_and_draws_the_ground() {
 fn a_box_resting_on_the_ground_records_its_weight() {
     let dir = tempfile::tempdir().unwrap();
     let text = SCENE
-        .replace(
-            "position = [0.0, 0.0, 1.0]",
-            "position = [0.0, 0.0, 0.15]",
-        )
+        .replace("position = [0.0, 0.0, 1.0]", "position = [0.0, 0.0, 0.15]")
         .replace(
             "BOX",
             &common::root().join("models/box.urdf").display().to_string(),

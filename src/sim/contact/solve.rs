@@ -498,3 +498,90 @@ fn coupling(ri: &Row, rj: &Row, bodies: &[Response]) -> Matrix3<f64> {
     }
     ri.frame.transpose() * k * rj.frame
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix2, Vector2};
+
+    /// An anisotropic, coupled 2 × 2 block (a corner contact's `W_tt`).
+    fn w() -> Matrix2<f64> {
+        Matrix2::new(2.0, 0.7, 0.7, 1.1)
+    }
+
+    #[test]
+    fn friction_inside_the_disk_is_the_sticking_impulse() {
+        let u0 = Vector2::new(0.03, -0.02);
+        let l = friction_in_disk(&w(), &u0, 1.0);
+        // Sticking: the final slip u0 + W λ vanishes.
+        assert!((u0 + w() * l).norm() <= 1e-15, "{}", (u0 + w() * l).norm());
+    }
+
+    #[test]
+    fn friction_on_the_edge_opposes_the_final_slip_with_the_full_limit() {
+        let u0 = Vector2::new(3.0, -1.0);
+        let limit = 0.25;
+        let l = friction_in_disk(&w(), &u0, limit);
+        let slip = u0 + w() * l;
+        // |λ| = μ λ_n, and λ antiparallel to the final slip (maximum dissipation): measured
+        // 0 and 1 − cos = 0 to round-off.
+        assert!((l.norm() - limit).abs() <= 1e-15, "{}", l.norm());
+        let cos = l.dot(&slip) / (l.norm() * slip.norm());
+        assert!((cos + 1.0).abs() <= 1e-12, "{cos}");
+        // And not the radial projection of the sticking impulse (which W's coupling turns).
+        let stick = -w().try_inverse().unwrap() * u0;
+        let radial = stick * (limit / stick.norm());
+        assert!((radial - l).norm() > 1e-3, "{}", (radial - l).norm());
+    }
+
+    #[test]
+    fn no_friction_without_a_normal_impulse_or_a_slip() {
+        assert_eq!(
+            friction_in_disk(&w(), &Vector2::new(1.0, 2.0), 0.0),
+            Vector2::zeros()
+        );
+        assert_eq!(
+            friction_in_disk(&w(), &Vector2::zeros(), 1.0),
+            Vector2::zeros()
+        );
+    }
+
+    #[test]
+    fn a_warm_start_is_projected_into_the_cone_and_applied() {
+        let frame = contact_frame(&Vector3::z());
+        let mut bodies = vec![Response::new(0.5, Matrix3::identity() * 4.0)];
+        let mut row = Row {
+            source: 0,
+            a: 0,
+            b: None,
+            r_a: Vector3::new(0.1, 0.0, -0.2),
+            r_b: Vector3::zeros(),
+            frame,
+            u_free: Vector3::zeros(),
+            target_n: 0.0,
+            mu: 0.5,
+            restitution: 0.0,
+            leave_n: 0.0,
+            w: Matrix3::zeros(),
+            w_inv: Matrix3::zeros(),
+            lambda: Vector3::zeros(),
+        };
+        assert!(row.prepare(&bodies));
+        // Normal 2, tangential 3 along t₁ and 4 along t₂: |λ_t| = 5 > μ λ_n = 1.
+        let world = frame * Vector3::new(2.0, 3.0, 4.0);
+        row.warm_start(&world, &mut bodies);
+        let expected = Vector3::new(2.0, 0.6, 0.8);
+        assert!((row.lambda - expected).norm() <= 1e-15, "{}", row.lambda);
+        // The bodies carry it: Δv = P / m.
+        assert!((bodies[0].dv - frame * expected * 0.5).norm() <= 1e-15);
+        // A pulling normal is dropped.
+        let mut pulled = Row {
+            lambda: Vector3::zeros(),
+            ..row
+        };
+        let mut fresh = vec![Response::new(0.5, Matrix3::identity() * 4.0)];
+        pulled.warm_start(&(frame * Vector3::new(-1.0, 0.3, 0.0)), &mut fresh);
+        assert_eq!(pulled.lambda, Vector3::zeros());
+        assert_eq!(fresh[0].dv, Vector3::zeros());
+    }
+}
