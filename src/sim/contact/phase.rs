@@ -149,10 +149,7 @@ impl ContactPhase {
         alpha: f64,
     ) {
         let h = dt_secs;
-        let locate = |i: usize| {
-            let k = starts.partition_point(|&s| s <= i) - 1;
-            (k, i - starts[k])
-        };
+        let locate = |i: usize| locate(starts, i);
         // The bodies at the start of the step and their free motion.
         self.responses.clear();
         for (s, &body) in self.slot_body.iter().enumerate() {
@@ -184,19 +181,7 @@ impl ContactPhase {
             self.rel_tol,
             self.max_sweeps,
         );
-        // The impulses onto the bodies' momenta, and their energy.
-        for (s, &body) in self.slot_body.iter().enumerate() {
-            let r = &self.responses[s];
-            if r.dv == Vector3::zeros() && r.dl == Vector3::zeros() {
-                continue;
-            }
-            let (k, j) = locate(body);
-            let b = &mut *parts[k];
-            let ke0 = b.kinetic_energy(j);
-            b.linvel_world[j] += r.dv;
-            b.angmom_body[j] += b.world_from_body[j].inverse_transform_vector(&r.dl);
-            self.work += b.kinetic_energy(j) - ke0;
-        }
+        self.work += apply(&self.responses, &self.slot_body, parts, starts);
         // Which contacts close at the end of the step: those the end projection holds.
         let closed_m = CLOSED_M.max(gravity.norm() * h * h);
         self.closing.clear();
@@ -215,10 +200,7 @@ impl ContactPhase {
     /// resting on the ground would carry the velocity `g h / 2` of the step's second half, and
     /// an impact would not end at the contact (`docs/contact.md`).
     pub fn end(&mut self, parts: &mut [&mut Bodies], starts: &[usize]) {
-        let locate = |i: usize| {
-            let k = starts.partition_point(|&s| s <= i) - 1;
-            (k, i - starts[k])
-        };
+        let locate = |i: usize| locate(starts, i);
         self.end_rows.clear();
         self.end_responses.clear();
         let mut velocities = Vec::with_capacity(self.slot_body.len());
@@ -279,18 +261,7 @@ impl ContactPhase {
         );
         self.stats.sweeps += end_stats.sweeps;
         self.stats.converged &= end_stats.converged;
-        for (s, &body) in self.slot_body.iter().enumerate() {
-            let r = &self.end_responses[s];
-            if r.dv == Vector3::zeros() && r.dl == Vector3::zeros() {
-                continue;
-            }
-            let (k, j) = locate(body);
-            let b = &mut *parts[k];
-            let ke0 = b.kinetic_energy(j);
-            b.linvel_world[j] += r.dv;
-            b.angmom_body[j] += b.world_from_body[j].inverse_transform_vector(&r.dl);
-            self.work += b.kinetic_energy(j) - ke0;
-        }
+        self.work += apply(&self.end_responses, &self.slot_body, parts, starts);
         self.record();
     }
 
@@ -509,4 +480,33 @@ impl ContactPhase {
         }
         self.previous.sort_unstable_by_key(|p| p.0);
     }
+}
+
+/// Body `i`'s partition and its index there (part `k` holds the bodies from `starts[k]`).
+fn locate(starts: &[usize], i: usize) -> (usize, usize) {
+    let k = starts.partition_point(|&s| s <= i) - 1;
+    (k, i - starts[k])
+}
+
+/// The impulses the solve put in `responses` (one per body of `slot_body`) onto the bodies'
+/// momenta: `v += Δv`, `M += Rᵀ ΔL`; returns the kinetic energy they changed, J.
+fn apply(
+    responses: &[Response],
+    slot_body: &[usize],
+    parts: &mut [&mut Bodies],
+    starts: &[usize],
+) -> f64 {
+    let mut work = 0.0;
+    for (r, &body) in responses.iter().zip(slot_body) {
+        if r.dv == Vector3::zeros() && r.dl == Vector3::zeros() {
+            continue;
+        }
+        let (k, j) = locate(starts, body);
+        let b = &mut *parts[k];
+        let ke0 = b.kinetic_energy(j);
+        b.linvel_world[j] += r.dv;
+        b.angmom_body[j] += b.world_from_body[j].inverse_transform_vector(&r.dl);
+        work += b.kinetic_energy(j) - ke0;
+    }
+    work
 }
