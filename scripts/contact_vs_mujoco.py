@@ -8,7 +8,8 @@ Usage: contact_vs_mujoco.py TUMBLE WORK CSV [INTEGRATORS]
   INTEGRATORS  MuJoCo integrators, comma-separated (default "euler,implicitfast"; also implicit,
                rk4, discrete); NAME:elliptic runs NAME with MuJoCo's elliptic friction cone
                instead of its default pyramidal one
-Environment: REPEATS (timed runs per cost, median printed; default 5).
+Environment: REPEATS (timed runs per cost, median printed; default 5), COST_STEPS (steps of each
+timed run; default 100000).
 
 The bodies (the same numbers in both engines; URDFs written into WORK, MJCF built here):
   cube  0.2 m on a side, 1 kg, I = m a^2 / 6 = 0.0066667 kg m^2 about every axis
@@ -51,15 +52,21 @@ The cases (every body starts touching its ground: no gap, no overlap):
   the cases without restitution, pyramidal cone, condim 3, margin 0. A pair's friction in MuJoCo
   is the larger of its two geoms' (both given mu here); in tumble the smaller (both mu).
 
-Cost per step: tumble `bench --scene SCENE --steps N --repeats REPEATS --threads 1` (the stepping
-alone, the median of the runs: no process start, no scene loading, no recording); MuJoCo its C
-rollout (mujoco.rollout, one thread) of the same N steps from the same state, the median of
-REPEATS runs after one untimed. N is the case's number of steps.
+Cost per step: each case run for COST_STEPS steps (100 s at 1 ms: the slide and the bounce are
+over in the first second, so their cost is mostly the resting body's), REPEATS times, the median.
+tumble: `simulate SCENE --duration COST_STEPS*dt --threads 1 --log-every COST_STEPS --format
+parquet` (two frames recorded), the wall time it prints (the stepping and the recording, not the
+process start or the scene loading; printed to 10 ms, 0.1 us per step at 1e5 steps) divided by the
+steps. Not `tumble bench --scene`: for a scene of one partition it times the bare integrator,
+without the contact phase (a cube on the slope costs 0.06 us per step there, with or without its
+ground). MuJoCo: its C rollout (mujoco.rollout, one thread) of the same steps from the same
+state, after one untimed run.
 """
 
 import csv
 import math
 import os
+import re
 import subprocess
 import sys
 import time
@@ -83,6 +90,7 @@ MOVING = 1e-3  # m/s: sliding while the horizontal speed is above this
 SLOW = 0.01  # the stopping time is measured to SLOW * v0
 LIFT = 1e-9  # m: off the ground when the cube's centre is this far above its rest height
 REPEATS = int(os.environ.get("REPEATS", "5"))
+COST_STEPS = int(os.environ.get("COST_STEPS", "100000"))
 
 INTEGRATORS = {
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -231,19 +239,23 @@ def run_tumble(tumble, work, case):
     t = col("time_secs")[order]
     p = np.stack([col(f"position_{a}") for a in "xyz"], axis=1)[order]
     v = np.stack([col(f"linear_velocity_{a}") for a in "xyz"], axis=1)[order]
-    steps = round(CASES[case][0] / DT)
-    bench = subprocess.run(
-        [tumble, "bench", "--scene", path, "--steps", str(steps), "--repeats", str(REPEATS),
-         "--threads", "1"],
-        capture_output=True, text=True,
-    )
-    if bench.returncode != 0:
-        raise RuntimeError(f"tumble bench --scene {path}: exit {bench.returncode}\n{bench.stderr}")
-    ns = [float(l.split("=")[1]) for l in bench.stdout.splitlines() if l.startswith("ns_per_step=")]
+    samples = []
+    for _ in range(REPEATS):
+        timed = subprocess.run(
+            [tumble, "simulate", path, "--duration", repr(COST_STEPS * DT), "--log-every",
+             str(COST_STEPS), "--threads", "1", "--out", f"{stem}-cost", "--format", "parquet",
+             "--force"],
+            capture_output=True, text=True,
+        )
+        wall = re.search(r" in ([0-9.]+) s wall time", timed.stdout)
+        if timed.returncode != 0 or wall is None:
+            raise RuntimeError(f"tumble simulate {path} (timed): exit {timed.returncode}\n"
+                               f"{timed.stdout}{timed.stderr}")
+        samples.append(float(wall.group(1)) * 1e9 / COST_STEPS)
     # Off the ground: the body's centre above its rest height by more than LIFT.
     rest = SIDE / 2 if CASES[case][1] == "cube" else RADIUS
     lifted = p[:, 2] > rest + LIFT
-    return t, p, v, lifted, ns[-1]
+    return t, p, v, lifted, float(np.median(samples))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -318,8 +330,8 @@ def run_mujoco(work, case, name):
     with rollout.Rollout(nthread=0) as r:
         for _ in range(REPEATS + 1):
             started = time.perf_counter()
-            r.rollout(model, data, state[None, :], nstep=steps)
-            samples.append((time.perf_counter() - started) * 1e9 / steps)
+            r.rollout(model, data, state[None, :], nstep=COST_STEPS)
+            samples.append((time.perf_counter() - started) * 1e9 / COST_STEPS)
     return np.array(t), np.array(p), np.array(v), np.array(lifted), float(np.median(samples[1:]))
 
 
@@ -363,7 +375,9 @@ def measure(case, t, p, v, lifted):
             ("time to 1 % of v0 [s]", t_stop, t_exact, abs(t_stop - t_exact) / t_exact, "rel",
              f"speed {speed[-1]:.1e} m/s at {t[-1]:g} s"),
             ("hops while sliding [steps]", hops, 0, hops, "abs",
-             f"of {n} sliding steps; {np.count_nonzero(lifted[1:])} of {len(t) - 1} in all"),
+             f"of {n} sliding steps; {np.count_nonzero(lifted[1:])} of {len(t) - 1} in all; "
+             f"centre up to {float(p[1:][sliding, 2].max()) - SIDE / 2:.1e} m above {SIDE / 2:g} m"
+             f" (step {1 + int(np.argmax(np.where(sliding, p[1:, 2], -np.inf)))})"),
         ]
     if case == "rebound":
         z, vz = p[:, 2], v[:, 2]

@@ -7,12 +7,14 @@
 #   sliding stop  a cube sliding at 2 m/s, mu = 0.5: distance v0^2/(2 mu g) and time v0/(mu g)
 #   hops          steps of that slide in which the cube is off the ground: 0 exact
 #   rebound       a ball dropped from 1 m with restitution 0.5: apex e^2 h = 0.25 m (MuJoCo: solref (-k, -b))
-# and the cost per step of each case in both engines (tumble `bench --scene --threads 1`, MuJoCo's C rollout;
-# medians of REPEATS runs). Prints one table and writes it as CSV (OUT, default target/contact_vs_mujoco.csv).
+# and the cost per step of each case in both engines, over COST_STEPS steps (tumble: the wall time `simulate
+# --threads 1` prints, recording two frames; MuJoCo: its C rollout; medians of REPEATS runs). Prints one table and
+# writes it as CSV (OUT, default target/contact_vs_mujoco.csv).
 # Exits non-zero only when something fails to run (a tumble exit status, MuJoCo unstable, a missing file).
 # Usage: bash scripts/contact_vs_mujoco.sh [TUMBLE_BINARY]
 #   Without TUMBLE_BINARY: `cargo build --release` and target/release/tumble. With it: that binary, as it is.
-#   INTEGRATORS=euler,implicitfast (also implicit, rk4, discrete)  REPEATS=5  OUT=target/contact_vs_mujoco.csv
+#   INTEGRATORS=euler,implicitfast (also implicit, rk4, discrete; NAME:elliptic for the elliptic cone)
+#   REPEATS=5  COST_STEPS=100000  OUT=target/contact_vs_mujoco.csv
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 repo="$PWD"
