@@ -457,14 +457,14 @@ def fmt(x):
 
 
 def table(rows):
-    print(f"{'case':<28} {'engine':<28} {'measured':>11} {'exact':>10} {'error':>10} {'':>3} "
+    print(f"{'case':<28} {'engine':<36} {'measured':>11} {'exact':>10} {'error':>10} {'':>3} "
           f"{'us/step':>8}  note")
     last = None
     for r in rows:
         if last is not None and r["case"] != last:
             print()
         last = r["case"]
-        print(f"{r['case']:<28} {r['engine']:<28} {fmt(r['measured']):>11} {fmt(r['exact']):>10} "
+        print(f"{r['case']:<28} {r['engine']:<36} {fmt(r['measured']):>11} {fmt(r['exact']):>10} "
               f"{fmt(r['error']):>10} {r['error_kind']:>3} {r['us_per_step']:>8.2f}  {r['note']}")
 
 
