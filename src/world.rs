@@ -6,7 +6,7 @@
 //! here knows TOML or integrator choice.
 
 use crate::model::urdf;
-use crate::record::{ActuatorLaw, DriveLayout, RecordingLayout};
+use crate::record::{ActuatorLaw, DriveLayout, GroundLayout, RecordingLayout};
 use crate::sim::BodyInit;
 use crate::sim::integrators::{IntegratorKind, VariationalSettings};
 use crate::sim::mechanism::Mechanism;
@@ -101,11 +101,49 @@ impl World {
     }
 
     /// Fills `layout.drives` from the mechanisms' drives ([`Self::drive_layouts`]): what the
-    /// recorders need to know of them before the first frame. Called once every model is
-    /// placed; a run refuses a world whose layout disagrees with its mechanisms
-    /// ([`Self::check_drive_layout`]).
+    /// recorders need to know of them before the first frame; and the layout's contact fields
+    /// ([`Self::describe_contact`]). Called once every model is placed and the contact model
+    /// is filled (the end of `crate::scene::Scene::assemble`); a run refuses a world whose
+    /// layout disagrees with its mechanisms or its contact model
+    /// ([`Self::check_drive_layout`], [`Self::check_contact_layout`]).
     pub fn describe_drives(&mut self) {
         self.layout.drives = self.drive_layouts();
+        self.describe_contact();
+    }
+
+    /// Fills `layout.ground` and `layout.contacts` from [`Self::contact`]
+    /// ([`Self::contact_layout`]).
+    pub fn describe_contact(&mut self) {
+        (self.layout.ground, self.layout.contacts) = self.contact_layout();
+    }
+
+    /// The contact model as the recording layout says it: the ground to draw, and whether the
+    /// run can have contacts ([`crate::sim::contact::ContactModel::is_active`]).
+    pub fn contact_layout(&self) -> (Option<GroundLayout>, bool) {
+        let ground = self.contact.ground.as_ref().map(|g| GroundLayout {
+            normal: g.normal.into_inner(),
+            point: g.point,
+        });
+        (ground, self.contact.is_active())
+    }
+
+    /// Fails when the layout's contact fields are not what [`Self::contact`] makes of them
+    /// (the contact model changed after [`Self::describe_contact`]): the recordings would leave
+    /// out the ground or the contacts, or list a topic nothing fills.
+    pub fn check_contact_layout(&self) -> anyhow::Result<()> {
+        let (ground, contacts) = self.contact_layout();
+        if self.layout.ground != ground || self.layout.contacts != contacts {
+            anyhow::bail!(
+                "internal error: the recording layout says ground {}, contacts {}; the contact \
+                 model says ground {}, contacts {} (World::describe_contact was not called after \
+                 the contact model was filled)",
+                self.layout.ground.is_some(),
+                self.layout.contacts,
+                ground.is_some(),
+                contacts
+            );
+        }
+        Ok(())
     }
 
     /// The mechanisms' drives as the recording layout lists them: the drive on coordinate `c`

@@ -395,6 +395,10 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     }
     let threads = thread_count(args.threads)?;
     let mut world = scene.build()?;
+    // The files only some scenes write (the contacts table), once the scene says.
+    for path in formats.paths_of(&stem, &world.layout) {
+        check_not_overwriting(&path, args.force)?;
+    }
     for warning in &world.warnings {
         eprintln!("warning: {warning}");
     }
@@ -460,9 +464,21 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             (s.energy_final - s.energy_initial) / s.energy_initial.abs()
         )
     };
+    let momentum = if s.contact {
+        format!(
+            "angular momentum relative change max {:.2e} over the bodies without colliders \
+             (contact exchanges the others' momenta with the ground)",
+            s.angmom_rel_change_max
+        )
+    } else {
+        format!(
+            "angular momentum relative change max {:.2e}",
+            s.angmom_rel_change_max
+        )
+    };
     println!(
-        "energy {:.9e} J -> {:.9e} J ({energy_change}); angular momentum relative change max {:.2e}",
-        s.energy_initial, s.energy_final, s.angmom_rel_change_max
+        "energy {:.9e} J -> {:.9e} J ({energy_change}); {momentum}",
+        s.energy_initial, s.energy_final
     );
     let flow = s.energy_flow;
     if flow != Default::default() {
@@ -544,6 +560,13 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             "  pandas: pd.read_parquet(\"{}\")   (columns: docs/scale.md, the dataset's trajectories table)",
             OutputFile::Trajectories.path(&stem).display()
         );
+        let contacts = OutputFile::Contacts.path(&stem);
+        if out.written.contains(&contacts) {
+            println!(
+                "  pandas: pd.read_parquet(\"{}\")   (one row per contact and recorded step: docs/datasets.md)",
+                contacts.display()
+            );
+        }
     }
     if let Some(ros2) = &out.ros2 {
         println!(

@@ -3,7 +3,7 @@
 //! [`open`]), used by `simulate`, the dataset's per-run recordings and `trade`.
 
 use super::mcap::{McapOptions, McapSink};
-use super::parquet::{BodiesSink, JointsSink, TrajectorySink};
+use super::parquet::{BodiesSink, ContactsSink, JointsSink, TrajectorySink};
 use super::rerun::{RerunOptions, RerunSink};
 use super::ros2::Ros2Sink;
 use super::{RecordingLayout, Sink};
@@ -19,7 +19,8 @@ pub enum Format {
     /// `STEM.ros2.mcap`, a ROS 2 recording ([`super::ros2`]).
     Ros2,
     /// `STEM.trajectories.parquet` and `STEM.bodies.parquet`, the dataset's tables for one run,
-    /// and `STEM.joints.parquet`, the articulated models' joints ([`super::parquet`]).
+    /// `STEM.joints.parquet`, the articulated models' joints, and for runs that can have
+    /// contacts `STEM.contacts.parquet` ([`super::parquet`]).
     Parquet,
 }
 
@@ -37,7 +38,8 @@ impl Format {
         }
     }
 
-    /// The files the format writes, in order.
+    /// The files the format writes for every run, in order ([`Self::files_of`] adds those
+    /// that depend on the layout).
     pub fn files(self) -> &'static [OutputFile] {
         match self {
             Format::Mcap => &[OutputFile::Mcap],
@@ -49,6 +51,17 @@ impl Format {
                 OutputFile::Joints,
             ],
         }
+    }
+
+    /// The files the format writes for a run of `layout`, in order: [`Self::files`], and for
+    /// Parquet the contacts table when the run can have contacts
+    /// ([`RecordingLayout::contacts`]).
+    pub fn files_of(self, layout: &RecordingLayout) -> Vec<OutputFile> {
+        let mut files = self.files().to_vec();
+        if self == Format::Parquet && layout.contacts {
+            files.push(OutputFile::Contacts);
+        }
+        files
     }
 }
 
@@ -64,6 +77,8 @@ pub enum OutputFile {
     Bodies,
     /// The joints table ([`JointsSink`]).
     Joints,
+    /// The contacts table ([`ContactsSink`]), for runs that can have contacts.
+    Contacts,
 }
 
 impl OutputFile {
@@ -76,6 +91,7 @@ impl OutputFile {
             OutputFile::Trajectories => super::parquet::TRAJECTORIES_EXTENSION,
             OutputFile::Bodies => super::parquet::BODIES_EXTENSION,
             OutputFile::Joints => super::parquet::JOINTS_EXTENSION,
+            OutputFile::Contacts => super::parquet::CONTACTS_EXTENSION,
         }
     }
 
@@ -89,6 +105,7 @@ impl OutputFile {
             OutputFile::Trajectories => "tumble-parquet",
             OutputFile::Bodies => "tumble-bodies",
             OutputFile::Joints => "tumble-joints",
+            OutputFile::Contacts => "tumble-contacts",
         }
     }
 
@@ -148,10 +165,20 @@ impl FormatSet {
         Format::ALL.into_iter().filter(move |&f| self.contains(f))
     }
 
-    /// Every file of the set's formats under `stem`, in order.
+    /// Every file of the set's formats under `stem` written for every run, in order
+    /// ([`Self::paths_of`] adds those that depend on the layout).
     pub fn paths(self, stem: &Path) -> Vec<PathBuf> {
         self.iter()
             .flat_map(|format| format.files())
+            .map(|file| file.path(stem))
+            .collect()
+    }
+
+    /// Every file of the set's formats under `stem` for a run of `layout`, in order
+    /// ([`Format::files_of`]).
+    pub fn paths_of(self, stem: &Path, layout: &RecordingLayout) -> Vec<PathBuf> {
+        self.iter()
+            .flat_map(|format| format.files_of(layout))
             .map(|file| file.path(stem))
             .collect()
     }
@@ -214,19 +241,20 @@ pub fn open_file(
         OutputFile::Trajectories => Box::new(TrajectorySink::create(path, layout)?),
         OutputFile::Bodies => Box::new(BodiesSink::new(path, layout)?),
         OutputFile::Joints => Box::new(JointsSink::create(path, layout)?),
+        OutputFile::Contacts => Box::new(ContactsSink::create(path, layout)?),
     })
 }
 
-/// The files of `format` under `stem`, each with its path and its sink opened
-/// ([`open_file`]) when the iterator reaches it: a caller that stops at the first error
-/// creates no file after it.
+/// The files of `format` for a run of `layout` under `stem` ([`Format::files_of`]), each with
+/// its path and its sink opened ([`open_file`]) when the iterator reaches it: a caller that
+/// stops at the first error creates no file after it.
 pub fn open<'a>(
     format: Format,
     stem: &'a Path,
     layout: &'a RecordingLayout,
     options: &'a SinkOptions,
 ) -> impl Iterator<Item = (OutputFile, PathBuf, anyhow::Result<Box<dyn Sink + Send>>)> + 'a {
-    format.files().iter().map(move |&file| {
+    format.files_of(layout).into_iter().map(move |file| {
         let path = file.path(stem);
         let sink = open_file(file, &path, layout, options);
         (file, path, sink)
@@ -262,6 +290,33 @@ mod tests {
                 "out/a.b.bodies.parquet",
                 "out/a.b.joints.parquet"
             ]
+        );
+        // A run that can have contacts adds the contacts table, after the joints table.
+        let contacts = RecordingLayout {
+            contacts: true,
+            ..Default::default()
+        };
+        let names: Vec<String> = FormatSet::parse("parquet,mcap")
+            .unwrap()
+            .paths_of(Path::new("s"), &contacts)
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "s.mcap",
+                "s.trajectories.parquet",
+                "s.bodies.parquet",
+                "s.joints.parquet",
+                "s.contacts.parquet"
+            ]
+        );
+        assert_eq!(
+            FormatSet::parse("parquet")
+                .unwrap()
+                .paths_of(Path::new("s"), &RecordingLayout::default()),
+            FormatSet::parse("parquet").unwrap().paths(Path::new("s"))
         );
     }
 }

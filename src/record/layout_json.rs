@@ -15,7 +15,9 @@
 //! ([`DriveLayout`]: `joint` an index into `joints`, increasing; `actuator` `"motor"`,
 //! `"position"`, `"velocity"` or null for damping alone; `effort_limit` N m or N, or null;
 //! `damping` N m s/rad or N s/m) is written only when a joint is driven, so a recording without
-//! drives has the JSON it had before drives existed. Poses are `{"translation": [x,
+//! drives has the JSON it had before drives existed. Likewise `"ground": {"normal": [x, y, z],
+//! "point": [x, y, z]}` ([`super::GroundLayout`]) only with a ground, and `"contacts": true`
+//! only in runs that can have contacts ([`RecordingLayout::contacts`]). Poses are `{"translation": [x,
 //! y, z], "rotation_xyzw": [x, y, z, w]}` (metres; unit quaternion, Hamilton convention); geometry
 //! is `{"box": {"size": [..]}}`, `{"cylinder": {"radius", "length"}}`, `{"sphere": {"radius"}}`,
 //! `{"capsule": {"radius", "length"}}` or `{"mesh": {"uri", "path", "scale"}}` (the mesh path as
@@ -60,6 +62,17 @@ struct LayoutJson {
     mechanisms: Vec<MechanismJson>,
     #[serde(default)]
     drives: Vec<DriveJson>,
+    #[serde(default)]
+    ground: Option<GroundJson>,
+    #[serde(default)]
+    contacts: bool,
+}
+
+/// The ground (read and written: plain data).
+#[derive(Serialize, Deserialize)]
+struct GroundJson {
+    normal: [f64; 3],
+    point: [f64; 3],
 }
 
 /// A joint's drive (read and written: plain data).
@@ -118,6 +131,11 @@ struct LayoutOut<'a> {
     /// Absent without drives: a recording of undriven models keeps the JSON it had.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     drives: Vec<DriveJson>,
+    /// Absent without a ground, and without contacts: a run without contact keeps its JSON.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ground: Option<GroundJson>,
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    contacts: bool,
 }
 
 #[derive(Serialize)]
@@ -384,6 +402,11 @@ pub fn to_json(layout: &RecordingLayout) -> String {
                 damping: d.damping,
             })
             .collect(),
+        ground: layout.ground.map(|g| GroundJson {
+            normal: g.normal.into(),
+            point: g.point.into(),
+        }),
+        contacts: layout.contacts,
     };
     // Plain data (strings, finite or non-finite numbers become null): cannot fail. Sized by a
     // counting pass, so the text is built in place once (no doubling buffer).
@@ -535,6 +558,22 @@ pub fn from_json(text: &str) -> anyhow::Result<RecordingLayout> {
             mechanisms: g.mechanisms[0]..g.mechanisms[1],
         });
     }
+    let ground = match json.ground {
+        Some(g) => {
+            let normal = Vector3::from(g.normal);
+            let point = Vector3::from(g.point);
+            let norm = normal.norm();
+            if !(norm.is_finite() && norm > 0.0 && point.iter().all(|v| v.is_finite())) {
+                bail!(
+                    "ground normal {:?} / point {:?} is not finite and nonzero",
+                    g.normal,
+                    g.point
+                );
+            }
+            Some(super::GroundLayout { normal, point })
+        }
+        None => None,
+    };
     Ok(RecordingLayout {
         name: json.name,
         frames,
@@ -545,6 +584,8 @@ pub fn from_json(text: &str) -> anyhow::Result<RecordingLayout> {
         mechanisms,
         robot_descriptions: Vec::new(),
         drives,
+        ground,
+        contacts: json.contacts,
     })
 }
 
@@ -720,6 +761,34 @@ mod tests {
             let err = format!("{:#}", from_json(&damaged).unwrap_err());
             assert!(err.contains(message), "{err}");
         }
+    }
+
+    /// The ground and the contacts flag round-trip; a layout without them has neither key (its
+    /// JSON is the one written before contact existed); a zero ground normal is refused.
+    #[test]
+    fn ground_and_contacts_round_trip_and_are_absent_without_contact() {
+        let mut layout = RecordingLayout {
+            name: "c".into(),
+            ..Default::default()
+        };
+        let plain = to_json(&layout);
+        assert!(
+            !plain.contains("ground") && !plain.contains("contacts"),
+            "{plain}"
+        );
+        layout.ground = Some(crate::record::GroundLayout {
+            normal: Vector3::new(0.0, 0.6, 0.8),
+            point: Vector3::new(0.0, 0.0, -1.0 / 3.0),
+        });
+        layout.contacts = true;
+        let text = to_json(&layout);
+        assert!(text.contains(r#""contacts":true"#), "{text}");
+        let back = from_json(&text).unwrap();
+        assert_eq!((back.ground, back.contacts), (layout.ground, true));
+        let zero = text.replace("[0.0,0.6,0.8]", "[0.0,0.0,0.0]");
+        assert_ne!(zero, text);
+        let err = format!("{:#}", from_json(&zero).unwrap_err());
+        assert!(err.contains("ground normal"), "{err}");
     }
 
     /// Files written before version 2 (every frame's list inline) still read.

@@ -8,9 +8,11 @@
 //! are opened ([`open`], [`open_file`]); [`names`] the topics and frame ids; [`pipelined`] a
 //! sink on its own thread; [`owned_frame`] the frames such sinks share; [`writeback`] files
 //! handed to the disk's writeback as they grow; [`layout_json`] the layout stored in the MCAP
-//! files; [`scene_update`] the visual geometry (MCAP `/scene`, and the meshes Rerun embeds).
+//! files; [`scene_update`] the visual geometry (MCAP `/scene`, and the meshes Rerun embeds);
+//! [`contacts`] what the formats share of the contacts (the ground's pose, the arrows' scale).
 //! [`finish_all`] ends a run's sinks and publishes all their files or none.
 
+pub mod contacts;
 pub mod format;
 pub mod layout_json;
 pub mod mcap;
@@ -59,6 +61,45 @@ pub struct RecordingLayout {
     /// and columns the recordings carry beside [`JointState::effort`] and
     /// [`JointState::target`] (filled by `crate::world::World::describe_drives`).
     pub drives: Vec<DriveLayout>,
+    /// The ground the bodies stand on (a half-space), drawn in the viewers; `None` without one.
+    pub ground: Option<GroundLayout>,
+    /// Whether the run can have contacts (a ground or bodies that collide): it decides whether
+    /// the recordings have a contacts topic, series and table at all, so a run without contact
+    /// writes the files it wrote before contact existed. The contacts themselves arrive in
+    /// [`Frame::contacts`]. Filled, with [`Self::ground`], by
+    /// `crate::world::World::describe_contact`.
+    pub contacts: bool,
+}
+
+/// The ground of a scene as the recordings draw it: the plane through [`Self::point`] with
+/// the outward unit normal [`Self::normal`] (the bodies are on the side it points to).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GroundLayout {
+    /// Unit outward normal (for a level ground: up, `−g / |g|`).
+    pub normal: Vector3<f64>,
+    /// A point of the ground's surface, m.
+    pub point: Vector3<f64>,
+}
+
+/// One contact at a recorded step: the contact points the step that ended at the recorded
+/// time applied impulses at (world frame, SI units).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactState {
+    /// The body the impulse acts on (index into [`RecordingLayout::bodies`]).
+    pub body_a: usize,
+    /// The other body (index into [`RecordingLayout::bodies`]; it receives the opposite
+    /// impulse), or `None` for the ground.
+    pub body_b: Option<usize>,
+    /// The contact point (on `b`'s surface), m.
+    pub point_world: Vector3<f64>,
+    /// Unit normal from `b` toward `a`.
+    pub normal_world: Vector3<f64>,
+    /// The mean force on `a` over the step, `impulse_world / dt`, N.
+    pub force_world: Vector3<f64>,
+    /// The impulse on `a` over the step, N s.
+    pub impulse_world: Vector3<f64>,
+    /// Signed gap at the start of the step, m (negative: penetration).
+    pub gap_m: f64,
 }
 
 /// What drives a recorded joint (issue 30): its actuator's law, the actuator's effort limit and
@@ -313,6 +354,9 @@ pub struct Frame<'a> {
     pub joints: &'a [JointState],
     /// Per articulated model, in the order of [`RecordingLayout::mechanisms`].
     pub mechanisms: &'a [MechanismState],
+    /// The contacts of the step that ended at this one (empty at step 0, without contact, and
+    /// when nothing touches).
+    pub contacts: &'a [ContactState],
 }
 
 /// Ends a recording run. After `result` is `Ok`, completes every sink under its `<path>.part`

@@ -23,3 +23,9 @@ pub const JOINT_STATES_TOPIC: &str = "/joint_states";
 pub const ROBOT_DESCRIPTION_TOPIC: &str = "/robot_description";
 /// Name of the MCAP metadata record holding the scene and settings (MCAP and ROS 2).
 pub const METADATA_NAME: &str = "tumble";
+/// Topic of the contacts of each recorded step (MCAP `tumble.Contacts`, ROS 2
+/// `tumble_msgs/msg/Contacts`), in runs that can have contacts.
+pub const CONTACTS_TOPIC: &str = "/contacts";
+/// MCAP topic of the contact points and force arrows (`foxglove.SceneUpdate`, one message per
+/// recorded step), in runs that can have contacts.
+pub const CONTACTS_SCENE_TOPIC: &str = "/contacts/scene";

@@ -7,7 +7,7 @@
 //! (100 000 bodies: 14.4 MB and a 14.4 MB copy per recorded step less). A buffer is reused once
 //! no sink holds it ([`FramePool`]).
 
-use super::{BodyState, Frame, JointState, MechanismState};
+use super::{BodyState, ContactState, Frame, JointState, MechanismState};
 use nalgebra::Isometry3;
 use std::sync::Arc;
 
@@ -20,6 +20,7 @@ pub struct OwnedFrame {
     pub bodies: Vec<BodyState>,
     pub joints: Vec<JointState>,
     pub mechanisms: Vec<MechanismState>,
+    pub contacts: Vec<ContactState>,
 }
 
 impl OwnedFrame {
@@ -32,6 +33,7 @@ impl OwnedFrame {
             bodies: &self.bodies,
             joints: &self.joints,
             mechanisms: &self.mechanisms,
+            contacts: &self.contacts,
         }
     }
 
@@ -48,6 +50,8 @@ impl OwnedFrame {
         self.joints.extend_from_slice(frame.joints);
         self.mechanisms.clear();
         self.mechanisms.extend_from_slice(frame.mechanisms);
+        self.contacts.clear();
+        self.contacts.extend_from_slice(frame.contacts);
     }
 }
 
@@ -152,6 +156,15 @@ mod tests {
             target: Some(0.25),
             saturated: true,
         }];
+        let contacts = [ContactState {
+            body_a: 1,
+            body_b: None,
+            point_world: nalgebra::Vector3::new(0.0, 0.5, 0.0),
+            normal_world: nalgebra::Vector3::z(),
+            force_world: nalgebra::Vector3::new(0.1, 0.0, 9.81),
+            impulse_world: nalgebra::Vector3::new(1e-4, 0.0, 9.81e-3),
+            gap_m: -1e-6,
+        }];
         let frame = Frame {
             step: 7,
             time_ns: 7000,
@@ -159,6 +172,7 @@ mod tests {
             bodies: &[],
             joints: &joints,
             mechanisms: &[],
+            contacts: &contacts,
         };
         let mut owned = OwnedFrame::default();
         owned.fill(&frame);
@@ -166,5 +180,12 @@ mod tests {
         assert_eq!((back.step, back.time_ns), (7, 7000));
         assert_eq!(back.world_from_link, &poses);
         assert_eq!(back.joints, &joints);
+        assert_eq!(back.contacts, &contacts);
+        // Refilled from a frame without contacts, none are left over.
+        owned.fill(&Frame {
+            contacts: &[],
+            ..frame
+        });
+        assert!(owned.contacts.is_empty());
     }
 }

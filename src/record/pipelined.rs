@@ -274,6 +274,7 @@ mod tests {
             bodies: &[],
             joints: &[],
             mechanisms: &[],
+            contacts: &[],
         }
     }
 
@@ -432,6 +433,7 @@ mod tests {
                 bodies: &[],
                 joints: &[],
                 mechanisms: &[],
+                contacts: &[],
             };
             for sink in &mut sinks {
                 sink.write(&frame).unwrap();

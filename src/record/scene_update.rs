@@ -9,6 +9,8 @@
 //! |------------|--------------------|--------------------|-----------------------------------------------|
 //! | `/scene`   | the link frame id  | the link frame id  | one per URDF `<visual>`, placed at its `<origin>` in the link frame |
 //! | `/inertia` | `inertia/<body>`   | the body's link frame | one sphere primitive: the body's equivalent uniform ellipsoid ([`BodyLayout::inertia_ellipsoid_radii`]) in its principal frame, translucent |
+//! | `/scene`   | `ground`           | `world`            | with a ground ([`super::RecordingLayout::ground`]): one cube, the slab of [`super::contacts::ground_pose`], grey |
+//! | `/contacts/scene` | `contacts`  | `world`            | one message per recorded step when the run can have contacts: per contact a sphere at its point (red) and an arrow along the force on body `a` (yellow, [`super::contacts::force_scale`] m per N, at most [`super::contacts::ARROW_MAX_M`]; none for a zero force); the entity replaces the previous step's, so a step without contacts shows none |
 //!
 //! URDF geometry → primitives: `<box>` → `CubePrimitive` (size = the box's sides), `<sphere>` →
 //! `SpherePrimitive` (size = diameter), `<cylinder>` → `CylinderPrimitive` (Foxglove's cylinder
@@ -21,13 +23,19 @@
 //! else light grey. A mesh that cannot be read is left out with a warning; each distinct file is
 //! read once per recording ([`MeshCache`]).
 
-use super::{BodyLayout, FrameLayout};
+use super::contacts::{
+    FORCE_COLOR, GROUND_COLOR, POINT_COLOR, POINT_RADIUS_M, SHAFT_RADIUS_M, ground_pose,
+    ground_size,
+};
+use super::names::WORLD_FRAME;
+use super::{BodyLayout, ContactState, FrameLayout, GroundLayout};
 use crate::model::geometry::mesh::TriangleMesh;
 use crate::model::geometry::mesh_io::{load_mesh, load_mesh_file};
 use crate::model::{Geometry, Visual};
 use foxglove::messages::{
-    Color, CubePrimitive, CylinderPrimitive, Point3, Pose, Quaternion, SceneEntity, SceneUpdate,
-    SpherePrimitive, Timestamp, TriangleListPrimitive, Vector3,
+    ArrowPrimitive, Color, CubePrimitive, CylinderPrimitive, KeyValuePair, Point3, Pose,
+    Quaternion, SceneEntity, SceneUpdate, SpherePrimitive, Timestamp, TriangleListPrimitive,
+    Vector3,
 };
 use nalgebra::{Isometry3, Translation3};
 use std::collections::HashMap;
@@ -272,5 +280,84 @@ pub fn inertia_update(
     SceneUpdate {
         deletions: Vec::new(),
         entities,
+    }
+}
+
+/// The ground's entity of `/scene` (module doc): appended to the frames' entities.
+pub fn ground_update(ground: &GroundLayout, timestamp: Timestamp) -> SceneUpdate {
+    let mut e = entity("ground".to_string(), WORLD_FRAME, timestamp);
+    e.cubes.push(CubePrimitive {
+        pose: pose(&ground_pose(ground)),
+        size: vector3(&ground_size()),
+        color: color(GROUND_COLOR),
+    });
+    SceneUpdate {
+        deletions: Vec::new(),
+        entities: vec![e],
+    }
+}
+
+/// Longest head of a force arrow, m (a quarter of the arrow when shorter).
+pub const ARROW_HEAD_MAX_M: f64 = 0.05;
+
+/// The arrow of force `force` (N) at `point`, `scale` m per N ([`super::contacts::force_scale`]):
+/// its tail at the point, pointing along the force, `|force| · scale` long (head included; at
+/// most [`super::contacts::ARROW_MAX_M`], [`super::contacts::arrow_vector`]); `None` for a zero
+/// or non-finite force.
+pub fn force_arrow(
+    point: &nalgebra::Vector3<f64>,
+    force: &nalgebra::Vector3<f64>,
+    scale: f64,
+) -> Option<ArrowPrimitive> {
+    let length = super::contacts::arrow_vector(force, scale).norm();
+    if !(length.is_finite() && length > 0.0) {
+        return None;
+    }
+    let x = nalgebra::Vector3::x();
+    let rotation = nalgebra::UnitQuaternion::rotation_between(&x, force).unwrap_or_else(|| {
+        // Along −x: half a turn about z.
+        nalgebra::UnitQuaternion::from_axis_angle(
+            &nalgebra::Vector3::z_axis(),
+            std::f64::consts::PI,
+        )
+    });
+    let head = (0.25 * length).min(ARROW_HEAD_MAX_M);
+    Some(ArrowPrimitive {
+        pose: pose(&Isometry3::from_parts(Translation3::from(*point), rotation)),
+        shaft_length: length - head,
+        shaft_diameter: 2.0 * SHAFT_RADIUS_M,
+        head_length: head,
+        head_diameter: 4.0 * SHAFT_RADIUS_M,
+        color: color(FORCE_COLOR),
+    })
+}
+
+/// Metadata key of the `/contacts/scene` entity holding the arrows' scale, m per N.
+pub const FORCE_SCALE_KEY: &str = "force_scale_m_per_n";
+
+/// The `/contacts/scene` message of one recorded step (module doc).
+pub fn contacts_update<'a>(
+    contacts: impl Iterator<Item = &'a ContactState>,
+    scale: f64,
+    timestamp: Timestamp,
+) -> SceneUpdate {
+    let mut e = entity("contacts".to_string(), WORLD_FRAME, timestamp);
+    e.frame_locked = false;
+    e.metadata.push(KeyValuePair {
+        key: FORCE_SCALE_KEY.into(),
+        value: format!("{scale:e}"),
+    });
+    for c in contacts {
+        e.spheres.push(sphere(
+            &Isometry3::from_parts(Translation3::from(c.point_world), Default::default()),
+            nalgebra::Vector3::repeat(2.0 * POINT_RADIUS_M),
+            POINT_COLOR,
+        ));
+        e.arrows
+            .extend(force_arrow(&c.point_world, &c.force_world, scale));
+    }
+    SceneUpdate {
+        deletions: Vec::new(),
+        entities: vec![e],
     }
 }

@@ -102,6 +102,7 @@ pub fn convert(mcap: &Path, rrd: &Path, options: &RerunOptions) -> anyhow::Resul
                 bodies: &step.bodies,
                 joints: &step.joints,
                 mechanisms: &step.mechanisms,
+                contacts: &step.contacts,
             };
             for sink in sinks.iter_mut() {
                 sink.write(&frame)?;

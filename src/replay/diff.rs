@@ -879,6 +879,7 @@ fn compare_frames(
                 bodies: &[],
                 joints: &[],
                 mechanisms: &[],
+                contacts: &[],
             })?;
             batch_t.push(time_ns);
             batch_step.push(index as i64);

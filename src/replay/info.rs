@@ -104,14 +104,16 @@ pub struct RecordingInfo {
 /// Metadata values too long to print: shown by key only (so are the `urdf/...` texts).
 const LONG_KEYS: [&str; 3] = ["scene", "settings_json", LAYOUT_KEY];
 
-/// Topics with one message per recorded step: every group's `/tf` and `/bodies` (a step is
-/// complete, and replayable by [`super::steps::StepReader`], when all of them hold it).
+/// Topics with one message per recorded step: every group's `/tf` and `/bodies`, and
+/// `/joints`, `/mechanisms`, `/contacts` where written (a step is complete, and replayable by
+/// [`super::steps::StepReader`], when all of them hold it).
 fn is_step_topic(topic: &str) -> bool {
-    use crate::record::names::{JOINTS_TOPIC, MECHANISMS_TOPIC};
+    use crate::record::names::{CONTACTS_TOPIC, JOINTS_TOPIC, MECHANISMS_TOPIC};
     topic.ends_with(TF_TOPIC)
         || topic.ends_with(BODIES_TOPIC)
         || topic.ends_with(JOINTS_TOPIC)
         || topic.ends_with(MECHANISMS_TOPIC)
+        || topic.ends_with(CONTACTS_TOPIC)
 }
 
 /// Recorded steps whose messages were all read, and their time span (ns): the `/bodies`

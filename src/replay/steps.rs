@@ -1,7 +1,8 @@
 //! A tumble MCAP recording read back step by step: the layout from the `tumble` metadata record
 //! ([`crate::record::layout_json`]), then one [`RecordedStep`] per recorded step, rebuilt from the
 //! `/tf` and `/bodies` messages of every topic group (see [`crate::record::mcap`]), and with
-//! articulated models their `/joints` and `/mechanisms` ([`crate::record::mcap::mechanism_proto`]).
+//! articulated models their `/joints` and `/mechanisms` ([`crate::record::mcap::mechanism_proto`]),
+//! and in runs that can have contacts their `/contacts` ([`crate::record::mcap::contact_proto`]).
 //!
 //! A step is handed out only when every frame's pose and every body's state at that time were
 //! read; a step missing some (the file was cut between its messages) is dropped and counted in
@@ -11,8 +12,10 @@ use super::stream::{Item, McapStream, Message, StreamEnd};
 use crate::record::layout_json::{LAYOUT_KEY, from_json};
 use crate::record::mcap::mechanism_proto as mp;
 use crate::record::mcap::proto;
-use crate::record::names::{BODIES_TOPIC, JOINTS_TOPIC, MECHANISMS_TOPIC, METADATA_NAME, TF_TOPIC};
-use crate::record::{BodyState, JointState, MechanismState, RecordingLayout};
+use crate::record::names::{
+    BODIES_TOPIC, CONTACTS_TOPIC, JOINTS_TOPIC, MECHANISMS_TOPIC, METADATA_NAME, TF_TOPIC,
+};
+use crate::record::{BodyState, ContactState, JointState, MechanismState, RecordingLayout};
 use anyhow::{Context, bail};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use prost::Message as _;
@@ -34,6 +37,8 @@ pub struct RecordedStep {
     pub joints: Vec<JointState>,
     /// In the order of the layout's mechanisms.
     pub mechanisms: Vec<MechanismState>,
+    /// The step's contacts, every group's in group order.
+    pub contacts: Vec<ContactState>,
 }
 
 /// Fails for a ROS 2 recording (header profile `ros2`, [`crate::record::ros2`]): its messages
@@ -91,6 +96,9 @@ struct Pending {
     bodies: Vec<Option<BodyState>>,
     joints: Vec<Option<JointState>>,
     mechanisms: Vec<Option<MechanismState>>,
+    contacts: Vec<ContactState>,
+    /// `/contacts` messages still to come (one per topic group in runs that can have contacts).
+    contact_messages_missing: usize,
 }
 
 impl Pending {
@@ -102,10 +110,19 @@ impl Pending {
             bodies: vec![None; layout.bodies.len()],
             joints: vec![None; layout.joints.len()],
             mechanisms: vec![None; layout.mechanisms.len()],
+            contacts: Vec::new(),
+            contact_messages_missing: if layout.contacts {
+                layout.groups().len()
+            } else {
+                0
+            },
         }
     }
 
     fn complete(self) -> Option<RecordedStep> {
+        if self.contact_messages_missing > 0 {
+            return None;
+        }
         Some(RecordedStep {
             step: self.step?,
             time_ns: i64::try_from(self.time_ns).ok()?,
@@ -113,6 +130,7 @@ impl Pending {
             bodies: self.bodies.into_iter().collect::<Option<Vec<_>>>()?,
             joints: self.joints.into_iter().collect::<Option<Vec<_>>>()?,
             mechanisms: self.mechanisms.into_iter().collect::<Option<Vec<_>>>()?,
+            contacts: self.contacts,
         })
     }
 }
@@ -367,6 +385,27 @@ impl StepReader {
                     )
                 })?;
                 pending.mechanisms[i] = Some(mp::from_proto(m));
+            }
+        } else if topic.ends_with(CONTACTS_TOPIC) && self.layout.contacts {
+            use crate::record::mcap::contact_proto as cp;
+            let message = cp::Contacts::decode(data).with_context(|| {
+                format!(
+                    "{}: a {topic} message is not a {}",
+                    path.display(),
+                    cp::CONTACTS_SCHEMA
+                )
+            })?;
+            pending.step = Some(message.step);
+            pending.contact_messages_missing = pending.contact_messages_missing.saturating_sub(1);
+            let index = |name: &str| self.body_index.get(name).copied();
+            for c in &message.contacts {
+                let state = cp::from_proto(c, index).map_err(|what| {
+                    anyhow::anyhow!(
+                        "{}: {topic} names {what}, which the layout does not have",
+                        path.display()
+                    )
+                })?;
+                pending.contacts.push(state);
             }
         }
         Ok(())

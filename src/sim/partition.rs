@@ -350,6 +350,16 @@ impl<'a> Partitions<'a> {
         Ok(())
     }
 
+    /// Whether a contact phase runs.
+    pub fn has_contact(&self) -> bool {
+        self.contact.is_some()
+    }
+
+    /// Whether body `i` has colliders (contact changes its momenta).
+    pub fn collides(&self, i: usize) -> bool {
+        self.contact.as_ref().is_some_and(|c| c.collides(i))
+    }
+
     /// The contacts of the last step (empty without contact).
     pub fn contacts(&self) -> &[ContactPoint] {
         self.contact.as_ref().map_or(&[], |c| &c.contacts)

@@ -99,6 +99,13 @@ fn accuracy_plan(
             world.body_loads.len()
         );
     }
+    if world.contact.is_active() {
+        // The error model is that of free flight: contact changes the motion it predicts.
+        anyhow::bail!(
+            "{file}: --accuracy (sim.accuracy) is not supported with contact ([ground] or \
+             colliding models); choose dt by hand (docs/contact.md)"
+        );
+    }
     if !crate::sim::accuracy::model::supports(kind) {
         anyhow::bail!(
             "{file}: --accuracy (sim.accuracy) supports the integrators variational, variational4 \
@@ -137,7 +144,9 @@ pub fn simulate(
     simulate_world(scene, &mut scene.build()?, stem, &options)
 }
 
-/// The files `formats` names for `stem`, in the order of [`Outputs::written`].
+/// The files `formats` names for `stem` whatever the scene, in the order of
+/// [`Outputs::written`]; a run that can have contacts writes `STEM.contacts.parquet` too
+/// ([`FormatSet::paths_of`]).
 pub fn output_paths(stem: &Path, formats: &FormatSet) -> Vec<PathBuf> {
     formats.paths(stem)
 }
@@ -185,7 +194,8 @@ pub fn simulate_world(
             &|part| Ok(plan.integrator(&variational, part.range.clone())),
             options.threads,
             &settings,
-        )?
+        )
+        .with_context(|| scene.source.display().to_string())?
     } else {
         // A mechanism's bodies are coupled by its joint rows: the batch is cut between
         // mechanisms, each partition's integrator steps its own (docs/mechanisms.md). The
@@ -205,7 +215,8 @@ pub fn simulate_world(
             },
             options.threads,
             &settings,
-        )?
+        )
+        .with_context(|| scene.source.display().to_string())?
     };
     let formats = options.formats;
     if formats.contains(Format::Mcap) || formats.contains(Format::Rrd) {
@@ -221,7 +232,7 @@ pub fn simulate_world(
     let ros2 = formats
         .contains(Format::Ros2)
         .then(|| OutputFile::Ros2.path(stem));
-    let written = output_paths(stem, &formats);
+    let written = formats.paths_of(stem, &world.layout);
     let outputs: Vec<&Path> = written.iter().map(PathBuf::as_path).collect();
     // Each file is encoded on its own thread, beside the stepping; the threads share one copy
     // of each frame (`record::pipelined`).

@@ -3,9 +3,12 @@
 
 use super::time_ns;
 use crate::budget::readable;
-use crate::record::{BodyState, Frame, FramePool, JointState, MechanismState, OwnedFrame};
+use crate::record::{
+    BodyState, ContactState, Frame, FramePool, JointState, MechanismState, OwnedFrame,
+};
 use crate::sim::Bodies;
 use crate::sim::Loads;
+use crate::sim::contact::{ContactPoint, GROUND};
 use crate::sim::mechanism::Mechanism;
 use crate::sim::mechanism::project::Reporter;
 use crate::sim::partition::Partitions;
@@ -61,6 +64,20 @@ fn body_state(bodies: &Bodies, j: usize, loads: &Loads) -> BodyState {
     }
 }
 
+/// The contacts of a step as recorded, appended to `out`: body indices as the layout's (the
+/// batch's), the ground as `None`, and the mean force over the step `impulse / dt_secs`.
+pub fn contact_states(points: &[ContactPoint], dt_secs: f64, out: &mut Vec<ContactState>) {
+    out.extend(points.iter().map(|c| ContactState {
+        body_a: c.body_a as usize,
+        body_b: (c.body_b != GROUND).then_some(c.body_b as usize),
+        point_world: c.point_world,
+        normal_world: c.normal_world,
+        force_world: c.impulse_world / dt_secs,
+        impulse_world: c.impulse_world,
+        gap_m: c.gap_m,
+    }));
+}
+
 /// Items per parallel task when a frame is built from partitions.
 const FRAME_TASK_ITEMS: usize = 2048;
 
@@ -108,6 +125,7 @@ impl FrameBuilder {
         out.bodies.resize(sizes[1], NO_STATE);
         out.joints.resize(sizes[2], JointState::default());
         out.mechanisms.resize(sizes[3], MechanismState::default());
+        out.contacts.clear();
         out
     }
 
@@ -130,7 +148,8 @@ impl FrameBuilder {
         self.pool.shared()
     }
 
-    /// Fills a frame buffer from `bodies` and returns the frame of step `step`.
+    /// Fills a frame buffer from `bodies` and returns the frame of step `step` (no contacts:
+    /// a bare batch has no contact phase).
     pub fn frame(&mut self, bodies: &Bodies, loads: &Loads, step: u64, dt_secs: f64) -> Frame<'_> {
         let time_ns = time_ns(step, dt_secs);
         let time_secs = time_ns as f64 / 1e9;
@@ -247,7 +266,8 @@ impl FrameBuilder {
         }
     }
 
-    /// [`Self::frame`] from a partitioned batch, built on its threads (same values).
+    /// [`Self::frame`] from a partitioned batch, built on its threads (same values), with the
+    /// contacts of the batch's last step ([`Partitions::contacts`], [`contact_states`]).
     pub fn frame_of_parts(
         &mut self,
         batch: &Partitions<'_>,
@@ -259,6 +279,7 @@ impl FrameBuilder {
         let sizes = self.sizes(batch.len());
         let mut pool = std::mem::take(&mut self.pool);
         let out = Self::start(&mut pool, sizes, step, time_ns);
+        contact_states(batch.contacts(), dt_secs, &mut out.contacts);
         let attachments = &self.attachments;
         let view = batch.view();
         let parts = &view;
@@ -378,5 +399,57 @@ impl FrameBuilder {
                 .filter(|(_, m)| !**m)
                 .map(|(s, _)| s.angmom_world),
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A contact with the ground records `body_b = None`, one between bodies its index; the
+    /// force is the impulse over the step (a thousand times it at dt = 1 ms); the rest is
+    /// copied; `out` is appended to.
+    #[test]
+    fn contact_states_name_the_ground_and_divide_the_impulse_by_the_step() {
+        let points = [
+            ContactPoint {
+                body_a: 3,
+                body_b: GROUND,
+                point_world: Vector3::new(0.5, -0.25, 0.0),
+                normal_world: Vector3::z(),
+                impulse_world: Vector3::new(1e-4, -2e-4, 5.886e-2),
+                gap_m: -3e-7,
+            },
+            ContactPoint {
+                body_a: 1,
+                body_b: 2,
+                point_world: Vector3::new(1.0, 2.0, 3.0),
+                normal_world: -Vector3::x(),
+                impulse_world: Vector3::new(-0.002, 0.0, 0.0),
+                gap_m: 1e-9,
+            },
+        ];
+        let mut out = vec![ContactState {
+            body_a: 0,
+            body_b: None,
+            point_world: Vector3::zeros(),
+            normal_world: Vector3::z(),
+            force_world: Vector3::zeros(),
+            impulse_world: Vector3::zeros(),
+            gap_m: 0.0,
+        }];
+        contact_states(&points, 1e-3, &mut out);
+        assert_eq!(out.len(), 3);
+        let (ground, pair) = (&out[1], &out[2]);
+        assert_eq!((ground.body_a, ground.body_b), (3, None));
+        assert_eq!((pair.body_a, pair.body_b), (1, Some(2)));
+        for (state, point) in [ground, pair].into_iter().zip(&points) {
+            let expected = point.impulse_world * 1e3;
+            assert!((state.force_world - expected).norm() <= 1e-15 * expected.norm());
+            assert_eq!(state.impulse_world, point.impulse_world);
+            assert_eq!(state.point_world, point.point_world);
+            assert_eq!(state.normal_world, point.normal_world);
+            assert_eq!(state.gap_m, point.gap_m);
+        }
     }
 }

@@ -24,7 +24,7 @@ mod summary;
 mod tests;
 
 pub use files::{AccuracyReport, Outputs, SimulateOptions, output_paths, simulate, simulate_world};
-pub use frames::FrameBuilder;
+pub use frames::{FrameBuilder, contact_states};
 pub use summary::{Diverged, RunSummary, time_ns};
 
 use crate::record::{OwnedFrame, Sink};
@@ -102,8 +102,33 @@ impl Simulation {
         threads: usize,
         settings: &RunSettings,
     ) -> anyhow::Result<Self> {
-        // The recorders learn what drives the joints from the layout alone.
+        // The recorders learn what drives the joints, and whether there is a ground and
+        // contacts, from the layout alone.
         world.check_drive_layout()?;
+        world.check_contact_layout()?;
+        if world.contact.is_active()
+            && let Some(c) = world.contact.colliders.iter().find(|c| {
+                world
+                    .mechanisms
+                    .iter()
+                    .any(|m| m.bodies().contains(&c.body))
+            })
+        {
+            // The contact solve needs an articulated body's response to an impulse (its joints
+            // carry the rest of the robot); with a free body's, a robot would sink. Refused
+            // until it is there (docs/contact.md, "What is not there yet").
+            let name = world
+                .layout
+                .bodies
+                .get(c.body)
+                .map_or(String::new(), |b| format!(" ({})", b.name));
+            anyhow::bail!(
+                "collisions on an articulated model (bodies = \"articulated\", body {}{name}) are \
+                 not supported yet: use bodies = \"links\" or \"rigid\" for colliding models \
+                 (docs/contact.md)",
+                c.body
+            );
+        }
         let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
         let ranges = crate::sim::partition::ranges(inits.len(), threads, &mechanism_ranges);
         let mechanisms: Vec<Vec<Arc<Mechanism>>> = ranges
@@ -361,11 +386,14 @@ impl Simulation {
                 .collect()
         };
         summary.energy_flow = self.parts.energy_flow();
+        summary.contact = self.parts.has_contact();
         summary.angmom_rel_change_max = self
             .angmom0
             .iter()
             .zip(&angmom1)
-            .map(|(l0, l1)| (l1 - l0).norm() / l0.norm().max(f64::MIN_POSITIVE))
+            .enumerate()
+            .filter(|(i, _)| self.articulated || !self.parts.collides(*i))
+            .map(|(_, (l0, l1))| (l1 - l0).norm() / l0.norm().max(f64::MIN_POSITIVE))
             .fold(0.0, f64::max);
         summary
     }

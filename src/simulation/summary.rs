@@ -21,8 +21,12 @@ pub struct RunSummary {
     /// residual is the scheme's own energy error (O(h²) for the variational family).
     pub energy_flow: crate::sim::integrators::EnergyFlow,
     /// Largest change of any body's spatial angular momentum about its centre of mass, relative
-    /// to that body's initial |L| (conserved exactly by the variational schemes).
+    /// to that body's initial |L| (conserved exactly by the variational schemes), over the
+    /// bodies without colliders (contact changes the others').
     pub angmom_rel_change_max: f64,
+    /// Whether contact acted in the run (a ground or colliding bodies): momenta are then
+    /// exchanged with the ground, and `energy_flow.contact_work` is its term of the balance.
+    pub contact: bool,
     /// Set when the guard stopped the run: `steps` is then the last good step, and the
     /// recordings end at the last recorded step before it.
     pub stopped: Option<Divergence>,

@@ -24,6 +24,9 @@ pub fn layout(world: &World, kinds: &[IntegratorKind], dt: f64) -> RecordingLayo
     let mut layout = RecordingLayout {
         name: format!("{}_trade", world.layout.name),
         metadata: world.layout.metadata.clone(),
+        // Every run has the scene's ground; each run's contacts name its own bodies.
+        ground: world.layout.ground,
+        contacts: world.layout.contacts,
         ..Default::default()
     };
     layout
@@ -127,6 +130,7 @@ pub fn record(
     let mut states = Vec::with_capacity(layout.bodies.len());
     let mut joint_states = Vec::with_capacity(layout.joints.len());
     let mut mechanism_states = Vec::with_capacity(layout.mechanisms.len());
+    let mut contacts = Vec::new();
     let mut result = Ok(());
     let mut step = 0;
     loop {
@@ -134,10 +138,18 @@ pub fn record(
         states.clear();
         joint_states.clear();
         mechanism_states.clear();
+        contacts.clear();
         let mut time_ns = 0;
         for sim in &mut runs {
             let frame = sim.frame();
             time_ns = frame.time_ns;
+            // Run k's bodies follow those of the runs before it in the combined layout.
+            let offset = states.len();
+            contacts.extend(frame.contacts.iter().map(|c| crate::record::ContactState {
+                body_a: c.body_a + offset,
+                body_b: c.body_b.map(|b| b + offset),
+                ..*c
+            }));
             poses.extend_from_slice(&frame.world_from_link);
             states.extend_from_slice(&frame.bodies);
             joint_states.extend_from_slice(&frame.joints);
@@ -150,6 +162,7 @@ pub fn record(
             bodies: &states,
             joints: &joint_states,
             mechanisms: &mechanism_states,
+            contacts: &contacts,
         };
         if let Some(e) = sinks.iter_mut().find_map(|s| s.write(&frame).err()) {
             result = Err(e);

@@ -6,6 +6,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod contacts;
 mod dataset;
 mod drives;
 mod joint_diff;

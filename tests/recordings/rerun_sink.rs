@@ -212,6 +212,7 @@ fn write_recording(path: &Path, mesh_dir: &Path, options: &RerunOptions) -> Vec<
             bodies: &states,
             joints: &[],
             mechanisms: &[],
+            contacts: &[],
         })
         .expect("write");
     }
@@ -469,6 +470,7 @@ fn nothing_under_the_final_name_without_finish() {
                 bodies: &states,
                 joints: &[],
                 mechanisms: &[],
+                contacts: &[],
             })
             .unwrap();
         }
@@ -490,6 +492,7 @@ fn nothing_under_the_final_name_without_finish() {
                 bodies: &states,
                 joints: &[],
                 mechanisms: &[],
+                contacts: &[],
             })
             .unwrap_err();
         assert!(err.to_string().contains("link poses"), "{err}");

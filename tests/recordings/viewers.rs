@@ -738,6 +738,8 @@ fn the_shipped_foxglove_layout_shows_the_scene_and_plots_real_fields() {
     let three_d = &panels["3D!tumble"];
     assert_eq!(three_d["followTf"], "world");
     assert_eq!(three_d["topics"]["/scene"]["visible"], true);
+    // The contact points and arrows of a run with contacts (docs/recordings.md#contacts).
+    assert_eq!(three_d["topics"]["/contacts/scene"]["visible"], true);
     // Every panel the layout tree names is configured.
     let tree = layout["layout"].to_string();
     for id in panels.keys() {

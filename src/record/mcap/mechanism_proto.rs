@@ -109,7 +109,12 @@ pub struct MechanismStates {
     pub mechanisms: Vec<MechanismState>,
 }
 
-fn field(name: &str, number: i32, ty: Type, type_name: Option<&str>) -> FieldDescriptorProto {
+pub(super) fn field(
+    name: &str,
+    number: i32,
+    ty: Type,
+    type_name: Option<&str>,
+) -> FieldDescriptorProto {
     FieldDescriptorProto {
         name: Some(name.into()),
         number: Some(number),
@@ -120,14 +125,14 @@ fn field(name: &str, number: i32, ty: Type, type_name: Option<&str>) -> FieldDes
     }
 }
 
-fn repeated(name: &str, number: i32, type_name: &str) -> FieldDescriptorProto {
+pub(super) fn repeated(name: &str, number: i32, type_name: &str) -> FieldDescriptorProto {
     FieldDescriptorProto {
         label: Some(Label::Repeated as i32),
         ..field(name, number, Type::Message, Some(type_name))
     }
 }
 
-fn message(name: &str, fields: Vec<FieldDescriptorProto>) -> DescriptorProto {
+pub(super) fn message(name: &str, fields: Vec<FieldDescriptorProto>) -> DescriptorProto {
     DescriptorProto {
         name: Some(name.into()),
         field: fields,
@@ -135,7 +140,9 @@ fn message(name: &str, fields: Vec<FieldDescriptorProto>) -> DescriptorProto {
     }
 }
 
-fn descriptor(file: &str, messages: Vec<DescriptorProto>) -> Vec<u8> {
+/// A self-contained `FileDescriptorSet`: the timestamp and `tumble/BodyStates.proto` files,
+/// then `file` (package `tumble`) holding `messages`.
+pub(super) fn descriptor(file: &str, messages: Vec<DescriptorProto>) -> Vec<u8> {
     let [timestamp, body_states] = super::proto::body_states_files();
     let own = FileDescriptorProto {
         name: Some(file.into()),
@@ -154,7 +161,8 @@ fn descriptor(file: &str, messages: Vec<DescriptorProto>) -> Vec<u8> {
     .encode_to_vec()
 }
 
-fn stamp_and_step() -> [FieldDescriptorProto; 2] {
+/// The `timestamp = 1` and `step = 2` fields every per-step message starts with.
+pub(super) fn stamp_and_step() -> [FieldDescriptorProto; 2] {
     [
         field(
             "timestamp",
@@ -253,7 +261,7 @@ pub fn timestamp(time_ns: u64) -> prost_types::Timestamp {
     }
 }
 
-fn vec3(v: &nalgebra::Vector3<f64>) -> Option<super::proto::Vector3> {
+pub(super) fn vec3(v: &nalgebra::Vector3<f64>) -> Option<super::proto::Vector3> {
     Some(super::proto::Vector3 {
         x: v.x,
         y: v.y,

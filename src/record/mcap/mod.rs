@@ -30,6 +30,7 @@
 //! [`file`] the completion of a file written by the mcap crate's writer (shared with the ROS 2
 //! recordings). The topic names are in [`super::names`].
 
+pub mod contact_proto;
 pub mod encode;
 pub mod file;
 pub mod mechanism_proto;

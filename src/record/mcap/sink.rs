@@ -6,10 +6,12 @@ use super::proto::{BODY_STATES_SCHEMA, body_states_descriptor};
 use super::writer::{Codec, McapWriter};
 use crate::fsutil::part_path;
 use crate::record::names::{
-    BODIES_TOPIC, INERTIA_TOPIC, JOINTS_TOPIC, MECHANISMS_TOPIC, METADATA_NAME, SCENE_TOPIC,
-    TF_TOPIC, WORLD_FRAME,
+    BODIES_TOPIC, CONTACTS_SCENE_TOPIC, CONTACTS_TOPIC, INERTIA_TOPIC, JOINTS_TOPIC,
+    MECHANISMS_TOPIC, METADATA_NAME, SCENE_TOPIC, TF_TOPIC, WORLD_FRAME,
 };
-use crate::record::scene_update::{MeshCache, geometry_update, inertia_update};
+use crate::record::scene_update::{
+    MeshCache, contacts_update, geometry_update, ground_update, inertia_update,
+};
 use crate::record::writeback::WritebackFile;
 use crate::record::{Frame, RecordingLayout, Sink};
 use anyhow::Context;
@@ -39,6 +41,9 @@ struct ChannelGroup {
     /// models.
     joints_channel: Option<u16>,
     mechanisms_channel: Option<u16>,
+    /// `/contacts` and `/contacts/scene` ([`super::contact_proto`]), in runs that can have
+    /// contacts.
+    contacts_channels: Option<(u16, u16)>,
     /// The group's `/tf` frame id fields and `/bodies` name fields, encoded once.
     tf_ids: super::encode::EncodedFields,
     body_names: super::encode::EncodedFields,
@@ -122,6 +127,10 @@ pub struct McapSink {
     /// without drives.
     driven: Vec<bool>,
     mechanism_names: Vec<String>,
+    /// Every body's name (a contact names its bodies), in runs that can have contacts.
+    body_names: Vec<String>,
+    /// Metres of force arrow per newton ([`crate::record::contacts::force_scale`]).
+    force_scale: f64,
     buf: Vec<u8>,
     warnings: Vec<String>,
 }
@@ -206,6 +215,12 @@ impl McapSink {
                 )?,
             ))
         };
+        let contacts_schema = if layout.contacts {
+            use super::contact_proto as cp;
+            Some(writer.add_schema(cp::CONTACTS_SCHEMA, "protobuf", &cp::contacts_descriptor())?)
+        } else {
+            None
+        };
         let mut groups = Vec::new();
         let mut scene_updates = Vec::new();
         let mut meshes = MeshCache::default();
@@ -254,6 +269,23 @@ impl McapSink {
                     )?);
                 }
             }
+            let contacts_channels = match contacts_schema {
+                Some(schema) => Some((
+                    writer.add_channel(
+                        schema,
+                        &format!("{}{CONTACTS_TOPIC}", group.prefix),
+                        "protobuf",
+                        &no_metadata,
+                    )?,
+                    writer.add_channel(
+                        scene_schema_id,
+                        &format!("{}{CONTACTS_SCENE_TOPIC}", group.prefix),
+                        "protobuf",
+                        &no_metadata,
+                    )?,
+                )),
+                None => None,
+            };
             let frame_ids: Vec<String> = layout.frames[group.frames.clone()]
                 .iter()
                 .map(|f| f.frame_id.clone())
@@ -263,6 +295,7 @@ impl McapSink {
                 bodies_channel,
                 joints_channel,
                 mechanisms_channel,
+                contacts_channels,
                 tf_ids: super::encode::EncodedFields::frame_ids(WORLD_FRAME, &frame_ids),
                 body_names: super::encode::EncodedFields::names(
                     &layout.bodies[group.bodies.clone()]
@@ -290,6 +323,10 @@ impl McapSink {
                             &mut update,
                         )?;
                     }
+                    // The ground, in every group's scene (each group's run has it).
+                    if let Some(ground) = &layout.ground {
+                        Message::encode(&ground_update(ground, t0), &mut update)?;
+                    }
                 }
                 SceneKind::Inertia => {
                     for bodies in layout.bodies[group.bodies.clone()].chunks(SCENE_SLICE) {
@@ -314,6 +351,12 @@ impl McapSink {
                     .collect()
             },
             mechanism_names: layout.mechanisms.iter().map(|m| m.name.clone()).collect(),
+            body_names: if layout.contacts {
+                layout.bodies.iter().map(|b| b.name.clone()).collect()
+            } else {
+                Vec::new()
+            },
+            force_scale: crate::record::contacts::force_scale(layout),
             buf: Vec::new(),
             warnings,
         })
@@ -334,6 +377,9 @@ impl McapSink {
 impl Sink for McapSink {
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
         let time_ns = u64::try_from(frame.time_ns).context("negative simulation time")?;
+        if self.groups.iter().any(|g| g.contacts_channels.is_some()) {
+            crate::record::contacts::check(frame.contacts, self.body_names.len())?;
+        }
         for g in 0..self.groups.len() {
             let (tf_channel, bodies_channel) =
                 (self.groups[g].tf_channel, self.groups[g].bodies_channel);
@@ -347,6 +393,23 @@ impl Sink for McapSink {
                 &frame.world_from_link[frames],
             );
             self.write_message(tf_channel, time_ns)?;
+            if let Some((contacts_channel, scene_channel)) = self.groups[g].contacts_channels {
+                let contacts = || crate::record::contacts::in_group(frame.contacts, &bodies);
+                let message = super::contact_proto::contacts(
+                    time_ns,
+                    frame.step,
+                    &self.body_names,
+                    contacts(),
+                );
+                self.buf.clear();
+                message.encode(&mut self.buf)?;
+                self.write_message(contacts_channel, time_ns)?;
+                let update =
+                    contacts_update(contacts(), self.force_scale, foxglove_time(frame.time_ns));
+                self.buf.clear();
+                Message::encode(&update, &mut self.buf)?;
+                self.write_message(scene_channel, time_ns)?;
+            }
 
             let states = &frame.bodies[bodies.clone()];
             let total_energy = states

@@ -36,6 +36,8 @@ const DICTIONARY_COLUMNS: &[&str] = &[
     "link",
     "joint",
     "drive",
+    "body_a",
+    "body_b",
 ];
 
 /// The writer properties of every dataset file: zstd level 1 when `compressed`, else none.

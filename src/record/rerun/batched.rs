@@ -397,6 +397,7 @@ mod tests {
             bodies: &[],
             joints: &[],
             mechanisms: &[],
+            contacts: &[],
         };
         let mut batches = Batches {
             list: vec![Batch {

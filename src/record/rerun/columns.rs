@@ -157,6 +157,7 @@ impl RerunSink {
             )?;
         }
         self.joint_plots.send(&writer, &times, n)?;
+        self.contacts.send(&writer, &times)?;
         self.buffer.clear();
         if let Some(batched) = &mut self.batched {
             batched.clear();

@@ -37,6 +37,7 @@
 //! | `/plots/scene/energy_change`                  | `Scalars` [(E − E₀)/\|E₀\|], E the total above, E₀ its first recorded value | both timelines |
 //! | `/plots/scene/angular_momentum_change`        | `Scalars` [max over bodies \|L − L₀\|/\|L₀\|] | both timelines |
 //! | `/plots/joints/…`, `/plots/mechanisms/<model>/…` | articulated models only: joint positions and velocities, each model's energy, momenta and constraint residual ([`joints`]); driven joints' efforts, targets and saturation ([`drives`]) | both timelines |
+//! | `/world/ground`, `/world/contacts/points`, `/world/contacts/forces` | with a ground, in runs that can have contacts: the ground as a static slab, each step's contact points and force arrows ([`contacts`]) | static / both timelines |
 //!
 //! # Blueprint
 //!
@@ -92,6 +93,7 @@
 //! renumbering ids, and [`writer::ChunkWriter`]); [`statics`] the static layout (geometry,
 //! inertia, metadata, series names); [`columns`] the buffered time-varying columns and their
 //! sending; [`sink`] the [`RerunSink`] itself; [`joints`] the series of articulated models;
+//! [`drives`] the driven joints' series; [`contacts`] the ground and the contacts;
 //! [`batched`] the layout of big scenes; [`blueprint`] the viewer's blueprint; [`footer`] the
 //! sorted `.rrd` footer.
 
@@ -99,6 +101,7 @@ pub mod batched;
 pub mod blueprint;
 pub mod chunks;
 pub mod columns;
+pub mod contacts;
 pub mod drives;
 pub mod footer;
 pub mod joints;

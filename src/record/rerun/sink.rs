@@ -71,6 +71,8 @@ pub struct RerunSink {
     pub(super) angmom0: Vec<nalgebra::Vector3<f64>>,
     /// The series of articulated models ([`super::joints`]).
     pub(super) joint_plots: joints::JointPlots,
+    /// The contacts' rows ([`super::contacts`]).
+    pub(super) contacts: super::contacts::ContactSeries,
     /// Link frames and bodies of the layout.
     pub(super) frame_count: usize,
     pub(super) body_count: usize,
@@ -141,6 +143,7 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         energy0: None,
         angmom0: Vec::new(),
         joint_plots: joints::JointPlots::new(layout),
+        contacts: super::contacts::ContactSeries::new(layout),
         frame_count: layout.frames.len(),
         body_count: layout.bodies.len(),
         batched,
@@ -297,6 +300,8 @@ impl Sink for RerunSink {
             .step
             .push(i64::try_from(frame.step).context("step does not fit an i64")?);
         let per_body = self.batched.is_none();
+        crate::record::contacts::check(frame.contacts, self.body_count)?;
+        self.contacts.push(frame);
         if let Some(batched) = &mut self.batched {
             batched.push(frame);
         }

@@ -99,6 +99,9 @@ impl RerunSink {
             ],
         )?)?;
         self.write_metadata(layout)?;
+        for chunk in self.contacts.static_chunks(layout)? {
+            self.send(chunk)?;
+        }
         if self.batched.is_some() {
             self.write_batched_layout(layout)?;
             return self.write_scene_plot_names(layout);

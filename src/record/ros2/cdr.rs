@@ -39,6 +39,11 @@ impl<'a> CdrWriter<'a> {
         self.buf.resize(self.buf.len() + pad, 0);
     }
 
+    /// A `bool`: one byte, 0 or 1.
+    pub fn bool(&mut self, v: bool) {
+        self.buf.push(u8::from(v));
+    }
+
     pub fn u32(&mut self, v: u32) {
         self.align(4);
         self.buf.extend_from_slice(&v.to_le_bytes());

@@ -11,6 +11,7 @@
 //! | `/tf`                 | `tf2_msgs/msg/TFMessage`      | volatile, 100           | one per recorded step: one `TransformStamped` per link frame, `header.frame_id = "world"`, `child_frame_id` = the frame id, the pose `world_from_link` (exactly the `/tf` of the `.mcap`) |
 //! | `/robot_description`  | `std_msgs/msg/String`         | transient local, 1      | one at t = 0: the model's URDF with link names = frame ids and absolute `file://` meshes ([`crate::model::description`]) |
 //! | `/bodies`             | `tumble_msgs/msg/BodyStates`  | volatile, 10            | one per recorded step: the values of the `.mcap`'s `/bodies` |
+//! | `/contacts`           | `tumble_msgs/msg/Contacts`    | volatile, 10            | in runs that can have contacts ([`super::RecordingLayout::contacts`]), one per recorded step: the values of the `.mcap`'s `/contacts` (no markers: RViz2 shows neither the ground nor the arrows; the protobuf `.mcap` draws both for Foxglove) |
 //!
 //! All channels are reliable, keep-last, automatic liveliness. With several models each model
 //! has its own description topic `/<model>/robot_description` ([`description_topics`]): RViz2's

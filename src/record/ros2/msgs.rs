@@ -7,6 +7,7 @@
 //! | `std_msgs/msg/String`          | `/robot_description`| ROS 2 `std_msgs`                     |
 //! | `sensor_msgs/msg/JointState`   | `/joint_states`     | ROS 2 `sensor_msgs`                  |
 //! | `tumble_msgs/msg/BodyStates`   | `/bodies`           | tumble's own, [`BODY_STATES_MSG`]    |
+//! | `tumble_msgs/msg/Contacts`     | `/contacts`         | tumble's own, [`CONTACTS_MSG`]       |
 //!
 //! A `ros2msg` schema (the form `rosbag2` writes into MCAP files) is the type's `.msg` text,
 //! then for each type it depends on, directly or not, a line of 80 `=`, a line
@@ -16,10 +17,11 @@
 //!
 //! `tumble_msgs/msg/BodyStates` mirrors the protobuf `tumble.BodyStates` of the `.mcap` file
 //! ([`crate::record::mcap::proto`]) field for field, with the same names; its `timestamp` is a
-//! `builtin_interfaces/Time`.
+//! `builtin_interfaces/Time`. `tumble_msgs/msg/Contacts` mirrors `tumble.Contacts`
+//! ([`crate::record::mcap::contact_proto`]) the same way.
 
 use super::cdr::CdrWriter;
-use crate::record::BodyState;
+use crate::record::{BodyState, ContactState};
 use nalgebra::{Isometry3, Vector3};
 
 /// `tf2_msgs/msg/TFMessage`.
@@ -30,6 +32,8 @@ pub const STRING: &str = "std_msgs/msg/String";
 pub const JOINT_STATE: &str = "sensor_msgs/msg/JointState";
 /// `tumble_msgs/msg/BodyStates`.
 pub const BODY_STATES: &str = "tumble_msgs/msg/BodyStates";
+/// `tumble_msgs/msg/Contacts`.
+pub const CONTACTS: &str = "tumble_msgs/msg/Contacts";
 
 const TIME_MSG: &str = "int32 sec\nuint32 nanosec\n";
 const HEADER_MSG: &str = "builtin_interfaces/Time stamp\nstring frame_id\n";
@@ -70,6 +74,37 @@ geometry_msgs/Vector3 angular_momentum
 float64 kinetic_energy
 # J, -m g . c (zero at the world origin).
 float64 potential_energy
+";
+
+/// `tumble_msgs/msg/Contacts.msg`.
+pub const CONTACTS_MSG: &str = "\
+# The contacts of a tumble simulation at one recorded step: those of the step that ended there.
+# Mirrors the protobuf message tumble.Contacts of tumble's .mcap files field for field.
+builtin_interfaces/Time timestamp
+# Integrator step index.
+uint64 step
+tumble_msgs/Contact[] contacts
+";
+
+/// `tumble_msgs/msg/Contact.msg`.
+pub const CONTACT_MSG: &str = "\
+# One contact, world frame, SI units.
+# The body the impulse acts on (its name, as in /bodies).
+string body_a
+# The other body's name, or \"ground\" for the ground.
+string body_b
+# Whether b is the ground (tells it from a body named ground).
+bool ground
+# The contact point on b's surface, m.
+geometry_msgs/Vector3 point
+# Unit normal from b toward a.
+geometry_msgs/Vector3 normal
+# Mean force on a over the step (impulse / dt), N.
+geometry_msgs/Vector3 force
+# Impulse on a over the step, N s.
+geometry_msgs/Vector3 impulse
+# Signed gap at the start of the step, m (negative: penetration).
+float64 gap_m
 ";
 
 /// `ros2msg` schema data: `top` then each `(name, text)` dependency after its separator.
@@ -123,6 +158,18 @@ pub fn body_states_schema() -> String {
         &[
             ("builtin_interfaces/Time", TIME_MSG),
             ("tumble_msgs/BodyState", BODY_STATE_MSG),
+            ("geometry_msgs/Vector3", VECTOR3_MSG),
+        ],
+    )
+}
+
+/// The `ros2msg` schema of [`CONTACTS`].
+pub fn contacts_schema() -> String {
+    schema(
+        CONTACTS_MSG,
+        &[
+            ("builtin_interfaces/Time", TIME_MSG),
+            ("tumble_msgs/Contact", CONTACT_MSG),
             ("geometry_msgs/Vector3", VECTOR3_MSG),
         ],
     )
@@ -285,6 +332,32 @@ pub fn body_states(
     Ok(())
 }
 
+/// Encodes a `tumble_msgs/msg/Contacts` into `buf` (the values of the protobuf
+/// `tumble.Contacts` of the `.mcap` file); `names` the layout's body names.
+pub fn contacts<'a>(
+    buf: &mut Vec<u8>,
+    stamp: Stamp,
+    step: u64,
+    names: &[String],
+    contacts: impl Iterator<Item = &'a ContactState> + Clone,
+) -> anyhow::Result<()> {
+    let mut w = CdrWriter::new(buf);
+    stamp.write(&mut w);
+    w.u64(step);
+    w.sequence_len(contacts.clone().count())?;
+    for c in contacts {
+        w.string(&names[c.body_a])?;
+        w.string(crate::record::contacts::body_b_name(names, c))?;
+        w.bool(c.body_b.is_none());
+        vector3(&mut w, &c.point_world);
+        vector3(&mut w, &c.normal_world);
+        vector3(&mut w, &c.force_world);
+        vector3(&mut w, &c.impulse_world);
+        w.f64(c.gap_m);
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -373,6 +446,7 @@ mod tests {
             string_schema(),
             joint_state_schema(),
             body_states_schema(),
+            contacts_schema(),
         ] {
             let defined: Vec<&str> = schema
                 .lines()

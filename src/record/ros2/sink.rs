@@ -4,7 +4,7 @@ use super::msgs::{self, Stamp};
 use super::{Durability, STATES_DEPTH, TF_DEPTH, description_topics, offered_qos_profiles};
 use crate::fsutil::part_path;
 use crate::record::names::{
-    BODIES_TOPIC, JOINT_STATES_TOPIC, METADATA_NAME, TF_TOPIC, WORLD_FRAME,
+    BODIES_TOPIC, CONTACTS_TOPIC, JOINT_STATES_TOPIC, METADATA_NAME, TF_TOPIC, WORLD_FRAME,
 };
 use crate::record::{Frame, RecordingLayout, Sink, TopicGroup};
 use anyhow::Context;
@@ -18,6 +18,8 @@ struct ChannelGroup {
     bodies_channel: u16,
     /// `/joint_states`, when the group holds joints.
     joints_channel: Option<u16>,
+    /// `/contacts`, in runs that can have contacts.
+    contacts_channel: Option<u16>,
     group: TopicGroup,
 }
 
@@ -94,6 +96,15 @@ impl Ros2Sink {
                 msgs::joint_state_schema(),
             )?)
         };
+        let contacts_schema = if layout.contacts {
+            Some(schema(
+                &mut writer,
+                msgs::CONTACTS,
+                msgs::contacts_schema(),
+            )?)
+        } else {
+            None
+        };
         let qos = |durability, depth| {
             BTreeMap::from([(
                 "offered_qos_profiles".to_string(),
@@ -123,10 +134,20 @@ impl Ros2Sink {
                 )?),
                 _ => None,
             };
+            let contacts_channel = match contacts_schema {
+                Some(schema) => Some(writer.add_channel(
+                    schema,
+                    &format!("{}{CONTACTS_TOPIC}", group.prefix),
+                    "cdr",
+                    &qos(Durability::Volatile, STATES_DEPTH),
+                )?),
+                None => None,
+            };
             groups.push(ChannelGroup {
                 tf_channel,
                 bodies_channel,
                 joints_channel,
+                contacts_channel,
                 group,
             });
         }
@@ -194,6 +215,17 @@ impl Sink for Ros2Sink {
                 .zip(&frame.world_from_link[frames]);
             msgs::tf_message(&mut self.buf, stamp, WORLD_FRAME, transforms)?;
             self.write_message(tf_channel, time_ns)?;
+            if let Some(channel) = self.groups[g].contacts_channel {
+                crate::record::contacts::check(frame.contacts, self.body_names.len())?;
+                msgs::contacts(
+                    &mut self.buf,
+                    stamp,
+                    frame.step,
+                    &self.body_names,
+                    crate::record::contacts::in_group(frame.contacts, &bodies),
+                )?;
+                self.write_message(channel, time_ns)?;
+            }
             msgs::body_states(
                 &mut self.buf,
                 stamp,

@@ -15,8 +15,9 @@ use super::{ContactModel, ContactPoint, GROUND, combine_friction, combine_restit
 use crate::sim::Bodies;
 use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
-/// A contact whose gap at the end of the step is at most this is closed (held by the end
-/// projection), m.
+/// A contact whose gap at the end of the step is at most this, or at most the distance
+/// gravity moves a body in one step (`|g| h²`: the linear prediction of a turning body's
+/// gap is that far off), is closed: held by the end projection, m.
 const CLOSED_M: f64 = 1e-9;
 
 /// A contact's identity from one step to the next: its colliders and touching features.
@@ -69,7 +70,7 @@ pub struct ContactPhase {
     end_responses: Vec<Response>,
     keys: Vec<Key>,
     /// The last step's impulses (world) by contact, sorted by key: the next solve's start.
-    previous: Vec<(Key, Vector3<f64>)>,
+    previous: Vec<(Key, Vector3<f64>, Vector3<f64>)>,
     scratch: Scratch,
 }
 
@@ -130,6 +131,11 @@ impl ContactPhase {
         })
     }
 
+    /// Whether body `i` has colliders.
+    pub fn collides(&self, i: usize) -> bool {
+        self.slot_body.binary_search(&i).is_ok()
+    }
+
     /// The start of a step: the impulses that keep every gap non-negative at the end of the
     /// step, onto the bodies of `parts` (part `k` holds the bodies from `starts[k]`), for a
     /// step of `dt_secs` in `gravity`, with the scheme's free drift
@@ -178,19 +184,6 @@ impl ContactPhase {
             self.rel_tol,
             self.max_sweeps,
         );
-        if std::env::var("TUMBLE_CONTACT_DEBUG").is_ok() {
-            for row in &self.rows {
-                eprintln!(
-                    "start row {} gap {:e} r_a {:?} u_free {:?} target {:e} lambda {:?}",
-                    row.source,
-                    self.raw[row.source].gap_m,
-                    row.r_a,
-                    row.u_free,
-                    row.target_n,
-                    row.lambda
-                );
-            }
-        }
         // The impulses onto the bodies' momenta, and their energy.
         for (s, &body) in self.slot_body.iter().enumerate() {
             let r = &self.responses[s];
@@ -205,13 +198,14 @@ impl ContactPhase {
             self.work += b.kinetic_energy(j) - ke0;
         }
         // Which contacts close at the end of the step: those the end projection holds.
+        let closed_m = CLOSED_M.max(gravity.norm() * h * h);
         self.closing.clear();
         for row in &self.rows {
             let u = row.velocity(&self.responses);
             let gap_end = self.raw[row.source].gap_m + dt_secs * u.x;
             // A bounce inside the step is held too: its end velocity is set to leave.
             self.closing
-                .push(row.lambda.x > 0.0 && (gap_end <= CLOSED_M || row.leave_n > 0.0));
+                .push(row.lambda.x > 0.0 && (gap_end <= closed_m || row.leave_n > 0.0));
         }
     }
 
@@ -270,15 +264,11 @@ impl ContactPhase {
                 ..*row
             };
             if end.prepare(&self.end_responses) {
+                let key = &self.keys[row.source];
+                if let Ok(k) = self.previous.binary_search_by(|p| p.0.cmp(key)) {
+                    end.warm_start(&self.previous[k].2, &mut self.end_responses);
+                }
                 self.end_rows.push(end);
-            }
-        }
-        if std::env::var("TUMBLE_CONTACT_DEBUG").is_ok() {
-            for row in &self.end_rows {
-                eprintln!(
-                    "end row {} r_a {:?} u_free {:?} lambda {:?}",
-                    row.source, row.r_a, row.u_free, row.lambda
-                );
             }
         }
         let end_stats = solve::solve(
@@ -477,19 +467,8 @@ impl ContactPhase {
             if !row.prepare(&self.responses) {
                 continue;
             }
-            if let Ok(k) = self.previous.binary_search_by(|(pk, _)| pk.cmp(key)) {
-                let mut l = frame.transpose() * self.previous[k].1;
-                l.x = l.x.max(0.0);
-                let t = (l.y * l.y + l.z * l.z).sqrt();
-                if t > mu * l.x && t > 0.0 {
-                    let f = mu * l.x / t;
-                    l.y *= f;
-                    l.z *= f;
-                }
-                if l != Vector3::zeros() {
-                    row.apply(&l, &mut self.responses);
-                    row.lambda = l;
-                }
+            if let Ok(k) = self.previous.binary_search_by(|p| p.0.cmp(key)) {
+                row.warm_start(&self.previous[k].1, &mut self.responses);
             }
             self.rows.push(row);
         }
@@ -502,17 +481,18 @@ impl ContactPhase {
         self.previous.clear();
         let mut end = self.end_rows.iter().peekable();
         for (r, row) in self.rows.iter().enumerate() {
-            let mut lambda = row.lambda;
-            if let Some(e) = end.next_if(|e| e.source == r) {
-                lambda += e.lambda;
-            }
+            let end_lambda = end
+                .next_if(|e| e.source == r)
+                .map_or(Vector3::zeros(), |e| e.lambda);
+            let lambda = row.lambda + end_lambda;
             if lambda == Vector3::zeros() {
                 continue;
             }
             let i = row.source;
             let raw = &self.raw[i];
             let impulse = row.frame * lambda;
-            self.previous.push((self.keys[i], impulse));
+            self.previous
+                .push((self.keys[i], row.frame * row.lambda, row.frame * end_lambda));
             let between = self.between[i];
             self.contacts.push(ContactPoint {
                 body_a: self.slot_body[row.a] as u32,
@@ -527,6 +507,6 @@ impl ContactPhase {
                 gap_m: raw.gap_m,
             });
         }
-        self.previous.sort_unstable_by(|x, y| x.0.cmp(&y.0));
+        self.previous.sort_unstable_by_key(|p| p.0);
     }
 }

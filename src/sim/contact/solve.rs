@@ -140,6 +140,23 @@ impl Row {
         self.u_free + self.frame.transpose() * du
     }
 
+    /// Starts from `impulse_world` (the same contact's impulse of the last step) projected
+    /// into this row's cone, applied to the bodies.
+    pub fn warm_start(&mut self, impulse_world: &Vector3<f64>, bodies: &mut [Response]) {
+        let mut l = self.frame.transpose() * impulse_world;
+        l.x = l.x.max(0.0);
+        let t = (l.y * l.y + l.z * l.z).sqrt();
+        if t > self.mu * l.x && t > 0.0 {
+            let f = self.mu * l.x / t;
+            l.y *= f;
+            l.z *= f;
+        }
+        if l != Vector3::zeros() {
+            self.apply(&l, bodies);
+            self.lambda = l;
+        }
+    }
+
     /// Applies the impulse change `d` (contact frame) to the bodies.
     pub fn apply(&self, d: &Vector3<f64>, bodies: &mut [Response]) {
         let p = self.frame * d;
@@ -166,25 +183,56 @@ impl Row {
             self.w[(2, 2)],
         );
         let limit = self.mu * lambda_n;
-        let stick = match w_tt.try_inverse() {
-            Some(inv) => lt - inv * ut,
-            None => nalgebra::Vector2::zeros(),
-        };
-        let t = if stick.norm() <= limit {
-            stick
-        } else {
-            // Sliding: maximum dissipation puts the friction against the slip velocity (the
-            // current one: at the fixed point, the final one); a contact that is not yet
-            // slipping takes the direction of the sticking impulse.
-            let slip = ut;
-            let d = if slip.norm() > 1e-300 {
-                -slip / slip.norm()
-            } else {
-                stick / stick.norm()
-            };
-            d * limit
-        };
+        // The tangential velocity with this contact's friction removed.
+        let u0 = ut - w_tt * lt;
+        let t = friction_in_disk(&w_tt, &u0, limit);
         Vector3::new(lambda_n, t.x, t.y)
+    }
+}
+
+/// The friction impulse of one contact given its free tangential velocity `u0` (this contact's
+/// friction removed) and the disk `|λ_t| ≤ limit`: the minimiser of the kinetic energy
+/// `½ λᵀ W λ + λᵀ u0` over the disk (maximum dissipation). Inside the disk it is the sticking
+/// impulse `−W⁻¹ u0`; on its edge `λ = −(W + γ I)⁻¹ u0` with `γ > 0` such that `|λ| = limit`, so
+/// that the final slip `u0 + W λ = −γ λ` is exactly opposite the friction. `γ` solves the
+/// secular equation `1/|λ(γ)| = 1/limit` by Newton's method (Moré & Sorensen 1983), in the
+/// eigenbasis of the 2 × 2 block `W`.
+pub fn friction_in_disk(
+    w: &nalgebra::Matrix2<f64>,
+    u0: &nalgebra::Vector2<f64>,
+    limit: f64,
+) -> nalgebra::Vector2<f64> {
+    if limit <= 0.0 || *u0 == nalgebra::Vector2::zeros() {
+        return nalgebra::Vector2::zeros();
+    }
+    let eig = nalgebra::SymmetricEigen::new(*w);
+    let (a, q) = (eig.eigenvalues, eig.eigenvectors);
+    let c = q.transpose() * u0;
+    let norm_at = |g: f64| ((c.x / (a.x + g)).powi(2) + (c.y / (a.y + g)).powi(2)).sqrt();
+    if a.x > 0.0 && a.y > 0.0 && norm_at(0.0) <= limit {
+        return -(q * nalgebra::Vector2::new(c.x / a.x, c.y / a.y));
+    }
+    // Newton on ψ(γ) = 1/|λ(γ)| − 1/limit, increasing and concave in γ: from the left of the
+    // root the iterates increase to it monotonically.
+    let mut g = (-a.x.min(a.y)).max(0.0) + 1e-300;
+    for _ in 0..50 {
+        let n = norm_at(g);
+        let dn = -((c.x * c.x) / (a.x + g).powi(3) + (c.y * c.y) / (a.y + g).powi(3)) / n;
+        let psi = 1.0 / n - 1.0 / limit;
+        let dpsi = -dn / (n * n);
+        let step = psi / dpsi;
+        g -= step;
+        if step.abs() <= 1e-15 * g.abs() {
+            break;
+        }
+    }
+    let lambda = -(q * nalgebra::Vector2::new(c.x / (a.x + g), c.y / (a.y + g)));
+    // The secular equation holds to round-off; the radial scaling makes |λ| ≤ limit exact.
+    let n = lambda.norm();
+    if n > limit {
+        lambda * (limit / n)
+    } else {
+        lambda
     }
 }
 
@@ -195,9 +243,15 @@ pub struct SolveStats {
     pub converged: bool,
 }
 
-/// Projected Gauss-Seidel over `rows` (warm-started from their `lambda`, already applied to
-/// `bodies`): sweeps in row order until the largest impulse change is at most
-/// `rel_tol × max |λ|` (or an absolute `1e-300`), at most `max_sweeps`.
+/// Sweeps of projected Gauss-Seidel between two active-set solves.
+const SWEEPS_PER_POLISH: u32 = 10;
+
+/// The impulses of `rows` (warm-started from their `lambda`, already applied to `bodies`):
+/// projected Gauss-Seidel sweeps in row order, and every [`SWEEPS_PER_POLISH`] sweeps the
+/// active-set solve of each island of touching bodies ([`polish`]), which ends the solve
+/// exactly when the sweeps found the right active set. Stops when an active-set solve is
+/// feasible everywhere or a sweep changes no impulse by more than `rel_tol × max |λ|`, at
+/// most `max_sweeps` sweeps.
 pub fn solve(
     rows: &mut [Row],
     bodies: &mut [Response],
@@ -211,23 +265,236 @@ pub fn solve(
     }
     while stats.sweeps < max_sweeps {
         stats.sweeps += 1;
-        let mut change = 0.0f64;
-        let mut largest = 0.0f64;
-        for row in rows.iter_mut() {
-            let u = row.velocity(bodies);
-            let new = row.local_solve(&u);
-            let d = new - row.lambda;
-            if d != Vector3::zeros() {
-                row.apply(&d, bodies);
-                row.lambda = new;
-            }
-            change = change.max(d.amax());
-            largest = largest.max(new.amax());
-        }
+        let (change, largest) = sweep(rows, bodies);
         if change <= rel_tol * largest || change <= 1e-300 {
+            stats.converged = true;
+            break;
+        }
+        if stats.sweeps.is_multiple_of(SWEEPS_PER_POLISH) && polish(rows, bodies) {
             stats.converged = true;
             break;
         }
     }
     stats
+}
+
+/// One sweep of projected Gauss-Seidel: (the largest impulse change, the largest impulse).
+fn sweep(rows: &mut [Row], bodies: &mut [Response]) -> (f64, f64) {
+    let mut change = 0.0f64;
+    let mut largest = 0.0f64;
+    for row in rows.iter_mut() {
+        let u = row.velocity(bodies);
+        let new = row.local_solve(&u);
+        let d = new - row.lambda;
+        if d != Vector3::zeros() {
+            row.apply(&d, bodies);
+            row.lambda = new;
+        }
+        change = change.max(d.amax());
+        largest = largest.max(new.amax());
+    }
+    (change, largest)
+}
+
+/// Islands larger than this many unknowns are left to the sweeps (a dense solve of their
+/// active set would cost more than the sweeps it saves).
+const POLISH_MAX_UNKNOWNS: usize = 400;
+
+/// How a row enters the active-set system.
+#[derive(Debug, Clone, Copy)]
+enum Mode {
+    /// Not pushing: `λ = 0`.
+    Open,
+    /// Sticking: `u = b`, three unknowns.
+    Stick,
+    /// Sliding along the unit tangential direction `d` (contact frame `t₁, t₂`):
+    /// `λ = λ_n (1, μ d)`, one unknown, the normal row `u_n = b_n`.
+    Slide(f64, f64),
+}
+
+/// The active-set solve: the sweeps' guess of which contacts push, stick and slide, taken as
+/// exact and solved as the linear system it makes (`W` restricted to the active rows, a
+/// `1e-8 · max W_ii` diagonal shift for the redundant contacts of a face, dense LU), island
+/// by island of bodies joined by active contacts. Accepted only when every condition holds:
+/// `λ_n ≥ 0`, sticking impulses inside their cones, open contacts separating. Returns whether
+/// every island was accepted; a rejected island keeps the sweeps' impulses.
+pub fn polish(rows: &mut [Row], bodies: &mut [Response]) -> bool {
+    // Islands over the bodies joined by pushing contacts (union-find, smallest root).
+    let mut parent: Vec<usize> = (0..bodies.len()).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for row in rows.iter() {
+        if let Some(b) = row.b
+            && row.lambda.x > 0.0
+        {
+            let (ra, rb) = (root(&mut parent, row.a), root(&mut parent, b));
+            let (lo, hi) = (ra.min(rb), ra.max(rb));
+            parent[hi] = lo;
+        }
+    }
+    let mut island_rows: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+    for (i, row) in rows.iter().enumerate() {
+        let r = root(&mut parent, row.a);
+        island_rows.entry(r).or_default().push(i);
+    }
+    let mut all = true;
+    for members in island_rows.values() {
+        all &= polish_island(rows, bodies, members);
+    }
+    all
+}
+
+/// [`polish`] on the rows `members` (one island).
+fn polish_island(rows: &mut [Row], bodies: &mut [Response], members: &[usize]) -> bool {
+    let modes: Vec<Mode> = members
+        .iter()
+        .map(|&i| {
+            let r = &rows[i];
+            if r.lambda.x <= 0.0 {
+                return Mode::Open;
+            }
+            let t = (r.lambda.y * r.lambda.y + r.lambda.z * r.lambda.z).sqrt();
+            if t < r.mu * r.lambda.x * (1.0 - 1e-9) || t == 0.0 {
+                Mode::Stick
+            } else {
+                Mode::Slide(r.lambda.y / t, r.lambda.z / t)
+            }
+        })
+        .collect();
+    // Unknowns: 3 per sticking row, 1 per sliding row.
+    let mut offset = Vec::with_capacity(members.len());
+    let mut n = 0;
+    for m in &modes {
+        offset.push(n);
+        n += match m {
+            Mode::Open => 0,
+            Mode::Stick => 3,
+            Mode::Slide(..) => 1,
+        };
+    }
+    if n == 0 || n > POLISH_MAX_UNKNOWNS {
+        return n == 0;
+    }
+    // λ_j = S_j x_j, and row i's equations P_i (u_free_i + Σ_j W_ij S_j x_j − b_i) = 0.
+    let select = |m: &Mode, mu: f64| -> nalgebra::DMatrix<f64> {
+        match *m {
+            Mode::Stick => nalgebra::DMatrix::identity(3, 3),
+            Mode::Slide(d1, d2) => {
+                nalgebra::DMatrix::from_column_slice(3, 1, &[1.0, mu * d1, mu * d2])
+            }
+            Mode::Open => nalgebra::DMatrix::zeros(3, 0),
+        }
+    };
+    let mut a = nalgebra::DMatrix::<f64>::zeros(n, n);
+    let mut rhs = nalgebra::DVector::<f64>::zeros(n);
+    for (ii, &i) in members.iter().enumerate() {
+        let eq = match modes[ii] {
+            Mode::Open => continue,
+            Mode::Stick => 3,
+            Mode::Slide(..) => 1,
+        };
+        let ri = &rows[i];
+        let b = Vector3::new(ri.target_n, 0.0, 0.0) - ri.u_free;
+        for e in 0..eq {
+            rhs[offset[ii] + e] = b[e];
+        }
+        for (jj, &j) in members.iter().enumerate() {
+            if matches!(modes[jj], Mode::Open) {
+                continue;
+            }
+            let rj = &rows[j];
+            let w = coupling(ri, rj, bodies);
+            if w == Matrix3::zeros() {
+                continue;
+            }
+            let block = nalgebra::DMatrix::from_column_slice(3, 3, w.as_slice())
+                * select(&modes[jj], rj.mu);
+            for e in 0..eq {
+                for c in 0..block.ncols() {
+                    a[(offset[ii] + e, offset[jj] + c)] += block[(e, c)];
+                }
+            }
+        }
+    }
+    let shift = 1e-8 * (0..n).map(|k| a[(k, k)].abs()).fold(0.0, f64::max);
+    for k in 0..n {
+        a[(k, k)] += shift;
+    }
+    let Some(x) = a.lu().solve(&rhs) else {
+        return false;
+    };
+    // The candidate, checked before it replaces the sweeps' impulses.
+    let candidate: Vec<Vector3<f64>> = members
+        .iter()
+        .enumerate()
+        .map(|(ii, &i)| match modes[ii] {
+            Mode::Open => Vector3::zeros(),
+            Mode::Stick => Vector3::new(x[offset[ii]], x[offset[ii] + 1], x[offset[ii] + 2]),
+            Mode::Slide(d1, d2) => {
+                let l = x[offset[ii]];
+                Vector3::new(l, rows[i].mu * d1 * l, rows[i].mu * d2 * l)
+            }
+        })
+        .collect();
+    for (ii, l) in candidate.iter().enumerate() {
+        let mu = rows[members[ii]].mu;
+        if l.x < 0.0 || (l.y * l.y + l.z * l.z).sqrt() > mu * l.x * (1.0 + 1e-9) + 1e-300 {
+            return false;
+        }
+    }
+    // Swap in the candidate, then check the open contacts separate.
+    let old: Vec<Vector3<f64>> = members.iter().map(|&i| rows[i].lambda).collect();
+    for (ii, &i) in members.iter().enumerate() {
+        let d = candidate[ii] - rows[i].lambda;
+        if d != Vector3::zeros() {
+            rows[i].apply(&d, bodies);
+            rows[i].lambda = candidate[ii];
+        }
+    }
+    let scale = candidate.iter().map(|l| l.x).fold(0.0, f64::max);
+    let ok = members.iter().enumerate().all(|(ii, &i)| {
+        !matches!(modes[ii], Mode::Open) || {
+            let u = rows[i].velocity(bodies);
+            u.x >= rows[i].target_n - 1e-9 * (1.0 + scale)
+        }
+    });
+    if !ok {
+        for (ii, &i) in members.iter().enumerate() {
+            let d = old[ii] - rows[i].lambda;
+            if d != Vector3::zeros() {
+                rows[i].apply(&d, bodies);
+                rows[i].lambda = old[ii];
+            }
+        }
+    }
+    ok
+}
+
+/// `W_ij`: the velocity of contact `i` (its frame) per unit impulse of contact `j` (its
+/// frame), through the bodies they share: `Σ_X s_i s_j C_iᵀ (I/m − [r_i]× I⁻¹ [r_j]×) C_j`,
+/// `s = +1` on a contact's `a`, `−1` on its `b`.
+fn coupling(ri: &Row, rj: &Row, bodies: &[Response]) -> Matrix3<f64> {
+    let sides = |r: &Row| [(Some(r.a), 1.0, r.r_a), (r.b, -1.0, r.r_b)];
+    let mut k = Matrix3::zeros();
+    for (xi, si, arm_i) in sides(ri) {
+        let Some(xi) = xi else { continue };
+        for (xj, sj, arm_j) in sides(rj) {
+            if xj != Some(xi) {
+                continue;
+            }
+            let body = &bodies[xi];
+            k += (Matrix3::identity() * body.inv_mass
+                - arm_i.cross_matrix() * body.inv_inertia_world * arm_j.cross_matrix())
+                * (si * sj);
+        }
+    }
+    if k == Matrix3::zeros() {
+        return k;
+    }
+    ri.frame.transpose() * k * rj.frame
 }

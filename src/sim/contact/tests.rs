@@ -178,7 +178,7 @@ fn slide(v0: f64, mu: f64, dt: f64) -> (f64, f64) {
         if b.linvel_world[j].x.abs() <= 1e-12 {
             return (b.com_world[j].x, k as f64 * dt);
         }
-        assert!(k < 10_000_000);
+        assert!(k < 100_000, "still sliding after 100 s");
     }
 }
 
@@ -314,7 +314,7 @@ fn bounces(h: f64, e: f64, n: usize, dt: f64) -> (Vec<f64>, f64) {
     let mut apexes = Vec::new();
     let mut last_vz = 0.0;
     let mut k = 0;
-    while apexes.len() < n && k < 20_000_000 {
+    while apexes.len() < n && k < 100_000 {
         w.advance(k, k + 1, &loads);
         k += 1;
         let (b, j) = w.body(0);
@@ -414,4 +414,132 @@ fn contact_steps_are_the_same_bits_for_every_thread_count() {
     let (_, one) = stack(10, 0.5, 1e-3, 1);
     let (_, three) = stack(10, 0.5, 1e-3, 3);
     assert_eq!(one, three);
+}
+
+#[test]
+fn contact_never_adds_energy() {
+    // 27 boxes and balls dropped in a loose 3 × 3 × 3 heap with spin, friction 0.6 and some
+    // restitution: every step's contact work (start impulses and end projection together)
+    // must be ≤ 0 up to the push out of penetrations (see the bound).
+    let mut inits = Vec::new();
+    let mut colliders = Vec::new();
+    for i in 0..27 {
+        let (x, y, z) = ((i % 3) as f64, ((i / 3) % 3) as f64, (i / 9) as f64);
+        let c = Vector3::new(0.18 * x + 0.02 * z, 0.18 * y - 0.03 * z, 0.3 + 0.25 * z);
+        let r = UnitQuaternion::from_euler_angles(0.3 * x, 0.2 * y, 0.1 * z);
+        let mut b = if i % 2 == 0 {
+            box_body(
+                1.0 + 0.1 * x,
+                Vector3::new(0.15, 0.12, 0.1),
+                at(c, r),
+                Vector3::new(0.1 * y, -0.2, 0.0),
+            )
+        } else {
+            ball_body(
+                0.5 + 0.2 * y,
+                0.07,
+                at(c, r),
+                Vector3::new(-0.1, 0.1 * x, 0.0),
+            )
+        };
+        b.angvel_world = Vector3::new(1.0, -2.0 + x, 0.5 * z);
+        inits.push(b);
+        let shape = if i % 2 == 0 {
+            Shape::Box {
+                half_extents: Vector3::new(0.075, 0.06, 0.05),
+            }
+        } else {
+            Shape::Sphere { radius: 0.07 }
+        };
+        colliders.push(collider(i, shape, 0.6, if i % 3 == 0 { 0.3 } else { 0.0 }));
+    }
+    let model = ContactModel {
+        ground: Some(level(0.6, 0.2)),
+        colliders,
+        ..Default::default()
+    };
+    let loads = Loads::uniform_gravity(gravity());
+    let mut w = world(&inits, model, 1e-3, 1);
+    let mut worst = f64::NEG_INFINITY;
+    let mut touching = 0;
+    for k in 0..2000u64 {
+        let before = w.contact_work();
+        w.advance(k, k + 1, &loads);
+        worst = worst.max(w.contact_work() - before);
+        touching = touching.max(w.contacts().len());
+    }
+    eprintln!(
+        "largest step contact work {worst:e} J, total {:e} J, most contacts {touching}",
+        w.contact_work()
+    );
+    assert!(touching > 30, "{touching}");
+    assert!(w.contact_work() < -1.0, "{}", w.contact_work());
+    // Measured: at most 1.9e-8 J in any step (the push out of a penetration the linearised
+    // rotation of a turning body left, ½ m (gap / h)²), against 113 J dissipated in total.
+    assert!(worst <= 1e-7, "{worst:e}");
+}
+
+#[test]
+fn every_scheme_rests_on_the_ground_and_stops_sliding() {
+    // The contact phase predicts each scheme's free drift (`Integrator::gravity_drift`): a
+    // resting box neither sinks nor rises under any of them, and a sliding one stops where
+    // Coulomb says (first-order schemes to O(h)).
+    let size = Vector3::new(0.2, 0.2, 0.1);
+    let loads = Loads::uniform_gravity(gravity());
+    for &kind in IntegratorKind::ALL {
+        let model = || ContactModel {
+            ground: Some(level(0.5, 0.0)),
+            colliders: vec![collider(
+                0,
+                Shape::Box {
+                    half_extents: size / 2.0,
+                },
+                1.0,
+                0.0,
+            )],
+            ..Default::default()
+        };
+        let build = |init: BodyInit| {
+            let mut parts = Partitions::new(
+                &[init],
+                vec![kind.build(1e-3, &VariationalSettings::default())],
+                1,
+                f64::MAX,
+                None,
+            )
+            .unwrap();
+            parts.set_contact(model()).unwrap();
+            parts
+        };
+        let c0 = Vector3::new(0.0, 0.0, 0.05);
+        let mut rest = build(box_body(
+            1.0,
+            size,
+            at(c0, UnitQuaternion::identity()),
+            Vector3::zeros(),
+        ));
+        rest.advance(0, 2000, &loads);
+        let (b, j) = rest.body(0);
+        let sink = (b.com_world[j] - c0).norm();
+        let mut slide = build(box_body(
+            1.0,
+            size,
+            at(c0, UnitQuaternion::identity()),
+            Vector3::new(2.0, 0.0, 0.0),
+        ));
+        slide.advance(0, 1000, &loads);
+        let (b, j) = slide.body(0);
+        let exact = 4.0 / (2.0 * 0.5 * G);
+        let err = (b.com_world[j].x - exact).abs() / exact;
+        eprintln!(
+            "{}: rest drift {sink:e} m, stop distance error {err:e}",
+            kind.name()
+        );
+        // Measured: drift ≤ 3.4e-17 m for the variational family; euler 2.1e-7 m (its
+        // rotation update grows the round-off torques of the four corners: not conservative);
+        // stop distance error 3.8e-7 (the variational family) to 2.5e-3 (euler: O(h)).
+        let bound = if kind.is_variational() { 1e-12 } else { 1e-6 };
+        assert!(sink <= bound, "{}: {sink:e}", kind.name());
+        assert!(err <= 5e-3, "{}: {err:e}", kind.name());
+    }
 }
