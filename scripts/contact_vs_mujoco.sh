@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Contact side by side with MuJoCo (issue 31; docs/contact.md, "Side by side with MuJoCo"): the same scenes in
+# tumble and in MuJoCo 4 (its default contact, dt = 1 ms, the integrators in INTEGRATORS), each measured quantity
+# against its closed form (scripts/contact_vs_mujoco.py: the cases, the bodies, how each quantity is measured):
+#   slope creep   a 0.2 m cube at rest on a 20 deg slope, mu = 0.5 (below the friction angle), 10 s: 0 exact
+#   ball sink     a ball (r = 0.1 m) resting on the ground 10 s: penetration r - z, 0 exact
+#   sliding stop  a cube sliding at 2 m/s, mu = 0.5: distance v0^2/(2 mu g) and time v0/(mu g)
+#   hops          steps of that slide in which the cube is off the ground: 0 exact
+#   rebound       a ball dropped from 1 m with restitution 0.5: apex e^2 h = 0.25 m (MuJoCo: solref (-k, -b))
+# and the cost per step of each case in both engines, over COST_STEPS steps (tumble: the wall time `simulate
+# --threads 1` prints, recording two frames; MuJoCo: its C rollout; medians of REPEATS runs). Prints one table and
+# writes it as CSV (OUT, default target/contact_vs_mujoco.csv).
+# Exits non-zero only when something fails to run (a tumble exit status, MuJoCo unstable, a missing file).
+# Usage: bash scripts/contact_vs_mujoco.sh [TUMBLE_BINARY]
+#   Without TUMBLE_BINARY: `cargo build --release` and target/release/tumble. With it: that binary, as it is.
+#   INTEGRATORS=euler,implicitfast (also implicit, rk4, discrete; NAME:elliptic for the elliptic cone)
+#   REPEATS=5  COST_STEPS=100000  OUT=target/contact_vs_mujoco.csv
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+repo="$PWD"
+integrators="${INTEGRATORS:-euler,implicitfast}"
+out="${OUT:-$repo/target/contact_vs_mujoco.csv}"
+venv=target/benchenv
+req=scripts/bench_requirements.txt
+if [ ! -f "$venv/.installed" ] || ! cmp -s "$req" "$venv/.installed"; then
+  rm -rf "$venv"
+  python3 -m venv "$venv" >&2
+  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$req" >&2
+  cp "$req" "$venv/.installed"
+fi
+if [ $# -ge 1 ]; then
+  T="$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"
+else
+  cargo build --release --quiet
+  T="$repo/target/release/tumble"
+fi
+[ -x "$T" ] || { echo "error: $T is not an executable tumble binary" >&2; exit 1; }
+py="$repo/$venv/bin/python"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+mkdir -p "$(dirname "$out")"
+# MuJoCo writes MUJOCO_LOG.TXT into its working directory when a model goes unstable: the temp one.
+(cd "$work" && "$py" "$repo/scripts/contact_vs_mujoco.py" "$T" "$work" "$out" "$integrators")
+echo "table written to $out" >&2
