@@ -1,11 +1,12 @@
-"""Writes models/contact_rain.toml (issue 31: 10 000 bodies rain onto the ground): a 100 x 100
+"""Writes the rain scene (issue 31: 10 000 bodies rain onto the ground): a 100 x 100
 grid of alternating cubes (models/cube.urdf) and balls (models/ball.urdf), 0.4 m apart, each
 released from rest at its own height between 2.0 and 3.9 m, the cubes turned at random (seeded:
 the file is the same on every run). One model per body: `copies` draws positions at random, and
 random positions overlap (10 000 bodies a few metres up would start in about a hundred
 overlapping pairs); a grid never does.
 
-Usage: python3 scripts/make_contact_rain.py > models/contact_rain.toml
+Usage: python3 scripts/make_contact_rain.py > DIR/contact_rain.toml  (beside links to models/cube.urdf and
+models/ball.urdf; scripts/contact_cost.sh writes it into target/contact_rain/)
 """
 
 import math
