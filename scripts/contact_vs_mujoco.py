@@ -43,8 +43,8 @@ The cases (every body starts touching its ground: no gap, no overlap):
            them. Chosen here: the damping ratio zeta whose linear spring-damper leaves the ground at
            e times its impact speed when its force falls to zero (a contact cannot pull;
            `released_restitution`: zeta = 0.2553, where the textbook exp(-zeta pi / sqrt(1 -
-           zeta^2)) = e, which assumes the spring lets go at zero penetration, gives 0.2155 and
-           a bounce about 25 % too high), and the time constant of MuJoCo's default contact,
+           zeta^2)) = e, which assumes the spring lets go at zero penetration, gives 0.2155 and,
+           at the same time constant, a first apex 29 % too high), and the time constant of MuJoCo's default contact,
            0.02 s: k = 1 / (0.02 zeta)^2 = 38364 s^-2, b = 2 / 0.02 = 100 s^-1, solref =
            "-38364 -100" on both geoms (MuJoCo scales these by its impedance so that they act
            as given once the penetration exceeds solimp's width; the same spring as the standard
