@@ -333,20 +333,53 @@ impl<'a> Partitions<'a> {
     }
 
     /// Runs `model`'s contact phase before every step from now on (nothing when the model is
-    /// inactive: [`ContactModel::is_active`]).
-    pub fn set_contact(&mut self, model: ContactModel) -> anyhow::Result<()> {
-        if model.is_active() {
-            // Bodies in contact exchange rotational energy with the ground and each other.
-            for c in &model.colliders {
-                let part = &mut self.parts[locate(c.body, self.uniform, &self.starts)];
-                part.guard.exempt_bodies([c.body - part.first]);
-            }
+    /// inactive: [`ContactModel::is_active`]); `mechanisms` are the batch's (batch indices),
+    /// those with colliders answer contact through their joints ([`crate::sim::contact::robots`]).
+    pub fn set_contact(
+        &mut self,
+        model: ContactModel,
+        mechanisms: &[Arc<Mechanism>],
+    ) -> anyhow::Result<()> {
+        if !model.is_active() {
+            self.contact = None;
+            return Ok(());
         }
-        self.contact = if model.is_active() {
-            Some(ContactPhase::new(model)?)
-        } else {
-            None
+        // Bodies in contact exchange rotational energy with the ground and each other.
+        for c in &model.colliders {
+            let part = &mut self.parts[locate(c.body, self.uniform, &self.starts)];
+            part.guard.exempt_bodies([c.body - part.first]);
+        }
+        let mut robots = Vec::new();
+        let mut settings = None;
+        for m in mechanisms {
+            if !model.colliders.iter().any(|c| m.bodies().contains(&c.body)) {
+                continue;
+            }
+            let k = locate(m.first_body, self.uniform, &self.starts);
+            let part = &self.parts[k];
+            let local = rebase(
+                std::slice::from_ref(m),
+                &(part.first..part.first + part.bodies.len()),
+            );
+            let local = local
+                .into_iter()
+                .next()
+                .ok_or_else(|| anyhow::anyhow!("mechanism {:?} is cut by a partition", m.name))?;
+            settings = settings.or(part.integrator.mechanism_settings());
+            robots.push(crate::sim::contact::robots::Robot::new(
+                local,
+                k,
+                m.first_body,
+            ));
+        }
+        let settings = match (robots.is_empty(), settings) {
+            (_, Some(s)) => s,
+            (true, None) => crate::sim::integrators::VariationalSettings::default(),
+            (false, None) => {
+                anyhow::bail!("mechanisms with colliders need a variational integrator")
+            }
         };
+        self.contact = Some(ContactPhase::new(model, robots, settings)?);
         Ok(())
     }
 
@@ -470,7 +503,9 @@ impl<'a> Partitions<'a> {
             {
                 let mut bodies: Vec<&mut Bodies> =
                     self.parts.iter_mut().map(|p| &mut p.bodies).collect();
-                contact.start(&mut bodies, &self.starts, dt, loads.gravity(), alpha);
+                let mut step_loads = loads.clone();
+                step_loads.set_time((step - 1) as f64 * dt);
+                contact.start(&mut bodies, &self.starts, dt, &step_loads, alpha);
             }
             self.step_parts(step - 1, step, loads);
             {

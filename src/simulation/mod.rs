@@ -106,29 +106,6 @@ impl Simulation {
         // contacts, from the layout alone.
         world.check_drive_layout()?;
         world.check_contact_layout()?;
-        if world.contact.is_active()
-            && let Some(c) = world.contact.colliders.iter().find(|c| {
-                world
-                    .mechanisms
-                    .iter()
-                    .any(|m| m.bodies().contains(&c.body))
-            })
-        {
-            // The contact solve needs an articulated body's response to an impulse (its joints
-            // carry the rest of the robot); with a free body's, a robot would sink. Refused
-            // until it is there (docs/contact.md, "What is not there yet").
-            let name = world
-                .layout
-                .bodies
-                .get(c.body)
-                .map_or(String::new(), |b| format!(" ({})", b.name));
-            anyhow::bail!(
-                "collisions on an articulated model (bodies = \"articulated\", body {}{name}) are \
-                 not supported yet: use bodies = \"links\" or \"rigid\" for colliding models \
-                 (docs/contact.md)",
-                c.body
-            );
-        }
         let mechanism_ranges: Vec<_> = world.mechanisms.iter().map(|m| m.bodies()).collect();
         let ranges = crate::sim::partition::ranges(inits.len(), threads, &mechanism_ranges);
         let mechanisms: Vec<Vec<Arc<Mechanism>>> = ranges
@@ -156,7 +133,7 @@ impl Simulation {
             settings.divergence_energy_ratio,
             settings.stop_on_newton_failure,
         )?;
-        parts.set_contact(world.contact.clone())?;
+        parts.set_contact(world.contact.clone(), &world.mechanisms)?;
         // The partitions hold the states now; owned initial states are freed here.
         drop(inits);
         let articulated = !world.mechanisms.is_empty();

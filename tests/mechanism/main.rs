@@ -8,6 +8,7 @@ mod common;
 
 mod arm_servo;
 mod contact_hostile;
+mod contact_robots;
 mod copies;
 mod driven;
 mod driven_hostile;

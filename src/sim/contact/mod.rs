@@ -8,12 +8,17 @@
 //! friction cone, and applies them as the start impulse `f_d⁻` of the discrete
 //! Lagrange-d'Alembert principle (`docs/contact.md` derives the scheme and justifies it).
 //!
+//! A body of an articulated mechanism answers an impulse through its joints: the mechanisms
+//! with colliders are [`robots::Robot`]s, whose response and predicted motion the phase reads
+//! from the mechanism's own step.
+//!
 //! `sim/` knows no URDF: the shapes, frictions and pairs that never collide are decided by
 //! `scene/` and handed over here as plain data.
 
 pub mod broad;
 pub mod narrow;
 pub mod phase;
+pub mod robots;
 pub mod shape;
 pub mod solve;
 

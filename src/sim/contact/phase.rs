@@ -10,10 +10,14 @@
 
 use super::broad::{Bound, Sweep};
 use super::narrow::{self, Prepared, RawContact, Scratch};
-use super::solve::{self, Response, Row, SolveStats, contact_frame};
+use super::robots::Robot;
+use super::solve::{self, Group, Response, Responses, Row, SolveStats, contact_frame};
 use super::{ContactModel, ContactPoint, GROUND, combine_friction, combine_restitution};
 use crate::sim::Bodies;
-use nalgebra::{Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
+use crate::sim::integrators::VariationalSettings;
+use crate::sim::loads::Loads;
+use crate::sim::mechanism::constrained::Impulse6;
+use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
 
 /// A contact whose gap at the end of the step is at most this, or at most the distance
 /// gravity moves a body in one step (`|g| h²`: the linear prediction of a turning body's
@@ -57,7 +61,7 @@ pub struct ContactPhase {
     collider_slot: Vec<usize>,
     slot_reach_m: Vec<f64>,
     slots: Vec<Slot>,
-    responses: Vec<Response>,
+    responses: Responses,
     bounds: Vec<Bound>,
     pairs: Vec<(u32, u32)>,
     sweep: Sweep,
@@ -67,11 +71,20 @@ pub struct ContactPhase {
     /// Per row of the start solve: whether its contact is closed at the end of the step.
     closing: Vec<bool>,
     end_rows: Vec<Row>,
-    end_responses: Vec<Response>,
+    end_responses: Responses,
     keys: Vec<Key>,
     /// The last step's impulses (world) by contact, sorted by key: the next solve's start.
     previous: Vec<(Key, Vector3<f64>, Vector3<f64>)>,
     scratch: Scratch,
+    /// The mechanisms with colliders, and per slot its robot and body there.
+    robots: Vec<Robot>,
+    slot_robot: Vec<Option<(usize, usize)>>,
+    /// The robots' prediction step's settings.
+    settings: VariationalSettings,
+    /// Per robot: whether one of its bodies touches in this step.
+    robot_touches: Vec<bool>,
+    /// Per slot: whether one of the step's rows acts on it.
+    slot_touches: Vec<bool>,
 }
 
 /// Whom a narrow-phase contact is between: colliders `a` and `b` (`GROUND` for the ground).
@@ -82,8 +95,14 @@ struct Between {
 }
 
 impl ContactPhase {
-    /// The phase of `model`; an error names a collider parry cannot build.
-    pub fn new(model: ContactModel) -> anyhow::Result<Self> {
+    /// The phase of `model` over free bodies and the mechanisms `robots` (those with colliders;
+    /// their predictions stepped with `settings`); an error names a collider parry cannot
+    /// build.
+    pub fn new(
+        model: ContactModel,
+        robots: Vec<Robot>,
+        settings: VariationalSettings,
+    ) -> anyhow::Result<Self> {
         let mut prepared = Vec::with_capacity(model.colliders.len());
         for (i, c) in model.colliders.iter().enumerate() {
             prepared.push(Prepared::new(c).ok_or_else(|| {
@@ -102,7 +121,21 @@ impl ContactPhase {
         for (p, &s) in prepared.iter().zip(&collider_slot) {
             slot_reach_m[s] = slot_reach_m[s].max(p.reach_m);
         }
+        let slot_robot = slot_body
+            .iter()
+            .map(|&b| {
+                robots
+                    .iter()
+                    .position(|r| r.bodies().contains(&b))
+                    .map(|r| (r, b - robots[r].first))
+            })
+            .collect();
         Ok(Self {
+            robot_touches: vec![false; robots.len()],
+            slot_touches: vec![false; slot_body.len()],
+            robots,
+            slot_robot,
+            settings,
             model,
             contacts: Vec::new(),
             work: 0.0,
@@ -115,7 +148,7 @@ impl ContactPhase {
             slot_body,
             collider_slot,
             slot_reach_m,
-            responses: Vec::new(),
+            responses: Responses::default(),
             bounds: Vec::new(),
             pairs: Vec::new(),
             sweep: Sweep::default(),
@@ -124,7 +157,7 @@ impl ContactPhase {
             rows: Vec::new(),
             closing: Vec::new(),
             end_rows: Vec::new(),
-            end_responses: Vec::new(),
+            end_responses: Responses::default(),
             keys: Vec::new(),
             previous: Vec::new(),
             scratch: Scratch::default(),
@@ -138,17 +171,19 @@ impl ContactPhase {
 
     /// The start of a step: the impulses that keep every gap non-negative at the end of the
     /// step, onto the bodies of `parts` (part `k` holds the bodies from `starts[k]`), for a
-    /// step of `dt_secs` in `gravity`, with the scheme's free drift
-    /// `c_{k+1} = c_k + h v_k + alpha h² g`. [`ContactPhase::end`] follows the step.
+    /// step of `dt_secs` under `loads` (the batch's, at the step's start), with the scheme's
+    /// free drift `c_{k+1} = c_k + h v_k + alpha h² g` for free bodies and a prediction step
+    /// for robots ([`super::robots`]). [`ContactPhase::end`] follows the step.
     pub fn start(
         &mut self,
         parts: &mut [&mut Bodies],
         starts: &[usize],
         dt_secs: f64,
-        gravity: &Vector3<f64>,
+        loads: &Loads,
         alpha: f64,
     ) {
         let h = dt_secs;
+        let gravity = *loads.gravity();
         let locate = |i: usize| locate(starts, i);
         // The bodies at the start of the step and their free motion.
         self.responses.clear();
@@ -170,18 +205,23 @@ impl ContactPhase {
                 motion_m: h * (v.norm() + omega_body.norm() * self.slot_reach_m[s])
                     + h * h * gravity.norm(),
             };
-            self.responses
-                .push(Response::new(1.0 / b.mass[j], inv_inertia_world));
+            self.responses.bodies.push(match self.slot_robot[s] {
+                None => Response::new(1.0 / b.mass[j], inv_inertia_world),
+                Some((r, local)) => Response::member(r, local),
+            });
         }
         self.find_contacts(h);
-        self.build_rows(h, gravity);
+        self.robot_groups(parts, true);
+        self.build_rows();
+        self.predict_robots(parts, starts, h, loads);
+        self.free_velocities(h, &gravity);
         self.stats = solve::solve(
             &mut self.rows,
             &mut self.responses,
             self.rel_tol,
             self.max_sweeps,
         );
-        self.work += apply(&self.responses, &self.slot_body, parts, starts);
+        self.work += self.apply(parts, starts);
         // Which contacts close at the end of the step: those the end projection holds.
         let closed_m = CLOSED_M.max(gravity.norm() * h * h);
         self.closing.clear();
@@ -198,21 +238,54 @@ impl ContactPhase {
     /// projection of RATTLE for the contacts that closed, `n · v_rel ≥ 0` at every one of them
     /// under the same friction cone, with sticking contacts brought to rest. Without it a body
     /// resting on the ground would carry the velocity `g h / 2` of the step's second half, and
-    /// an impact would not end at the contact (`docs/contact.md`).
+    /// an impact would not end at the contact (`docs/contact.md`). A robot's velocities are
+    /// its projected ones, its response `M_c⁻¹` at the new poses.
     pub fn end(&mut self, parts: &mut [&mut Bodies], starts: &[usize]) {
         let locate = |i: usize| locate(starts, i);
         self.end_rows.clear();
-        self.end_responses.clear();
+        // The slots the closing rows act on, for the robots' columns.
+        for t in self.slot_touches.iter_mut() {
+            *t = false;
+        }
+        for (row, &closing) in self.rows.iter().zip(&self.closing) {
+            if closing {
+                self.slot_touches[row.a] = true;
+                if let Some(b) = row.b {
+                    self.slot_touches[b] = true;
+                }
+            }
+        }
+        std::mem::swap(&mut self.responses, &mut self.end_responses);
+        self.responses.clear();
         let mut velocities = Vec::with_capacity(self.slot_body.len());
-        for &body in &self.slot_body {
+        for (s, &body) in self.slot_body.iter().enumerate() {
             let (k, j) = locate(body);
             let b = &*parts[k];
             let rot = b.world_from_body[j].to_rotation_matrix();
             let inv_inertia_world =
                 rot * Matrix3::from_diagonal(&b.inv_inertia_body[j]) * rot.transpose();
-            self.end_responses
-                .push(Response::new(1.0 / b.mass[j], inv_inertia_world));
+            self.responses.bodies.push(match self.slot_robot[s] {
+                None => Response::new(1.0 / b.mass[j], inv_inertia_world),
+                Some((r, local)) => Response::member(r, local),
+            });
             velocities.push((b.linvel_world[j], b.angvel_world(j)));
+        }
+        self.robot_groups(parts, false);
+        // A robot's bodies move as its joints let them: the projected velocities.
+        let mut twists = Vec::new();
+        for (r, robot) in self.robots.iter_mut().enumerate() {
+            if !self.robot_touches[r] {
+                continue;
+            }
+            twists.resize(robot.body_count(), (Vector3::zeros(), Vector3::zeros()));
+            robot.twists(parts[robot.part], &mut twists);
+            for (s, slot_robot) in self.slot_robot.iter().enumerate() {
+                if let Some((rr, local)) = slot_robot
+                    && *rr == r
+                {
+                    velocities[s] = twists[*local];
+                }
+            }
         }
         for (i, row) in self.rows.iter().enumerate() {
             if !self.closing[i] {
@@ -245,24 +318,145 @@ impl ContactPhase {
                 lambda: Vector3::zeros(),
                 ..*row
             };
-            if end.prepare(&self.end_responses) {
+            if end.prepare(&self.responses) {
                 let key = &self.keys[row.source];
                 if let Ok(k) = self.previous.binary_search_by(|p| p.0.cmp(key)) {
-                    end.warm_start(&self.previous[k].2, &mut self.end_responses);
+                    end.warm_start(&self.previous[k].2, &mut self.responses);
                 }
                 self.end_rows.push(end);
             }
         }
         let end_stats = solve::solve(
             &mut self.end_rows,
-            &mut self.end_responses,
+            &mut self.responses,
             self.rel_tol,
             self.max_sweeps,
         );
         self.stats.sweeps += end_stats.sweeps;
         self.stats.converged &= end_stats.converged;
-        self.work += apply(&self.end_responses, &self.slot_body, parts, starts);
+        self.work += self.apply(parts, starts);
+        std::mem::swap(&mut self.responses, &mut self.end_responses);
         self.record();
+    }
+
+    /// One [`Group`] per robot in `self.responses` (as many as robots, empty for those that
+    /// touch nothing): for a robot with a body in a contact (found in this step's narrow
+    /// phase at the start, `at_start`, else the closing rows), its response `M_c⁻¹` at the
+    /// partition's poses for the bodies that touch.
+    fn robot_groups(&mut self, parts: &mut [&mut Bodies], at_start: bool) {
+        if at_start {
+            for t in self.slot_touches.iter_mut() {
+                *t = false;
+            }
+            for (between, _) in self.between.iter().zip(&self.raw) {
+                self.slot_touches[self.collider_slot[between.a as usize]] = true;
+                if between.b != GROUND {
+                    self.slot_touches[self.collider_slot[between.b as usize]] = true;
+                }
+            }
+        }
+        for t in self.robot_touches.iter_mut() {
+            *t = false;
+        }
+        for (s, touches) in self.slot_touches.iter().enumerate() {
+            if let (true, Some((r, _))) = (*touches, self.slot_robot[s]) {
+                self.robot_touches[r] = true;
+            }
+        }
+        self.responses.groups.clear();
+        for (r, robot) in self.robots.iter_mut().enumerate() {
+            let n = robot.body_count();
+            let mut group = Group {
+                local: (0..n).collect(),
+                columns: vec![DMatrix::zeros(0, 0); n],
+                twist: DVector::zeros(6 * n),
+                predicted: at_start,
+            };
+            if self.robot_touches[r] {
+                robot.load(parts[robot.part]);
+                for (s, slot_robot) in self.slot_robot.iter().enumerate() {
+                    if let Some((rr, local)) = slot_robot
+                        && *rr == r
+                        && self.slot_touches[s]
+                    {
+                        group.columns[*local] = robot.columns(*local);
+                    }
+                }
+            }
+            self.responses.groups.push(group);
+        }
+    }
+
+    /// The robots that touch stepped once with the rows' warm-start impulses on them: their
+    /// bodies' predicted poses replace the free drift.
+    fn predict_robots(
+        &mut self,
+        parts: &mut [&mut Bodies],
+        starts: &[usize],
+        h: f64,
+        loads: &Loads,
+    ) {
+        for (r, robot) in self.robots.iter_mut().enumerate() {
+            if !self.robot_touches[r] {
+                continue;
+            }
+            for k in robot.kicks.iter_mut() {
+                *k = Impulse6::zeros();
+            }
+            for (s, slot_robot) in self.slot_robot.iter().enumerate() {
+                if let Some((rr, local)) = slot_robot
+                    && *rr == r
+                {
+                    let resp = &self.responses.bodies[s];
+                    let body_l = self.slots[s].rotation.inverse_transform_vector(&resp.dl);
+                    robot.kicks[*local] = Impulse6::new(
+                        resp.df.x, resp.df.y, resp.df.z, body_l.x, body_l.y, body_l.z,
+                    );
+                }
+            }
+            let k = robot.part;
+            let range = starts[k]..starts[k] + parts[k].len();
+            let part_loads = loads.part(range);
+            robot.predict(parts[k], h, &part_loads, &self.settings);
+            for (s, slot_robot) in self.slot_robot.iter().enumerate() {
+                if let Some((rr, local)) = slot_robot
+                    && *rr == r
+                {
+                    let (com, rotation) = robot.predicted[*local];
+                    self.slots[s].com_next = com;
+                    self.slots[s].rotation_next = rotation;
+                }
+            }
+        }
+    }
+
+    /// The impulses the solve put in `self.responses` onto the bodies' momenta: a free body's
+    /// `v += Δv`, `M += Rᵀ ΔL`; a robot's bodies their impulses (its joints carry them in the
+    /// step that follows). Returns the kinetic energy they changed, J.
+    fn apply(&mut self, parts: &mut [&mut Bodies], starts: &[usize]) -> f64 {
+        let mut work = apply(&self.responses, &self.slot_body, parts, starts);
+        for (r, robot) in self.robots.iter_mut().enumerate() {
+            if !self.robot_touches[r] {
+                continue;
+            }
+            for k in robot.kicks.iter_mut() {
+                *k = Impulse6::zeros();
+            }
+            for (s, slot_robot) in self.slot_robot.iter().enumerate() {
+                if let Some((rr, local)) = slot_robot
+                    && *rr == r
+                {
+                    let resp = &self.responses.bodies[s];
+                    let (k, j) = locate(starts, self.slot_body[s]);
+                    let body_l = parts[k].world_from_body[j].inverse_transform_vector(&resp.dl);
+                    robot.kicks[*local] = Impulse6::new(
+                        resp.df.x, resp.df.y, resp.df.z, body_l.x, body_l.y, body_l.z,
+                    );
+                }
+            }
+            work += robot.apply_kicks(parts[robot.part]);
+        }
+        work
     }
 
     /// The contacts at the start of the step within reach of the step's motion.
@@ -358,14 +552,11 @@ impl ContactPhase {
         self.between = between;
     }
 
-    /// One row per contact: its frame, arms, free velocity, target and friction, warm-started
-    /// from the last step's impulse on the same contact (projected into its cone).
-    fn build_rows(&mut self, h: f64, gravity: &Vector3<f64>) {
+    /// One row per contact: its frame, arms and friction, warm-started from the last step's
+    /// impulse on the same contact (projected into its cone); the free velocities and targets
+    /// follow ([`ContactPhase::free_velocities`]).
+    fn build_rows(&mut self) {
         self.rows.clear();
-        // Below this approach speed a contact does not bounce: a resting body's free normal
-        // velocity is about |g| h / 2, and a bounce off that would never settle.
-        let bounce_min = 2.0 * gravity.norm() * h + 1e-9;
-        self.bounce_min = bounce_min;
         for (source, ((raw, between), key)) in self
             .raw
             .iter()
@@ -375,15 +566,12 @@ impl ContactPhase {
         {
             let ca = between.a as usize;
             let sa = self.collider_slot[ca];
-            let a = &self.slots[sa];
-            let r_a = raw.point_a - a.com;
-            let dx_a = a.com_next + a.rotation_next * (a.rotation.inverse() * r_a) - (a.com + r_a);
+            let r_a = raw.point_a - self.slots[sa].com;
             let collider_a = &self.model.colliders[ca];
-            let (b, r_b, dx_b, mu, e) = if between.b == GROUND {
+            let (b, r_b, mu, e) = if between.b == GROUND {
                 let g = self.model.ground.as_ref().expect("ground contact");
                 (
                     None,
-                    Vector3::zeros(),
                     Vector3::zeros(),
                     combine_friction(collider_a.friction, g.friction),
                     combine_restitution(collider_a.restitution, g.restitution),
@@ -391,46 +579,26 @@ impl ContactPhase {
             } else {
                 let cb = between.b as usize;
                 let sb = self.collider_slot[cb];
-                let bs = &self.slots[sb];
-                let r_b = raw.point_b - bs.com;
-                let dx_b =
-                    bs.com_next + bs.rotation_next * (bs.rotation.inverse() * r_b) - (bs.com + r_b);
                 let collider_b = &self.model.colliders[cb];
                 (
                     Some(sb),
-                    r_b,
-                    dx_b,
+                    raw.point_b - self.slots[sb].com,
                     combine_friction(collider_a.friction, collider_b.friction),
                     combine_restitution(collider_a.restitution, collider_b.restitution),
                 )
             };
-            let frame = contact_frame(&raw.normal);
-            let u_free = frame.transpose() * (dx_a - dx_b) / h;
-            // Non-penetration at the end of the step; with restitution, an approach faster
-            // than `bounce_min` leaves at `e` times its speed from the moment of impact
-            // (the fraction `s` of the step spent closing the gap).
-            let mut target_n = -raw.gap_m / h;
-            let approach = -u_free.x;
-            let mut leave_n = 0.0;
-            if e > 0.0 && approach > bounce_min {
-                let s = (raw.gap_m.max(0.0) / (approach * h)).min(1.0);
-                if s < 1.0 {
-                    target_n += e * approach * (1.0 - s);
-                    leave_n = e * approach;
-                }
-            }
             let mut row = Row {
                 source,
                 a: sa,
                 b,
                 r_a,
                 r_b,
-                frame,
-                u_free,
-                target_n,
+                frame: contact_frame(&raw.normal),
+                u_free: Vector3::zeros(),
+                target_n: 0.0,
                 mu,
                 restitution: e,
-                leave_n,
+                leave_n: 0.0,
                 w: Matrix3::zeros(),
                 w_inv: Matrix3::zeros(),
                 lambda: Vector3::zeros(),
@@ -442,6 +610,40 @@ impl ContactPhase {
                 row.warm_start(&self.previous[k].1, &mut self.responses);
             }
             self.rows.push(row);
+        }
+    }
+
+    /// Each row's free velocity over the step (the two material points' predicted
+    /// displacements over `h`) and its target: non-penetration at the end of the step; with
+    /// restitution, an approach faster than `bounce_min` leaves at `e` times its speed from
+    /// the moment of impact (the fraction `s` of the step spent closing the gap).
+    fn free_velocities(&mut self, h: f64, gravity: &Vector3<f64>) {
+        // Below this approach speed a contact does not bounce: a resting body's free normal
+        // velocity is about |g| h / 2, and a bounce off that would never settle.
+        let bounce_min = 2.0 * gravity.norm() * h + 1e-9;
+        self.bounce_min = bounce_min;
+        let displacement = |slot: &Slot, r: &Vector3<f64>| {
+            slot.com_next + slot.rotation_next * (slot.rotation.inverse() * r) - (slot.com + r)
+        };
+        for row in self.rows.iter_mut() {
+            let raw = &self.raw[row.source];
+            let dx_a = displacement(&self.slots[row.a], &row.r_a);
+            let dx_b = row
+                .b
+                .map_or(Vector3::zeros(), |b| displacement(&self.slots[b], &row.r_b));
+            row.u_free = row.frame.transpose() * (dx_a - dx_b) / h;
+            let mut target_n = -raw.gap_m / h;
+            let approach = -row.u_free.x;
+            let mut leave_n = 0.0;
+            if row.restitution > 0.0 && approach > bounce_min {
+                let s = (raw.gap_m.max(0.0) / (approach * h)).min(1.0);
+                if s < 1.0 {
+                    target_n += row.restitution * approach * (1.0 - s);
+                    leave_n = row.restitution * approach;
+                }
+            }
+            row.target_n = target_n;
+            row.leave_n = leave_n;
         }
     }
 
@@ -491,14 +693,15 @@ fn locate(starts: &[usize], i: usize) -> (usize, usize) {
 /// The impulses the solve put in `responses` (one per body of `slot_body`) onto the bodies'
 /// momenta: `v += Δv`, `M += Rᵀ ΔL`; returns the kinetic energy they changed, J.
 fn apply(
-    responses: &[Response],
+    responses: &Responses,
     slot_body: &[usize],
     parts: &mut [&mut Bodies],
     starts: &[usize],
 ) -> f64 {
     let mut work = 0.0;
-    for (r, &body) in responses.iter().zip(slot_body) {
-        if r.dv == Vector3::zeros() && r.dl == Vector3::zeros() {
+    for (r, &body) in responses.bodies.iter().zip(slot_body) {
+        // A robot's bodies take their impulses through `Robot::apply_kicks`.
+        if r.member.is_some() || (r.dv == Vector3::zeros() && r.dl == Vector3::zeros()) {
             continue;
         }
         let (k, j) = locate(starts, body);

@@ -20,7 +20,7 @@
 //! from the normal row. The sweeps repeat until no impulse changes by more than the
 //! tolerance times the largest impulse.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 /// One body's response to impulses, and the velocity change they made so far.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -29,44 +29,168 @@ pub struct Response {
     pub inv_mass: f64,
     /// `I⁻¹` in world axes, 1/(kg m²).
     pub inv_inertia_world: Matrix3<f64>,
-    /// Velocity change so far, m/s.
+    /// Velocity change so far, m/s (a free body's).
     pub dv: Vector3<f64>,
-    /// Angular velocity change so far, rad/s.
+    /// Angular velocity change so far, rad/s (a free body's).
     pub dw: Vector3<f64>,
+    /// Impulse so far (world), N s.
+    pub df: Vector3<f64>,
     /// Angular momentum change so far (world, about the centre of mass), kg m²/s.
     pub dl: Vector3<f64>,
+    /// For a body of a mechanism: its [`Group`] and its member index there; its velocity
+    /// change is the group's.
+    pub member: Option<(usize, usize)>,
+}
+
+/// The bodies of one mechanism that can touch: an impulse on any of them moves all of the
+/// mechanism's bodies through its joints (`M_c⁻¹`, [`crate::sim::mechanism::constrained`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Group {
+    /// Per member: its body's index in the mechanism.
+    pub local: Vec<usize>,
+    /// Per member: the world twists `[v; ω]` of every body of the mechanism (6 rows each)
+    /// per unit world wrench `[F; τ]` (about its centre of mass) on the member, `6n × 6`.
+    pub columns: Vec<DMatrix<f64>>,
+    /// The twists' change so far, `6n`.
+    pub twist: DVector<f64>,
+    /// Whether warm-start impulses are already in the prediction the rows' free velocities
+    /// came from (they are recorded, not applied again).
+    pub predicted: bool,
+}
+
+impl Group {
+    /// Body `local`'s velocity change `(v, ω)` so far.
+    fn twist_of(&self, local: usize) -> (Vector3<f64>, Vector3<f64>) {
+        let t = self.twist.fixed_rows::<6>(6 * local);
+        (
+            Vector3::new(t[0], t[1], t[2]),
+            Vector3::new(t[3], t[4], t[5]),
+        )
+    }
 }
 
 impl Response {
-    /// A body of `inv_mass` and `inv_inertia_world`, not yet pushed.
+    /// A free body of `inv_mass` and `inv_inertia_world`, not yet pushed.
     pub fn new(inv_mass: f64, inv_inertia_world: Matrix3<f64>) -> Self {
         Self {
             inv_mass,
             inv_inertia_world,
             dv: Vector3::zeros(),
             dw: Vector3::zeros(),
+            df: Vector3::zeros(),
             dl: Vector3::zeros(),
+            member: None,
         }
     }
 
-    /// The velocity change of the point at arm `r` per unit impulse there:
-    /// `K(r) = I/m − [r]× I⁻¹ [r]×`.
-    pub fn point_matrix(&self, r: &Vector3<f64>) -> Matrix3<f64> {
-        let rx = r.cross_matrix();
-        Matrix3::identity() * self.inv_mass - rx * self.inv_inertia_world * rx
+    /// Member `member` of group `group`, not yet pushed.
+    pub fn member(group: usize, member: usize) -> Self {
+        Self {
+            member: Some((group, member)),
+            ..Self::new(0.0, Matrix3::zeros())
+        }
+    }
+}
+
+/// The bodies the rows act on: free bodies and the members of mechanisms.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Responses {
+    pub bodies: Vec<Response>,
+    pub groups: Vec<Group>,
+}
+
+impl Responses {
+    /// Free bodies only.
+    pub fn free(bodies: Vec<Response>) -> Self {
+        Self {
+            bodies,
+            groups: Vec::new(),
+        }
     }
 
-    /// The velocity change of the point at arm `r` so far.
-    pub fn point_velocity(&self, r: &Vector3<f64>) -> Vector3<f64> {
-        self.dv + self.dw.cross(r)
+    pub fn clear(&mut self) {
+        self.bodies.clear();
+        self.groups.clear();
     }
 
-    /// Applies the impulse `p` (world) at arm `r`.
-    pub fn push(&mut self, p: &Vector3<f64>, r: &Vector3<f64>) {
+    /// The velocity of the point at arm `r` of body `i` per unit impulse at arm `r_j` of body
+    /// `j` (world): `[I, −[r]×] C_ij [I; [r_j]×]` with `C_ij` the twist of `i` per wrench on
+    /// `j` — for one free body `I/m − [r]× I⁻¹ [r_j]×` — and zero when an impulse on `j`
+    /// does not move `i`.
+    pub fn block(&self, i: usize, r: &Vector3<f64>, j: usize, r_j: &Vector3<f64>) -> Matrix3<f64> {
+        let (bi, bj) = (&self.bodies[i], &self.bodies[j]);
+        match (bi.member, bj.member) {
+            (None, None) if i == j => {
+                Matrix3::identity() * bi.inv_mass
+                    - r.cross_matrix() * bi.inv_inertia_world * r_j.cross_matrix()
+            }
+            (Some((gi, _)), Some((gj, mj))) if gi == gj => {
+                let g = &self.groups[gi];
+                let li = g.local[bi.member.expect("member").1];
+                let c = g.columns[mj].fixed_view::<6, 6>(6 * li, 0);
+                let (cvv, cvw) = (c.fixed_view::<3, 3>(0, 0), c.fixed_view::<3, 3>(0, 3));
+                let (cwv, cww) = (c.fixed_view::<3, 3>(3, 0), c.fixed_view::<3, 3>(3, 3));
+                let (rx, rjx) = (r.cross_matrix(), r_j.cross_matrix());
+                cvv + cvw * rjx - rx * cwv - rx * cww * rjx
+            }
+            _ => Matrix3::zeros(),
+        }
+    }
+
+    /// The velocity change of the point at arm `r` of body `i` so far.
+    pub fn point_velocity(&self, i: usize, r: &Vector3<f64>) -> Vector3<f64> {
+        let b = &self.bodies[i];
+        match b.member {
+            None => b.dv + b.dw.cross(r),
+            Some((g, m)) => {
+                let g = &self.groups[g];
+                let (v, w) = g.twist_of(g.local[m]);
+                v + w.cross(r)
+            }
+        }
+    }
+
+    /// Applies the impulse `p` (world) at arm `r` of body `i`.
+    pub fn push(&mut self, i: usize, p: &Vector3<f64>, r: &Vector3<f64>) {
+        self.push_as(i, p, r, false);
+    }
+
+    /// [`Responses::push`] for a warm start: on a member of a group whose prediction already
+    /// holds it, only recorded.
+    pub fn push_warm(&mut self, i: usize, p: &Vector3<f64>, r: &Vector3<f64>) {
+        self.push_as(i, p, r, true);
+    }
+
+    fn push_as(&mut self, i: usize, p: &Vector3<f64>, r: &Vector3<f64>, warm: bool) {
         let l = r.cross(p);
-        self.dv += p * self.inv_mass;
-        self.dl += l;
-        self.dw += self.inv_inertia_world * l;
+        let b = &mut self.bodies[i];
+        b.df += p;
+        b.dl += l;
+        match b.member {
+            None => {
+                b.dv += p * b.inv_mass;
+                b.dw += b.inv_inertia_world * l;
+            }
+            Some((g, m)) => {
+                let g = &mut self.groups[g];
+                if !(warm && g.predicted) {
+                    let wrench = nalgebra::Vector6::new(p.x, p.y, p.z, l.x, l.y, l.z);
+                    g.twist.gemv(1.0, &g.columns[m], &wrench, 1.0);
+                }
+            }
+        }
+    }
+
+    /// The body whose island body `i` belongs to at least: a mechanism's members are one.
+    fn island_seed(&self, i: usize) -> usize {
+        match self.bodies[i].member {
+            None => i,
+            Some((g, _)) => self
+                .bodies
+                .iter()
+                .position(|b| b.member.is_some_and(|(gb, _)| gb == g))
+                .expect("the group's first member"),
+        }
     }
 }
 
@@ -116,10 +240,12 @@ pub fn contact_frame(n: &Vector3<f64>) -> Matrix3<f64> {
 impl Row {
     /// Fills `w` and `w_inv` from the bodies' responses; `false` when the block is singular
     /// (two bodies that cannot move).
-    pub fn prepare(&mut self, bodies: &[Response]) -> bool {
-        let mut k = bodies[self.a].point_matrix(&self.r_a);
+    pub fn prepare(&mut self, bodies: &Responses) -> bool {
+        let mut k = bodies.block(self.a, &self.r_a, self.a, &self.r_a);
         if let Some(b) = self.b {
-            k += bodies[b].point_matrix(&self.r_b);
+            k += bodies.block(b, &self.r_b, b, &self.r_b)
+                - bodies.block(self.a, &self.r_a, b, &self.r_b)
+                - bodies.block(b, &self.r_b, self.a, &self.r_a);
         }
         self.w = self.frame.transpose() * k * self.frame;
         match self.w.try_inverse() {
@@ -132,17 +258,17 @@ impl Row {
     }
 
     /// The contact's velocity over the step with the impulses so far, contact frame.
-    pub fn velocity(&self, bodies: &[Response]) -> Vector3<f64> {
-        let mut du = bodies[self.a].point_velocity(&self.r_a);
+    pub fn velocity(&self, bodies: &Responses) -> Vector3<f64> {
+        let mut du = bodies.point_velocity(self.a, &self.r_a);
         if let Some(b) = self.b {
-            du -= bodies[b].point_velocity(&self.r_b);
+            du -= bodies.point_velocity(b, &self.r_b);
         }
         self.u_free + self.frame.transpose() * du
     }
 
     /// Starts from `impulse_world` (the same contact's impulse of the last step) projected
     /// into this row's cone, applied to the bodies.
-    pub fn warm_start(&mut self, impulse_world: &Vector3<f64>, bodies: &mut [Response]) {
+    pub fn warm_start(&mut self, impulse_world: &Vector3<f64>, bodies: &mut Responses) {
         let mut l = self.frame.transpose() * impulse_world;
         l.x = l.x.max(0.0);
         let t = (l.y * l.y + l.z * l.z).sqrt();
@@ -152,17 +278,21 @@ impl Row {
             l.z *= f;
         }
         if l != Vector3::zeros() {
-            self.apply(&l, bodies);
+            let p = self.frame * l;
+            bodies.push_warm(self.a, &p, &self.r_a);
+            if let Some(b) = self.b {
+                bodies.push_warm(b, &(-p), &self.r_b);
+            }
             self.lambda = l;
         }
     }
 
     /// Applies the impulse change `d` (contact frame) to the bodies.
-    pub fn apply(&self, d: &Vector3<f64>, bodies: &mut [Response]) {
+    pub fn apply(&self, d: &Vector3<f64>, bodies: &mut Responses) {
         let p = self.frame * d;
-        bodies[self.a].push(&p, &self.r_a);
+        bodies.push(self.a, &p, &self.r_a);
         if let Some(b) = self.b {
-            bodies[b].push(&(-p), &self.r_b);
+            bodies.push(b, &(-p), &self.r_b);
         }
     }
 
@@ -250,11 +380,14 @@ const SWEEPS_PER_POLISH: u32 = 10;
 /// projected Gauss-Seidel sweeps in row order, and every [`SWEEPS_PER_POLISH`] sweeps the
 /// active-set solve of each island of touching bodies ([`polish`]), which ends the solve
 /// exactly when the sweeps found the right active set. Stops when an active-set solve is
-/// feasible everywhere or a sweep changes no impulse by more than `rel_tol × max |λ|`, at
-/// most `max_sweeps` sweeps.
+/// feasible everywhere, when a sweep changes no impulse by more than `rel_tol × max |λ|`, or
+/// when it changes no contact's velocity by more than `rel_tol` times the largest velocity
+/// the rows ask for (`|u_free|`, `|b_n|`): redundant contacts — the four corners of a face,
+/// a robot's feet — share their impulses in many ways, and the sweeps drift among them long
+/// after every velocity is right. At most `max_sweeps` sweeps.
 pub fn solve(
     rows: &mut [Row],
-    bodies: &mut [Response],
+    bodies: &mut Responses,
     rel_tol: f64,
     max_sweeps: u32,
 ) -> SolveStats {
@@ -263,10 +396,18 @@ pub fn solve(
         stats.converged = true;
         return stats;
     }
+    // The velocities the rows ask for: the scale of the velocity criterion.
+    let velocity_scale = rows
+        .iter()
+        .map(|r| r.u_free.amax().max(r.target_n.abs()))
+        .fold(0.0, f64::max);
     while stats.sweeps < max_sweeps {
         stats.sweeps += 1;
-        let (change, largest) = sweep(rows, bodies);
-        if change <= rel_tol * largest || change <= 1e-300 {
+        let (change, largest, velocity_change) = sweep(rows, bodies);
+        if change <= rel_tol * largest
+            || change <= 1e-300
+            || velocity_change <= rel_tol * velocity_scale
+        {
             stats.converged = true;
             break;
         }
@@ -278,10 +419,12 @@ pub fn solve(
     stats
 }
 
-/// One sweep of projected Gauss-Seidel: (the largest impulse change, the largest impulse).
-fn sweep(rows: &mut [Row], bodies: &mut [Response]) -> (f64, f64) {
+/// One sweep of projected Gauss-Seidel: (the largest impulse change, the largest impulse,
+/// the largest change of a contact's own velocity, `|W_ii Δλ_i|`).
+fn sweep(rows: &mut [Row], bodies: &mut Responses) -> (f64, f64, f64) {
     let mut change = 0.0f64;
     let mut largest = 0.0f64;
+    let mut velocity_change = 0.0f64;
     for row in rows.iter_mut() {
         let u = row.velocity(bodies);
         let new = row.local_solve(&u);
@@ -289,11 +432,12 @@ fn sweep(rows: &mut [Row], bodies: &mut [Response]) -> (f64, f64) {
         if d != Vector3::zeros() {
             row.apply(&d, bodies);
             row.lambda = new;
+            velocity_change = velocity_change.max((row.w * d).amax());
         }
         change = change.max(d.amax());
         largest = largest.max(new.amax());
     }
-    (change, largest)
+    (change, largest, velocity_change)
 }
 
 /// Islands larger than this many unknowns are left to the sweeps (a dense solve of their
@@ -318,15 +462,24 @@ enum Mode {
 /// by island of bodies joined by active contacts. Accepted only when every condition holds:
 /// `λ_n ≥ 0`, sticking impulses inside their cones, open contacts separating. Returns whether
 /// every island was accepted; a rejected island keeps the sweeps' impulses.
-pub fn polish(rows: &mut [Row], bodies: &mut [Response]) -> bool {
+pub fn polish(rows: &mut [Row], bodies: &mut Responses) -> bool {
     // Islands over the bodies joined by pushing contacts (union-find, smallest root).
-    let mut parent: Vec<usize> = (0..bodies.len()).collect();
+    let mut parent: Vec<usize> = (0..bodies.bodies.len()).collect();
     fn root(parent: &mut [usize], mut i: usize) -> usize {
         while parent[i] != i {
             parent[i] = parent[parent[i]];
             i = parent[i];
         }
         i
+    }
+    // A mechanism's members are one island whatever touches them.
+    for i in 0..bodies.bodies.len() {
+        let seed = bodies.island_seed(i);
+        if seed != i {
+            let (ra, rb) = (root(&mut parent, i), root(&mut parent, seed));
+            let (lo, hi) = (ra.min(rb), ra.max(rb));
+            parent[hi] = lo;
+        }
     }
     for row in rows.iter() {
         if let Some(b) = row.b
@@ -350,7 +503,7 @@ pub fn polish(rows: &mut [Row], bodies: &mut [Response]) -> bool {
 }
 
 /// [`polish`] on the rows `members` (one island).
-fn polish_island(rows: &mut [Row], bodies: &mut [Response], members: &[usize]) -> bool {
+fn polish_island(rows: &mut [Row], bodies: &mut Responses, members: &[usize]) -> bool {
     let modes: Vec<Mode> = members
         .iter()
         .map(|&i| {
@@ -476,21 +629,16 @@ fn polish_island(rows: &mut [Row], bodies: &mut [Response], members: &[usize]) -
 }
 
 /// `W_ij`: the velocity of contact `i` (its frame) per unit impulse of contact `j` (its
-/// frame), through the bodies they share: `Σ_X s_i s_j C_iᵀ (I/m − [r_i]× I⁻¹ [r_j]×) C_j`,
-/// `s = +1` on a contact's `a`, `−1` on its `b`.
-fn coupling(ri: &Row, rj: &Row, bodies: &[Response]) -> Matrix3<f64> {
+/// frame), through the bodies they move: `Σ s_i s_j C_iᵀ K(x_i, r_i; x_j, r_j) C_j` over their
+/// sides ([`Responses::block`]), `s = +1` on a contact's `a`, `−1` on its `b`.
+fn coupling(ri: &Row, rj: &Row, bodies: &Responses) -> Matrix3<f64> {
     let sides = |r: &Row| [(Some(r.a), 1.0, r.r_a), (r.b, -1.0, r.r_b)];
     let mut k = Matrix3::zeros();
     for (xi, si, arm_i) in sides(ri) {
         let Some(xi) = xi else { continue };
         for (xj, sj, arm_j) in sides(rj) {
-            if xj != Some(xi) {
-                continue;
-            }
-            let body = &bodies[xi];
-            k += (Matrix3::identity() * body.inv_mass
-                - arm_i.cross_matrix() * body.inv_inertia_world * arm_j.cross_matrix())
-                * (si * sj);
+            let Some(xj) = xj else { continue };
+            k += bodies.block(xi, &arm_i, xj, &arm_j) * (si * sj);
         }
     }
     if k == Matrix3::zeros() {
@@ -549,7 +697,7 @@ mod tests {
     #[test]
     fn a_warm_start_is_projected_into_the_cone_and_applied() {
         let frame = contact_frame(&Vector3::z());
-        let mut bodies = vec![Response::new(0.5, Matrix3::identity() * 4.0)];
+        let mut bodies = Responses::free(vec![Response::new(0.5, Matrix3::identity() * 4.0)]);
         let mut row = Row {
             source: 0,
             a: 0,
@@ -573,15 +721,15 @@ mod tests {
         let expected = Vector3::new(2.0, 0.6, 0.8);
         assert!((row.lambda - expected).norm() <= 1e-15, "{}", row.lambda);
         // The bodies carry it: Δv = P / m.
-        assert!((bodies[0].dv - frame * expected * 0.5).norm() <= 1e-15);
+        assert!((bodies.bodies[0].dv - frame * expected * 0.5).norm() <= 1e-15);
         // A pulling normal is dropped.
         let mut pulled = Row {
             lambda: Vector3::zeros(),
             ..row
         };
-        let mut fresh = vec![Response::new(0.5, Matrix3::identity() * 4.0)];
+        let mut fresh = Responses::free(vec![Response::new(0.5, Matrix3::identity() * 4.0)]);
         pulled.warm_start(&(frame * Vector3::new(-1.0, 0.3, 0.0)), &mut fresh);
         assert_eq!(pulled.lambda, Vector3::zeros());
-        assert_eq!(fresh[0].dv, Vector3::zeros());
+        assert_eq!(fresh.bodies[0].dv, Vector3::zeros());
     }
 }

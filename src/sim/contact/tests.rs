@@ -90,7 +90,7 @@ pub(super) fn world(
         .map(|_| IntegratorKind::Variational.build(dt, &VariationalSettings::default()))
         .collect();
     let mut parts = Partitions::new(inits, integrators, threads, f64::MAX, None).unwrap();
-    parts.set_contact(model).unwrap();
+    parts.set_contact(model, &[]).unwrap();
     parts
 }
 
@@ -508,7 +508,7 @@ fn every_scheme_rests_on_the_ground_and_stops_sliding() {
                 None,
             )
             .unwrap();
-            parts.set_contact(model()).unwrap();
+            parts.set_contact(model(), &[]).unwrap();
             parts
         };
         let c0 = Vector3::new(0.0, 0.0, 0.05);

@@ -139,6 +139,13 @@ pub trait Integrator: Send {
     fn gravity_drift(&self) -> f64 {
         0.5
     }
+
+    /// The settings of the variational step that moves this integrator's mechanisms (the
+    /// contact phase steps a robot once with them to predict its motion:
+    /// `sim::contact::robots`); `None` for a scheme that steps no mechanism.
+    fn mechanism_settings(&self) -> Option<variational::VariationalSettings> {
+        None
+    }
 }
 
 /// Bodies stepped, then tested by the guard, at a time ([`step_blocks_watched`] and

@@ -31,6 +31,7 @@
 //! its [`MechanismModel`]); [`step::MechanismState`]
 //! holds what changes (warm starts, workspaces). Nothing here knows URDF.
 
+pub mod constrained;
 pub mod coords;
 pub mod drive;
 pub mod init;

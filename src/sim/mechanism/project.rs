@@ -16,13 +16,12 @@
 //! the total linear and angular momentum of a free-floating mechanism as they are. The carried
 //! state is not changed: projecting is reporting only.
 
+use super::constrained::{Impulse6, Projector};
 use super::coords::{compound_rates, decompose, unwrap_near};
-use super::rows::{BodyPose, RowJacobian, RowValues};
-use super::tree::{Compliance, ExtraRow, Jacobians, TreeSolver};
 use super::{CoordinateKind, Mechanism};
 use crate::sim::Bodies;
 use crate::sim::loads::Loads;
-use nalgebra::{Isometry3, Matrix3, SVector, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 
 /// A mechanism's totals at one instant (projected momenta).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -68,14 +67,9 @@ pub struct Report {
 /// Reusable buffers for [`Reporter::report`].
 #[derive(Debug, Clone)]
 pub struct Reporter {
-    solver: TreeSolver,
-    poses: Vec<BodyPose>,
-    g: Vec<(RowJacobian, RowJacobian)>,
-    extra: Vec<ExtraRow>,
-    s: Vec<Compliance>,
-    rhs: Vec<RowValues>,
-    rhs_extra: Vec<f64>,
-    impulse: Vec<SVector<f64, 6>>,
+    projector: Projector,
+    momenta: Vec<Impulse6>,
+    impulse: Vec<Impulse6>,
     /// Per compound joint (by joint index): the last decomposed angles.
     compound_theta: Vec<Vec<f64>>,
     last_time: Option<f64>,
@@ -86,7 +80,6 @@ impl Reporter {
     pub fn new(model: &Mechanism) -> Self {
         let n = model.body_count;
         let nc = model.coordinates.len();
-        let zj = (RowJacobian::zeros(), RowJacobian::zeros());
         let mut compound_theta = vec![Vec::new(); model.joints.len()];
         let mut interior = 0;
         for (j, joint) in model.joints.iter().enumerate() {
@@ -101,20 +94,9 @@ impl Reporter {
             }
         }
         Self {
-            solver: TreeSolver::new(model.topology(), model.mimics.len()),
-            poses: vec![BodyPose::identity(); n],
-            g: vec![zj; model.joints.len()],
-            extra: vec![ExtraRow::default(); model.mimics.len()],
-            s: vec![
-                Compliance {
-                    trans: 0.0,
-                    rot: Matrix3::zeros()
-                };
-                n
-            ],
-            rhs: vec![RowValues::zeros(); model.joints.len()],
-            rhs_extra: vec![0.0; model.mimics.len()],
-            impulse: vec![SVector::zeros(); n],
+            projector: Projector::new(model),
+            momenta: vec![Impulse6::zeros(); n],
+            impulse: vec![Impulse6::zeros(); n],
             compound_theta,
             last_time: None,
             report: Report {
@@ -141,46 +123,17 @@ impl Reporter {
     ) -> &Report {
         let first = model.first_body;
         let n = model.body_count;
-        for i in 0..n {
-            let gi = first + i;
-            self.poses[i] = BodyPose {
-                rot: bodies.world_from_body[gi].to_rotation_matrix().into_inner(),
-                com: bodies.com_world[gi],
-            };
-            self.s[i] = Compliance {
-                trans: 1.0 / bodies.mass[gi],
-                rot: Matrix3::from_diagonal(&bodies.inv_inertia_body[gi]),
-            };
-        }
         let dt = self.last_time.map_or(0.0, |t| time_secs - t);
         self.last_time = Some(time_secs);
-        let mut residual_m: f64 = 0.0;
-        let mut residual_rad: f64 = 0.0;
-        for (j, joint) in model.joints.iter().enumerate() {
-            let a = match joint.parent {
-                Some(p) => self.poses[p],
-                None => model.world_pose,
-            };
-            let (gp, gc) = &mut self.g[j];
-            let values = joint.rows.evaluate(&a, &self.poses[joint.child], gp, gc);
-            for r in 0..joint.rows.count() {
-                if joint.rows.kind.is_length_row(r) {
-                    residual_m = residual_m.max(values[r].abs());
-                } else {
-                    residual_rad = residual_rad.max(values[r].abs());
-                }
-            }
-        }
+        let (mut residual_m, mut residual_rad) = self.projector.load(model, bodies);
+        let poses = self.projector.poses();
         // Coordinates (positions) first: the mimic rows' gradients need their branches.
         let report = &mut self.report;
         for (k, c) in model.coordinates.iter().enumerate() {
             let joint = &model.joints[c.joint];
-            let a = match joint.parent {
-                Some(p) => self.poses[p],
-                None => model.world_pose,
-            };
+            let a = self.projector.parent_pose(model, joint.parent);
             let reference = report.position[k] + report.velocity[k] * dt;
-            if let Some(v) = c.kind.value(&a, &self.poses[joint.child], reference) {
+            if let Some(v) = c.kind.value(&a, &poses[joint.child], reference) {
                 report.position[k] = v;
             }
         }
@@ -188,11 +141,8 @@ impl Reporter {
             let Some(chain) = &joint.compound else {
                 continue;
             };
-            let a = match joint.parent {
-                Some(p) => self.poses[p],
-                None => model.world_pose,
-            };
-            let w = a.rot.transpose() * self.poses[joint.child].rot;
+            let a = self.projector.parent_pose(model, joint.parent);
+            let w = a.rot.transpose() * poses[joint.child].rot;
             decompose(chain, &chain.target(&w), &mut self.compound_theta[j]);
         }
         for (k, c) in model.coordinates.iter().enumerate() {
@@ -201,85 +151,20 @@ impl Reporter {
                 report.position[k] = unwrap_near(self.compound_theta[c.joint][stage], reference);
             }
         }
-        for (m, mimic) in model.mimics.iter().enumerate() {
-            let mut row = ExtraRow::default();
-            let mut value = -mimic.offset;
-            let mut slot = 0;
-            for (coord, factor) in [(mimic.follower, 1.0), (mimic.leader, -mimic.multiplier)] {
-                let c = &model.coordinates[coord];
-                let joint = &model.joints[c.joint];
-                let a = match joint.parent {
-                    Some(p) => self.poses[p],
-                    None => model.world_pose,
-                };
-                if let Some((theta, ga, gb)) =
-                    c.kind
-                        .gradient(&a, &self.poses[joint.child], report.position[coord])
-                {
-                    value += factor * theta;
-                    row.bodies[slot] = joint.parent.map(|p| (p, ga * factor));
-                    row.bodies[slot + 1] = Some((joint.child, gb * factor));
-                }
-                slot += 2;
-            }
-            if model.coordinates[mimic.follower].is_linear {
-                residual_m = residual_m.max(value.abs());
-            } else {
-                residual_rad = residual_rad.max(value.abs());
-            }
-            self.extra[m] = row;
-        }
+        let (mimic_m, mimic_rad) = self.projector.mimics(model, &report.position);
+        residual_m = residual_m.max(mimic_m);
+        residual_rad = residual_rad.max(mimic_rad);
         // Projection: G S Gᵀ μ = −G S P.
         for i in 0..n {
             let gi = first + i;
             let p = bodies.linvel_world[gi] * bodies.mass[gi];
             let m = bodies.angmom_body[gi];
-            self.impulse[i] =
-                self.s[i].apply(&SVector::<f64, 6>::new(p.x, p.y, p.z, m.x, m.y, m.z));
+            self.momenta[i] = Impulse6::new(p.x, p.y, p.z, m.x, m.y, m.z);
         }
-        for (j, joint) in model.joints.iter().enumerate() {
-            let (gp, gc) = &self.g[j];
-            let mut r = -(gc * self.impulse[joint.child]);
-            if let Some(p) = joint.parent {
-                r -= gp * self.impulse[p];
-            }
-            self.rhs[j] = r;
-        }
-        for (m, row) in self.extra.iter().enumerate() {
-            self.rhs_extra[m] = -row
-                .bodies
-                .iter()
-                .flatten()
-                .map(|(i, r)| (r * self.impulse[*i])[0])
-                .sum::<f64>();
-        }
-        let jac = Jacobians {
-            left: &self.g,
-            right: &self.g,
-            extra_left: &self.extra,
-            extra_right: &self.extra,
-        };
-        let projected = !model.joints.is_empty() && self.solver.factor(&jac, &self.s);
-        if projected {
-            self.solver.solve(&jac, &mut self.rhs, &mut self.rhs_extra);
-        }
-        for v in self.impulse.iter_mut() {
-            *v = SVector::zeros();
-        }
-        if projected {
-            for (j, joint) in model.joints.iter().enumerate() {
-                let (gp, gc) = &self.g[j];
-                self.impulse[joint.child] += gc.transpose() * self.rhs[j];
-                if let Some(p) = joint.parent {
-                    self.impulse[p] += gp.transpose() * self.rhs[j];
-                }
-            }
-            for (m, row) in self.extra.iter().enumerate() {
-                for (i, r) in row.bodies.iter().flatten() {
-                    self.impulse[*i] += r.transpose() * self.rhs_extra[m];
-                }
-            }
-        }
+        self.projector.factor(model);
+        self.projector
+            .project(model, &self.momenta, &mut self.impulse);
+        let poses = self.projector.poses();
         let mut totals = Totals::default();
         let mut mass = 0.0;
         for i in 0..n {
@@ -312,7 +197,7 @@ impl Reporter {
             let joint = &model.joints[c.joint];
             let (a, va, oa) = match joint.parent {
                 Some(p) => (
-                    self.poses[p],
+                    poses[p],
                     report.linvel_world[p],
                     report.angmom_body[p].component_mul(&bodies.inv_inertia_body[first + p]),
                 ),
@@ -322,7 +207,7 @@ impl Reporter {
             let ob = report.angmom_body[b].component_mul(&bodies.inv_inertia_body[first + b]);
             if let Some(rate) = c.kind.rate(
                 &a,
-                &self.poses[b],
+                &poses[b],
                 (&va, &oa),
                 (&report.linvel_world[b], &ob),
                 report.position[k],
@@ -338,14 +223,14 @@ impl Reporter {
             };
             let (a, oa) = match joint.parent {
                 Some(p) => (
-                    self.poses[p],
+                    poses[p],
                     report.angmom_body[p].component_mul(&bodies.inv_inertia_body[first + p]),
                 ),
                 None => (model.world_pose, Vector3::zeros()),
             };
             let b = joint.child;
             let ob = report.angmom_body[b].component_mul(&bodies.inv_inertia_body[first + b]);
-            let w = a.rot.transpose() * self.poses[b].rot;
+            let w = a.rot.transpose() * poses[b].rot;
             // Relative angular velocity in the first joint's frame.
             let rel = chain.parent_from_first.inverse() * (w * ob - oa);
             compound_rates(chain, &self.compound_theta[j], &rel, &mut rates);

@@ -188,6 +188,10 @@ impl Integrator for Articulated {
         stats
     }
 
+    fn mechanism_settings(&self) -> Option<VariationalSettings> {
+        Some(self.settings)
+    }
+
     fn energy_flow(&self) -> EnergyFlow {
         let free = self
             .free

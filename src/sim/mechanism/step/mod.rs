@@ -109,6 +109,43 @@ pub fn step(
     stats
 }
 
+/// The poses one [`step`] of `model` reaches from the batch's state with the impulses `kicks`
+/// (per local body, `[linear (world); angular (body frame)]`) added to its momenta first,
+/// written to `out` per body (centre of mass, rotation); the batch is left as it was. With
+/// its own `state` and `warm`, the run's are untouched. The contact phase's prediction of a
+/// robot's motion over a step ([`crate::sim::contact`]).
+#[allow(clippy::too_many_arguments)]
+pub fn predict(
+    model: &Mechanism,
+    state: &mut MechanismState,
+    warm: &mut Warm,
+    bodies: &mut Bodies,
+    h: f64,
+    loads: &Loads,
+    settings: &VariationalSettings,
+    kicks: &[nalgebra::SVector<f64, 6>],
+    out: &mut [(nalgebra::Vector3<f64>, nalgebra::UnitQuaternion<f64>)],
+) -> StepStats {
+    state.ws.save(model, bodies);
+    let first = model.first_body;
+    for (i, k) in kicks.iter().enumerate() {
+        let gi = first + i;
+        bodies.linvel_world[gi] += k.fixed_rows::<3>(0) / bodies.mass[gi];
+        bodies.angmom_body[gi] += k.fixed_rows::<3>(3);
+    }
+    let stats = step(model, state, warm, bodies, h, loads, settings);
+    for (i, o) in out.iter_mut().enumerate() {
+        let gi = first + i;
+        *o = (bodies.com_world[gi], bodies.world_from_body[gi]);
+    }
+    // The coordinates' references follow the predicted step (a continuous joint stays on its
+    // branch); the bodies go back.
+    let ws = &mut state.ws;
+    ws.backup_coords.copy_from_slice(&ws.coord_ref);
+    ws.restore(model, bodies);
+    stats
+}
+
 /// [`step`] between the applied loads' kicks (the joint drives are in the solve). A split step
 /// keeps the kicks of the whole step around its substeps (Strang splitting: still second order,
 /// momentum still exact).

@@ -85,7 +85,7 @@ pub struct Workspace {
     pub load_work: crate::sim::loads::KickLedger,
     /// Body state saved before a split step.
     backup: Backup,
-    backup_coords: Vec<f64>,
+    pub(super) backup_coords: Vec<f64>,
 }
 
 #[derive(Debug, Clone, Default)]
