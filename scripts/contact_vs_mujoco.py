@@ -1,15 +1,17 @@
 """scripts/contact_vs_mujoco.sh's Python side: issue 31's contact cases in tumble and in MuJoCo, the
-measured quantities beside their closed forms, one table (and a CSV).
+measured quantities beside their closed forms, one table (Markdown, printed) and a CSV.
 
 Usage: contact_vs_mujoco.py TUMBLE WORK CSV [INTEGRATORS]
   TUMBLE       the tumble binary
   WORK         a scratch folder: the URDFs, scenes, recordings and MJCF files are written there
   CSV          where the table is also written, one row per case and engine
-  INTEGRATORS  MuJoCo integrators, comma-separated (default "euler,implicitfast"; also implicit,
-               rk4, discrete); NAME:elliptic runs NAME with MuJoCo's elliptic friction cone
-               instead of its default pyramidal one
+  INTEGRATORS  MuJoCo variants, comma-separated (default DEFAULT_INTEGRATORS:
+               "euler,implicitfast,implicitfast:elliptic:noslip"): an integrator (euler, MuJoCo's
+               default; implicitfast, implicit, rk4, discrete), optionally followed by ":elliptic"
+               (the elliptic friction cone instead of the default pyramidal one) and ":noslip"
+               (noslip_iterations = NOSLIP = 10, MuJoCo's post-solve against slip; default 0)
 Environment: REPEATS (timed runs per cost, median printed; default 5), COST_STEPS (steps of each
-timed run; default 100000).
+timed run; default 200000).
 
 The bodies (the same numbers in both engines; URDFs written into WORK, MJCF built here):
   cube  0.2 m on a side, 1 kg, I = m a^2 / 6 = 0.0066667 kg m^2 about every axis
@@ -34,9 +36,9 @@ The cases (every body starts touching its ground: no gap, no overlap):
            after mj_step: the contacts the step used). Exact: 0. The note gives the highest the
            centre rose above 0.1 m while sliding.
   rebound  the ball dropped from rest with its bottom 1 m above level ground, restitution 0.5,
-           2 s: the first rebound's apex height of its bottom (z - r at the top, from the last
-           rising sample z + vz^2 / (2 g): free flight is ballistic) against e^2 h = 0.25 m; the
-           second and third apexes (against e^4 h, e^6 h) go into the note. tumble: ground and ball
+           2 s: the first three rebounds' apex heights of its bottom (z - r at the top, from the
+           last rising sample z + vz^2 / (2 g): free flight is ballistic) against e^(2k) h = 0.25,
+           0.0625, 0.015625 m. tumble: ground and ball
            restitution 0.5. MuJoCo has no coefficient of restitution: its contact is a spring and
            damper in acceleration units, and solref's direct format, solref = (-stiffness,
            -damping) (MuJoCo's docs, Modeling > Solver parameters; XML reference, solref), sets
@@ -50,15 +52,19 @@ The cases (every body starts touching its ground: no gap, no overlap):
            as given once the penetration exceeds solimp's width; the same spring as the standard
            solref = "0.02 0.2553"). The bounce still depends on the impedance ramp, gravity during
            the 17 ms contact and the step: the error is this approximation's and MuJoCo's together.
+  stack    STACK = 4 cubes stacked on level ground, mu = 0.5, each touching the next, 10 s: how far
+           the top cube's centre moved (exact: 0); the note splits it into down and sideways. The
+           only case with contact between bodies, and the cost per body-step of a small island.
   Everything else is MuJoCo's default contact: solimp (0.9, 0.95, 0.001), solref (0.02, 1) for
   the cases without restitution, pyramidal cone, condim 3, margin 0. A pair's friction in MuJoCo
   is the larger of its two geoms' (both given mu here); in tumble the smaller (both mu).
 
-Cost per step: each case run for COST_STEPS steps (100 s at 1 ms: the slide and the bounce are
-over in the first second, so their cost is mostly the resting body's), REPEATS times, the median.
+Cost per step: each case run for COST_STEPS steps (200 s at 1 ms: the slide and the bounce are
+over in the first seconds, so their cost is mostly the resting body's), REPEATS times, the median;
+printed in ns per step and per body-step (the step's cost over the case's bodies).
 tumble: `simulate SCENE --duration COST_STEPS*dt --threads 1 --log-every COST_STEPS --format
 parquet` (two frames recorded), the wall time it prints (the stepping and the recording, not the
-process start or the scene loading; printed to 10 ms, 0.1 us per step at 1e5 steps) divided by the
+process start or the scene loading; printed to 10 ms, 50 ns per step at 2e5 steps) divided by the
 steps. Not `tumble bench --scene`: for a scene of one partition it times the bare integrator,
 without the contact phase (a cube on the slope costs 0.06 us per step there, with or without its
 ground). MuJoCo: its C rollout (mujoco.rollout, one thread) of the same steps from the same
@@ -68,6 +74,7 @@ state, after one untimed run.
 import csv
 import math
 import os
+import platform
 import re
 import subprocess
 import sys
@@ -75,6 +82,7 @@ import time
 
 import mujoco
 import numpy as np
+import pyarrow.compute as pc
 import pyarrow.parquet as pq
 from mujoco import rollout
 
@@ -91,8 +99,11 @@ TIMECONST = 0.02  # s: MuJoCo's default solref (0.02, 1)
 MOVING = 1e-3  # m/s: sliding while the horizontal speed is above this
 SLOW = 0.01  # the stopping time is measured to SLOW * v0
 LIFT = 1e-9  # m: off the ground when the cube's centre is this far above its rest height
+STACK = 4  # cubes in the stack case
+NOSLIP = 10  # MuJoCo's noslip_iterations in a variant named with ":noslip"
 REPEATS = int(os.environ.get("REPEATS", "5"))
-COST_STEPS = int(os.environ.get("COST_STEPS", "100000"))
+COST_STEPS = int(os.environ.get("COST_STEPS", "200000"))
+DEFAULT_INTEGRATORS = "euler,implicitfast,implicitfast:elliptic:noslip"
 
 INTEGRATORS = {
     "euler": mujoco.mjtIntegrator.mjINT_EULER,
@@ -102,12 +113,13 @@ INTEGRATORS = {
     "discrete": mujoco.mjtIntegrator.mjINT_DISCRETE,
 }
 
-# name: (seconds, body)
+# name: (seconds, body, how many); the measured body is the last one (the stack's top cube)
 CASES = {
-    "slope": (10.0, "cube"),
-    "rest": (10.0, "ball"),
-    "slide": (1.0, "cube"),
-    "rebound": (2.0, "ball"),
+    "slope": (10.0, "cube", 1),
+    "rest": (10.0, "ball", 1),
+    "slide": (1.0, "cube", 1),
+    "rebound": (2.0, "ball", 1),
+    "stack": (10.0, "cube", STACK),
 }
 
 
@@ -155,11 +167,23 @@ def initial(case):
         return np.array([0.0, 0.0, SIDE / 2]), 0.0, np.array([SLIDE_V0, 0.0, 0.0])
     if case == "rebound":
         return np.array([0.0, 0.0, DROP_H + RADIUS]), 0.0, np.zeros(3)
+    if case == "stack":
+        return np.array([0.0, 0.0, SIDE / 2 + (STACK - 1) * SIDE]), 0.0, np.zeros(3)
     raise ValueError(case)
 
 
+def placements(case):
+    """(name, centre, rotation about y, velocity) of every body of the case, bottom to top; the
+    last is the one measured (initial(case))."""
+    _, body, count = CASES[case]
+    if count == 1:
+        return [(body, *initial(case))]
+    return [(f"{body}{i}", np.array([0.0, 0.0, SIDE / 2 + i * SIDE]), 0.0, np.zeros(3))
+            for i in range(count)]
+
+
 def friction(case):
-    return {"slope": SLOPE_MU, "slide": SLIDE_MU}.get(case, 0.8)
+    return {"slope": SLOPE_MU, "slide": SLIDE_MU, "stack": SLIDE_MU}.get(case, 0.8)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -193,8 +217,7 @@ def vec(v):
 
 
 def scene(case):
-    secs, body = CASES[case]
-    pos, pitch, vel = initial(case)
+    secs, body, count = CASES[case]
     mu = friction(case)
     e = E if case == "rebound" else 0.0
     if case == "slope":
@@ -202,6 +225,17 @@ def scene(case):
         ground = f"normal = {vec(n)}\npoint = [0.0, 0.0, 0.0]"
     else:
         ground = "height = 0.0"
+    models = "".join(f"""
+[[model]]
+name = "{name}"
+urdf = "{body}.urdf"
+position = {vec(pos)}
+rpy = [0.0, {pitch!r}, 0.0]
+linvel = {vec(vel)}
+collisions = "urdf"
+friction = {mu!r}
+restitution = {e!r}
+""" for name, pos, pitch, vel in placements(case))
     return f"""# contact_vs_mujoco.py, case {case}
 [sim]
 dt = {DT!r}
@@ -213,16 +247,7 @@ log_every = 1
 {ground}
 friction = {mu!r}
 restitution = {e!r}
-
-[[model]]
-urdf = "{body}.urdf"
-position = {vec(pos)}
-rpy = [0.0, {pitch!r}, 0.0]
-linvel = {vec(vel)}
-collisions = "urdf"
-friction = {mu!r}
-restitution = {e!r}
-"""
+{models}"""
 
 
 def run_tumble(tumble, work, case):
@@ -236,6 +261,11 @@ def run_tumble(tumble, work, case):
     if done.returncode != 0:
         raise RuntimeError(f"tumble simulate {path}: exit {done.returncode}\n{done.stderr}")
     table = pq.read_table(f"{stem}.trajectories.parquet")
+    # the measured body, the last placed: recorded as "NAME/LINK" (the URDF's one link is its kind)
+    name, kind = placements(case)[-1][0], CASES[case][1]
+    table = table.filter(pc.equal(table.column("body"), f"{name}/{kind}"))
+    if table.num_rows == 0:
+        raise RuntimeError(f"tumble simulate {path}: no rows for body {name}/{kind}")
     col = lambda name: table.column(name).to_numpy()
     order = np.argsort(col("step"), kind="stable")
     t = col("time_secs")[order]
@@ -262,7 +292,7 @@ def run_tumble(tumble, work, case):
         lifted = np.array([k not in touching for k in col("step")[order]])
         lifted[0] = False  # the initial state: no step ended there
     else:
-        rest = SIDE / 2 if CASES[case][1] == "cube" else RADIUS
+        rest = p[0, 2]
         lifted = p[:, 2] > rest + LIFT
     return t, p, v, lifted, float(np.median(samples))
 
@@ -272,8 +302,7 @@ def run_tumble(tumble, work, case):
 
 
 def mjcf(case, integrator):
-    _, body = CASES[case]
-    pos, pitch, _ = initial(case)
+    _, body, _ = CASES[case]
     mu = friction(case)
     if case == "rebound":
         k, b = bounce_solref()
@@ -290,50 +319,57 @@ def mjcf(case, integrator):
     else:
         geom = f'type="sphere" size="{RADIUS!r}"'
         mass, inertia = BALL_MASS, BALL_I
-    return f"""<mujoco model="{case}">
-  <compiler angle="degree"/>
-  <!-- integrator (and cone): {integrator}, set on the compiled model (model.opt) -->
-  <option timestep="{DT!r}" gravity="0 0 {-G!r}"/>
-  <worldbody>
-    <geom name="ground" type="plane" size="0 0 1" euler="{plane_euler}" friction="{mu!r} 0.005 0.0001"{sol}/>
-    <body name="{body}" pos="{" ".join(repr(float(x)) for x in pos)}" euler="0 {math.degrees(pitch)!r} 0">
+    bodies = "".join(f"""
+    <body name="{name}" pos="{" ".join(repr(float(x)) for x in pos)}" euler="0 {math.degrees(pitch)!r} 0">
       <freejoint/>
       <inertial pos="0 0 0" mass="{mass!r}" diaginertia="{inertia!r} {inertia!r} {inertia!r}"/>
-      <geom name="{body}" {geom} friction="{mu!r} 0.005 0.0001"{sol}/>
-    </body>
+      <geom name="{name}" {geom} friction="{mu!r} 0.005 0.0001"{sol}/>
+    </body>""" for name, pos, pitch, _ in placements(case))
+    return f"""<mujoco model="{case}">
+  <compiler angle="degree"/>
+  <!-- integrator (cone, noslip): {integrator}, set on the compiled model (model.opt) -->
+  <option timestep="{DT!r}" gravity="0 0 {-G!r}"/>
+  <worldbody>
+    <geom name="ground" type="plane" size="0 0 1" euler="{plane_euler}" friction="{mu!r} 0.005 0.0001"{sol}/>{bodies}
   </worldbody>
 </mujoco>
 """
 
 
 def run_mujoco(work, case, name):
-    """The trajectory at every step (t = 0 included), the steps without contact, cost per step.
-    `name`: an integrator of INTEGRATORS, with ":elliptic" the elliptic friction cone."""
-    integrator, _, cone = name.partition(":")
+    """The trajectory of the case's measured body (the last) at every step (t = 0 included), the
+    steps without contact, cost per step. `name`: an integrator of INTEGRATORS, with ":elliptic"
+    the elliptic friction cone, with ":noslip" NOSLIP noslip iterations (in any order)."""
+    integrator, *options = name.split(":")
     xml = mjcf(case, name)
-    with open(f"{work}/mujoco-{case}-{integrator}{'-' + cone if cone else ''}.xml", "w") as f:
+    with open(f"{work}/mujoco-{case}-{name.replace(':', '-')}.xml", "w") as f:
         f.write(xml)
     model = mujoco.MjModel.from_xml_string(xml)
     model.opt.integrator = INTEGRATORS[integrator]
-    if cone == "elliptic":
+    if "elliptic" in options:
         model.opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    if "noslip" in options:
+        model.opt.noslip_iterations = NOSLIP
     data = mujoco.MjData(model)
-    _, _, vel = initial(case)
-    data.qvel[:3] = vel
+    places = placements(case)
+    for i, (_, _, _, vel) in enumerate(places):
+        data.qvel[6 * i:6 * i + 3] = vel  # a free joint's qvel: linear velocity first, world frame
+    q = 7 * (len(places) - 1)  # the measured body's free joint: qpos q.., qvel 6/7 q..
+    u = 6 * (len(places) - 1)
     mujoco.mj_forward(model, data)
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     state = np.empty(mujoco.mj_stateSize(model, spec))
     mujoco.mj_getState(model, data, state, spec)
     steps = round(CASES[case][0] / DT)
-    t, p, v, lifted = [0.0], [data.qpos[:3].copy()], [data.qvel[:3].copy()], [False]
+    t, p, v, lifted = [0.0], [data.qpos[q:q + 3].copy()], [data.qvel[u:u + 3].copy()], [False]
     bad = int(mujoco.mjtWarning.mjWARN_BADQACC)
     for _ in range(steps):
         mujoco.mj_step(model, data)
         if data.warning[bad].number > 0:
             raise RuntimeError(f"MuJoCo {name} unstable in case {case} at t = {data.time}")
         t.append(data.time)
-        p.append(data.qpos[:3].copy())
-        v.append(data.qvel[:3].copy())  # a free joint's qvel: linear velocity first, world frame
+        p.append(data.qpos[q:q + 3].copy())
+        v.append(data.qvel[u:u + 3].copy())
         lifted.append(data.ncon == 0)
     samples = []
     with rollout.Rollout(nthread=0) as r:
@@ -405,15 +441,22 @@ def measure(case, t, p, v, lifted):
             if len(rest) == 0:
                 break
             k = j + 1 + int(rest[0])
-        first = apexes[0] if apexes else math.nan
-        exact = E**2 * DROP_H
+        apexes += [math.nan] * (3 - len(apexes))
         deepest = RADIUS - float(z.min())
-        more = ", ".join(
-            f"apex {i + 1} {a:.4f} m ({(a - E ** (2 * (i + 1)) * DROP_H) / (E ** (2 * (i + 1)) * DROP_H):+.1%})"
-            for i, a in enumerate(apexes[1:], start=1)
-        )
-        note = f"deepest {deepest:.2e} m" + (f"; {more}" if more else "")
-        return [("rebound apex, e = 0.5 [m]", first, exact, abs(first - exact) / exact, "rel", note)]
+        rows = []
+        for k, apex in enumerate(apexes, start=1):
+            exact = E ** (2 * k) * DROP_H
+            note = f"signed {(apex - exact) / exact:+.2%}"
+            if k == 1:
+                note += f"; deepest penetration {deepest:.2e} m"
+            rows.append((f"bounce apex {k}, e^{2 * k} h [m]", apex, exact,
+                         abs(apex - exact) / exact, "rel", note))
+        return rows
+    if case == "stack":
+        moved = p[-1] - p[0]
+        return [(f"stack of {STACK}: top moved 10 s [m]", float(np.linalg.norm(moved)), 0.0,
+                 float(np.linalg.norm(moved)), "abs",
+                 f"down {-moved[2]:.2e} m, sideways {float(np.hypot(moved[0], moved[1])):.1e} m")]
     raise ValueError(case)
 
 
@@ -421,12 +464,13 @@ def main():
     if len(sys.argv) not in (4, 5):
         sys.exit(__doc__)
     tumble, work, out = sys.argv[1:4]
-    integrators = (sys.argv[4] if len(sys.argv) == 5 else "euler,implicitfast").split(",")
+    integrators = (sys.argv[4] if len(sys.argv) == 5 else DEFAULT_INTEGRATORS).split(",")
     for name in integrators:
-        integrator, _, cone = name.partition(":")
-        if integrator not in INTEGRATORS or cone not in ("", "elliptic"):
+        integrator, *options = name.split(":")
+        if integrator not in INTEGRATORS or not set(options) <= {"elliptic", "noslip"}:
             sys.exit(f"unknown MuJoCo integrator {name!r} (one of {', '.join(INTEGRATORS)}, "
-                     "each optionally with :elliptic)")
+                     "each optionally with :elliptic and :noslip)")
+    load_before = os.getloadavg()[0]
     for kind in ("cube", "ball"):
         with open(f"{work}/{kind}.urdf", "w") as f:
             f.write(urdf(kind))
@@ -434,14 +478,16 @@ def main():
     for case in CASES:
         with open(f"{work}/{case}.toml", "w") as f:
             f.write(scene(case))
-        runs = [("tumble (variational)", run_tumble(tumble, work, case))]
+        runs = [("tumble variational", run_tumble(tumble, work, case))]
         for name in integrators:
-            runs.append((f"mujoco {mujoco.__version__} {name}", run_mujoco(work, case, name)))
+            runs.append((engine_label(name), run_mujoco(work, case, name)))
+        bodies = CASES[case][2]
         for engine, (t, p, v, lifted, ns) in runs:
             for quantity, value, exact, error, kind, note in measure(case, t, p, v, lifted):
                 rows.append({
                     "case": quantity, "engine": engine, "measured": value, "exact": exact,
-                    "error": error, "error_kind": kind, "us_per_step": ns / 1e3, "note": note,
+                    "error": error, "error_kind": kind, "ns_per_step": ns,
+                    "ns_per_body_step": ns / bodies, "bodies": bodies, "note": note,
                 })
             print(f"{case}: {engine} done", file=sys.stderr, flush=True)
     order = {}
@@ -452,7 +498,33 @@ def main():
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
+    print(f"tumble {tumble_version(tumble)} (variational, --threads 1) against MuJoCo "
+          f"{mujoco.__version__} (python bindings; mujoco.rollout, one thread), dt = {DT:g} s, "
+          f"{platform.machine()} {platform.system()}, {time.strftime('%Y-%m-%d')}")
+    print(f"cost: {COST_STEPS} steps per run, median of {REPEATS} runs; MuJoCo variants: "
+          + "; ".join(f"{n} = {describe(n)}" for n in integrators)
+          + f"; load average (1 min) {load_before:.2f} at the start, {os.getloadavg()[0]:.2f} at "
+          f"the end on {os.cpu_count()} cores")
+    print()
     table(rows)
+
+
+def engine_label(name):
+    integrator, *options = name.split(":")
+    return f"mujoco {integrator}" + ("".join(" " + o for o in options) if options else "") + (
+        " (default)" if integrator == "euler" and not options else "")
+
+
+def describe(name):
+    integrator, *options = name.split(":")
+    cone = "elliptic" if "elliptic" in options else "pyramidal (default)"
+    noslip = f"noslip_iterations {NOSLIP}" if "noslip" in options else "no noslip (default)"
+    return f"integrator {integrator}, {cone} cone, {noslip}"
+
+
+def tumble_version(tumble):
+    done = subprocess.run([tumble, "--version"], capture_output=True, text=True)
+    return done.stdout.strip().split()[-1] if done.returncode == 0 and done.stdout.strip() else "?"
 
 
 def fmt(x):
@@ -466,15 +538,14 @@ def fmt(x):
 
 
 def table(rows):
-    print(f"{'case':<28} {'engine':<36} {'measured':>11} {'exact':>10} {'error':>10} {'':>3} "
-          f"{'us/step':>8}  note")
-    last = None
+    """One Markdown table (readable as text too): per case, every engine's figure beside the
+    closed form, the error (abs: in the quantity's unit; rel: relative) and the cost."""
+    print("| case | engine | measured | closed form | error | ns/step | ns/body-step | note |")
+    print("|---|---|---:|---:|---:|---:|---:|---|")
     for r in rows:
-        if last is not None and r["case"] != last:
-            print()
-        last = r["case"]
-        print(f"{r['case']:<28} {r['engine']:<36} {fmt(r['measured']):>11} {fmt(r['exact']):>10} "
-              f"{fmt(r['error']):>10} {r['error_kind']:>3} {r['us_per_step']:>8.2f}  {r['note']}")
+        print(f"| {r['case']} | {r['engine']} | {fmt(r['measured'])} | {fmt(r['exact'])} | "
+              f"{fmt(r['error'])} {r['error_kind']} | {r['ns_per_step']:.0f} | "
+              f"{r['ns_per_body_step']:.0f} | {r['note']} |")
 
 
 if __name__ == "__main__":
