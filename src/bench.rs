@@ -175,7 +175,7 @@ pub fn measure_errors(
         .collect();
     let e0 = frames.total_energy();
     let mut l0 = Vec::new();
-    frames.conserved_angmom(&mut l0);
+    frames.conserved_angmom(&mut l0, &|_| false);
     let mut l = Vec::new();
     let (mut energy, mut angular, mut linear): (f64, f64, f64) = (0.0, 0.0, 0.0);
     let worst = |a: f64, b: f64| {
@@ -204,7 +204,7 @@ pub fn measure_errors(
             energy,
             (frames.total_energy() - e0).abs() / e0.abs().max(f64::MIN_POSITIVE),
         );
-        frames.conserved_angmom(&mut l);
+        frames.conserved_angmom(&mut l, &|_| false);
         for (a, b) in l.iter().zip(&l0) {
             angular = worst(angular, (a - b).norm() / b.norm().max(f64::MIN_POSITIVE));
         }

@@ -379,16 +379,18 @@ impl FrameBuilder {
     /// Angular momenta whose conservation the run summary checks, from the last frame built:
     /// every free body's (about its centre of mass) and every floating articulated model's
     /// total (about the model's centre of mass); fixed-base models are held by the world and
-    /// left out.
-    pub fn conserved_angmom(&self, out: &mut Vec<Vector3<f64>>) {
+    /// left out, and so are the bodies `touches` (those with colliders: contact exchanges
+    /// their momenta with the ground) and the models holding one.
+    pub fn conserved_angmom(&self, out: &mut Vec<Vector3<f64>>, touches: &dyn Fn(usize) -> bool) {
         out.clear();
         let last = self.last();
-        let mut in_mechanism = vec![false; last.bodies.len()];
+        let mut in_mechanism: Vec<bool> = (0..last.bodies.len()).map(touches).collect();
         for (k, (model, _)) in self.mechanisms.iter().enumerate() {
+            let collides = model.bodies().any(touches);
             for i in model.bodies() {
                 in_mechanism[i] = true;
             }
-            if model.base == crate::sim::mechanism::Base::Floating {
+            if model.base == crate::sim::mechanism::Base::Floating && !collides {
                 out.push(last.mechanisms[k].angular_momentum);
             }
         }

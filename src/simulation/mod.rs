@@ -167,7 +167,9 @@ impl Simulation {
         sim.build_frame();
         if articulated {
             sim.summary.energy_initial = sim.frames.total_energy();
-            sim.frames.conserved_angmom(&mut sim.angmom0);
+            let parts = &sim.parts;
+            sim.frames
+                .conserved_angmom(&mut sim.angmom0, &|i| parts.collides(i));
         }
         if settings.steps == 0 {
             sim.progress = Progress::Done;
@@ -350,7 +352,8 @@ impl Simulation {
             }
             summary.energy_final = self.frames.total_energy();
             let mut l = Vec::new();
-            self.frames.conserved_angmom(&mut l);
+            let parts = &self.parts;
+            self.frames.conserved_angmom(&mut l, &|i| parts.collides(i));
             l
         } else {
             let loads = &self.loads;

@@ -150,7 +150,7 @@ fn observe(
     angmom: &mut Vec<Vector3<f64>>,
 ) -> f64 {
     frames.frame(bodies, loads, step, dt);
-    frames.conserved_angmom(angmom);
+    frames.conserved_angmom(angmom, &|_| false);
     frames.total_energy()
 }
 

@@ -601,6 +601,7 @@ impl ContactPhase {
                 leave_n: 0.0,
                 w: Matrix3::zeros(),
                 w_inv: Matrix3::zeros(),
+                tangent_eigen: Default::default(),
                 lambda: Vector3::zeros(),
             };
             if !row.prepare(&self.responses) {

@@ -222,6 +222,9 @@ pub struct Row {
     /// The Delassus block `W = Cᵀ (K_a + K_b) C` and its inverse.
     pub w: Matrix3<f64>,
     pub w_inv: Matrix3<f64>,
+    /// The eigenvalues and eigenvectors of `W`'s tangential 2 × 2 block (for
+    /// [`friction_in_disk_eigen`]; set by [`Row::prepare`]).
+    pub tangent_eigen: (nalgebra::Vector2<f64>, nalgebra::Matrix2<f64>),
     /// The impulse on `a`, contact frame, N s.
     pub lambda: Vector3<f64>,
 }
@@ -251,6 +254,14 @@ impl Row {
         match self.w.try_inverse() {
             Some(inv) => {
                 self.w_inv = inv;
+                let w_tt = nalgebra::Matrix2::new(
+                    self.w[(1, 1)],
+                    self.w[(1, 2)],
+                    self.w[(2, 1)],
+                    self.w[(2, 2)],
+                );
+                let eig = nalgebra::SymmetricEigen::new(w_tt);
+                self.tangent_eigen = (eig.eigenvalues, eig.eigenvectors);
                 true
             }
             None => false,
@@ -315,7 +326,7 @@ impl Row {
         let limit = self.mu * lambda_n;
         // The tangential velocity with this contact's friction removed.
         let u0 = ut - w_tt * lt;
-        let t = friction_in_disk(&w_tt, &u0, limit);
+        let t = friction_in_disk_eigen(&self.tangent_eigen, &u0, limit);
         Vector3::new(lambda_n, t.x, t.y)
     }
 }
@@ -332,11 +343,20 @@ pub fn friction_in_disk(
     u0: &nalgebra::Vector2<f64>,
     limit: f64,
 ) -> nalgebra::Vector2<f64> {
+    let eig = nalgebra::SymmetricEigen::new(*w);
+    friction_in_disk_eigen(&(eig.eigenvalues, eig.eigenvectors), u0, limit)
+}
+
+/// [`friction_in_disk`] with `W`'s eigenvalues and eigenvectors given (a row computes them once).
+pub fn friction_in_disk_eigen(
+    eigen: &(nalgebra::Vector2<f64>, nalgebra::Matrix2<f64>),
+    u0: &nalgebra::Vector2<f64>,
+    limit: f64,
+) -> nalgebra::Vector2<f64> {
     if limit <= 0.0 || *u0 == nalgebra::Vector2::zeros() {
         return nalgebra::Vector2::zeros();
     }
-    let eig = nalgebra::SymmetricEigen::new(*w);
-    let (a, q) = (eig.eigenvalues, eig.eigenvectors);
+    let (a, q) = *eigen;
     let c = q.transpose() * u0;
     let norm_at = |g: f64| ((c.x / (a.x + g)).powi(2) + (c.y / (a.y + g)).powi(2)).sqrt();
     if a.x > 0.0 && a.y > 0.0 && norm_at(0.0) <= limit {
@@ -444,6 +464,9 @@ fn sweep(rows: &mut [Row], bodies: &mut Responses) -> (f64, f64, f64) {
 /// active set would cost more than the sweeps it saves).
 const POLISH_MAX_UNKNOWNS: usize = 400;
 
+/// Guesses of the active set an active-set solve tries at most.
+const POLISH_ATTEMPTS: usize = 8;
+
 /// How a row enters the active-set system.
 #[derive(Debug, Clone, Copy)]
 enum Mode {
@@ -457,9 +480,11 @@ enum Mode {
 }
 
 /// The active-set solve: the sweeps' guess of which contacts push, stick and slide, taken as
-/// exact and solved as the linear system it makes (`W` restricted to the active rows, a
-/// `1e-8 · max W_ii` diagonal shift for the redundant contacts of a face, dense LU), island
-/// by island of bodies joined by active contacts. Accepted only when every condition holds:
+/// exact and solved as the linear system it makes for the correction of the sweeps'
+/// impulses (`W` restricted to the active rows, a `1e-8 · max W_ii` diagonal shift for the
+/// redundant contacts of a face, dense LU: of the many ways redundant contacts can share an
+/// impulse, the one nearest the sweeps'), island by island of bodies joined by active
+/// contacts (a robot's bodies are one island). Accepted only when every condition holds:
 /// `λ_n ≥ 0`, sticking impulses inside their cones, open contacts separating. Returns whether
 /// every island was accepted; a rejected island keeps the sweeps' impulses.
 pub fn polish(rows: &mut [Row], bodies: &mut Responses) -> bool {
@@ -504,7 +529,7 @@ pub fn polish(rows: &mut [Row], bodies: &mut Responses) -> bool {
 
 /// [`polish`] on the rows `members` (one island).
 fn polish_island(rows: &mut [Row], bodies: &mut Responses, members: &[usize]) -> bool {
-    let modes: Vec<Mode> = members
+    let mut modes: Vec<Mode> = members
         .iter()
         .map(|&i| {
             let r = &rows[i];
@@ -519,87 +544,50 @@ fn polish_island(rows: &mut [Row], bodies: &mut Responses, members: &[usize]) ->
             }
         })
         .collect();
-    // Unknowns: 3 per sticking row, 1 per sliding row.
-    let mut offset = Vec::with_capacity(members.len());
-    let mut n = 0;
-    for m in &modes {
-        offset.push(n);
-        n += match m {
-            Mode::Open => 0,
-            Mode::Stick => 3,
-            Mode::Slide(..) => 1,
-        };
+    let all_open = |modes: &[Mode]| modes.iter().all(|m| matches!(m, Mode::Open));
+    if all_open(&modes) {
+        return true;
     }
-    if n == 0 || n > POLISH_MAX_UNKNOWNS {
-        return n == 0;
-    }
-    // λ_j = S_j x_j, and row i's equations P_i (u_free_i + Σ_j W_ij S_j x_j − b_i) = 0.
-    let select = |m: &Mode, mu: f64| -> nalgebra::DMatrix<f64> {
-        match *m {
-            Mode::Stick => nalgebra::DMatrix::identity(3, 3),
-            Mode::Slide(d1, d2) => {
-                nalgebra::DMatrix::from_column_slice(3, 1, &[1.0, mu * d1, mu * d2])
-            }
-            Mode::Open => nalgebra::DMatrix::zeros(3, 0),
-        }
-    };
-    let mut a = nalgebra::DMatrix::<f64>::zeros(n, n);
-    let mut rhs = nalgebra::DVector::<f64>::zeros(n);
-    for (ii, &i) in members.iter().enumerate() {
-        let eq = match modes[ii] {
-            Mode::Open => continue,
-            Mode::Stick => 3,
-            Mode::Slide(..) => 1,
-        };
-        let ri = &rows[i];
-        let b = Vector3::new(ri.target_n, 0.0, 0.0) - ri.u_free;
-        for e in 0..eq {
-            rhs[offset[ii] + e] = b[e];
-        }
-        for (jj, &j) in members.iter().enumerate() {
-            if matches!(modes[jj], Mode::Open) {
-                continue;
-            }
-            let rj = &rows[j];
-            let w = coupling(ri, rj, bodies);
-            if w == Matrix3::zeros() {
-                continue;
-            }
-            let block = nalgebra::DMatrix::from_column_slice(3, 3, w.as_slice())
-                * select(&modes[jj], rj.mu);
-            for e in 0..eq {
-                for c in 0..block.ncols() {
-                    a[(offset[ii] + e, offset[jj] + c)] += block[(e, c)];
-                }
-            }
-        }
-    }
-    let shift = 1e-8 * (0..n).map(|k| a[(k, k)].abs()).fold(0.0, f64::max);
-    for k in 0..n {
-        a[(k, k)] += shift;
-    }
-    let Some(x) = a.lu().solve(&rhs) else {
-        return false;
-    };
-    // The candidate, checked before it replaces the sweeps' impulses.
-    let candidate: Vec<Vector3<f64>> = members
-        .iter()
-        .enumerate()
-        .map(|(ii, &i)| match modes[ii] {
-            Mode::Open => Vector3::zeros(),
-            Mode::Stick => Vector3::new(x[offset[ii]], x[offset[ii] + 1], x[offset[ii] + 2]),
-            Mode::Slide(d1, d2) => {
-                let l = x[offset[ii]];
-                Vector3::new(l, rows[i].mu * d1 * l, rows[i].mu * d2 * l)
-            }
-        })
-        .collect();
-    for (ii, l) in candidate.iter().enumerate() {
-        let mu = rows[members[ii]].mu;
-        if l.x < 0.0 || (l.y * l.y + l.z * l.z).sqrt() > mu * l.x * (1.0 + 1e-9) + 1e-300 {
+    // The guess adjusted while the solve contradicts it: a pushing contact that would pull
+    // opens, a sticking one outside its cone slides along its friction (an active-set
+    // method; a face's redundant corners need it: of their many solutions, the nearest may
+    // pull at one corner).
+    let mut candidate = None;
+    // Rows the loop made slide: their slip must come out opposite their friction.
+    let mut made_to_slide = vec![false; members.len()];
+    for _ in 0..POLISH_ATTEMPTS {
+        if all_open(&modes) {
             return false;
         }
+        let Some(c) = solve_modes(rows, bodies, members, &modes) else {
+            return false;
+        };
+        let mut changed = false;
+        for (ii, l) in c.iter().enumerate() {
+            let mu = rows[members[ii]].mu;
+            let t = (l.y * l.y + l.z * l.z).sqrt();
+            match modes[ii] {
+                Mode::Open => {}
+                _ if l.x < 0.0 => {
+                    modes[ii] = Mode::Open;
+                    changed = true;
+                }
+                Mode::Stick if t > mu * l.x * (1.0 + 1e-9) + 1e-300 => {
+                    modes[ii] = Mode::Slide(l.y / t, l.z / t);
+                    made_to_slide[ii] = true;
+                    changed = true;
+                }
+                _ => {}
+            }
+        }
+        if !changed {
+            candidate = Some(c);
+            break;
+        }
     }
+    let Some(candidate) = candidate else {
+        return false;
+    };
     // Swap in the candidate, then check the open contacts separate.
     let old: Vec<Vector3<f64>> = members.iter().map(|&i| rows[i].lambda).collect();
     for (ii, &i) in members.iter().enumerate() {
@@ -610,11 +598,18 @@ fn polish_island(rows: &mut [Row], bodies: &mut Responses, members: &[usize]) ->
         }
     }
     let scale = candidate.iter().map(|l| l.x).fold(0.0, f64::max);
-    let ok = members.iter().enumerate().all(|(ii, &i)| {
-        !matches!(modes[ii], Mode::Open) || {
+    let ok = members.iter().enumerate().all(|(ii, &i)| match modes[ii] {
+        Mode::Open => {
             let u = rows[i].velocity(bodies);
             u.x >= rows[i].target_n - 1e-9 * (1.0 + scale)
         }
+        Mode::Slide(d1, d2) if made_to_slide[ii] => {
+            // Maximum dissipation: the slip `u_t` along `−d`.
+            let u = rows[i].velocity(bodies);
+            let slip = (u.y * u.y + u.z * u.z).sqrt();
+            slip <= 1e-12 || (u.y * d1 + u.z * d2) <= -(1.0 - 1e-9) * slip
+        }
+        _ => true,
     });
     if !ok {
         for (ii, &i) in members.iter().enumerate() {
@@ -626,6 +621,113 @@ fn polish_island(rows: &mut [Row], bodies: &mut Responses, members: &[usize]) ->
         }
     }
     ok
+}
+
+/// The impulses of the rows `members` (one island) if every one were in its mode `modes`
+/// (the linear system [`polish`] describes); `None` without unknowns, with too many, or when
+/// the system is singular.
+fn solve_modes(
+    rows: &[Row],
+    bodies: &Responses,
+    members: &[usize],
+    modes: &[Mode],
+) -> Option<Vec<Vector3<f64>>> {
+    // Unknowns: 3 per sticking row, 1 per sliding row.
+    let mut offset = Vec::with_capacity(members.len());
+    let mut n = 0;
+    for m in modes {
+        offset.push(n);
+        n += match m {
+            Mode::Open => 0,
+            Mode::Stick => 3,
+            Mode::Slide(..) => 1,
+        };
+    }
+    if n == 0 || n > POLISH_MAX_UNKNOWNS {
+        return None;
+    }
+    // λ_j = S_j x_j, and row i's equations P_i (u_free_i + Σ_j W_ij S_j x_j − b_i) = 0.
+    let select = |m: &Mode, mu: f64| -> nalgebra::DMatrix<f64> {
+        match *m {
+            Mode::Stick => nalgebra::DMatrix::identity(3, 3),
+            Mode::Slide(d1, d2) => {
+                nalgebra::DMatrix::from_column_slice(3, 1, &[1.0, mu * d1, mu * d2])
+            }
+            Mode::Open => nalgebra::DMatrix::zeros(3, 0),
+        }
+    };
+    // The reference the correction starts from: the sweeps' normal impulses with the sticking
+    // contacts' friction taken out (a sliding one's is fixed by its normal). Of the ways
+    // redundant contacts can share their impulses — the four corners of a face, a robot's
+    // feet — the solve then picks the one nearest the sweeps' normals with the least friction:
+    // no internal friction stress accumulating from step to step (the sweeps' warm starts
+    // would carry it towards the cones' edges).
+    let reference: Vec<Vector3<f64>> = members
+        .iter()
+        .enumerate()
+        .map(|(ii, &i)| match modes[ii] {
+            Mode::Open => Vector3::zeros(),
+            Mode::Stick => Vector3::new(rows[i].lambda.x, 0.0, 0.0),
+            Mode::Slide(d1, d2) => {
+                let l = rows[i].lambda.x;
+                Vector3::new(l, rows[i].mu * d1 * l, rows[i].mu * d2 * l)
+            }
+        })
+        .collect();
+    let mut a = nalgebra::DMatrix::<f64>::zeros(n, n);
+    let mut rhs = nalgebra::DVector::<f64>::zeros(n);
+    for (ii, &i) in members.iter().enumerate() {
+        let eq = match modes[ii] {
+            Mode::Open => continue,
+            Mode::Stick => 3,
+            Mode::Slide(..) => 1,
+        };
+        let ri = &rows[i];
+        // The velocity still missing from the reference: `b − u(λ) + Σ_j W_ij (λ_j − ref_j)`.
+        let mut b = Vector3::new(ri.target_n, 0.0, 0.0) - ri.velocity(bodies);
+        for (jj, &j) in members.iter().enumerate() {
+            if matches!(modes[jj], Mode::Open) {
+                continue;
+            }
+            let rj = &rows[j];
+            let w = coupling(ri, rj, bodies);
+            if w == Matrix3::zeros() {
+                continue;
+            }
+            b += w * (rj.lambda - reference[jj]);
+            let block = nalgebra::DMatrix::from_column_slice(3, 3, w.as_slice())
+                * select(&modes[jj], rj.mu);
+            for e in 0..eq {
+                for c in 0..block.ncols() {
+                    a[(offset[ii] + e, offset[jj] + c)] += block[(e, c)];
+                }
+            }
+        }
+        for e in 0..eq {
+            rhs[offset[ii] + e] = b[e];
+        }
+    }
+    let shift = 1e-8 * (0..n).map(|k| a[(k, k)].abs()).fold(0.0, f64::max);
+    for k in 0..n {
+        a[(k, k)] += shift;
+    }
+    let x = a.lu().solve(&rhs)?;
+    // The candidate, checked before it replaces the sweeps' impulses.
+    let candidate: Vec<Vector3<f64>> = members
+        .iter()
+        .enumerate()
+        .map(|(ii, &i)| match modes[ii] {
+            Mode::Open => Vector3::zeros(),
+            Mode::Stick => {
+                reference[ii] + Vector3::new(x[offset[ii]], x[offset[ii] + 1], x[offset[ii] + 2])
+            }
+            Mode::Slide(d1, d2) => {
+                let l = reference[ii].x + x[offset[ii]];
+                Vector3::new(l, rows[i].mu * d1 * l, rows[i].mu * d2 * l)
+            }
+        })
+        .collect();
+    Some(candidate)
 }
 
 /// `W_ij`: the velocity of contact `i` (its frame) per unit impulse of contact `j` (its
@@ -712,6 +814,7 @@ mod tests {
             leave_n: 0.0,
             w: Matrix3::zeros(),
             w_inv: Matrix3::zeros(),
+            tangent_eigen: Default::default(),
             lambda: Vector3::zeros(),
         };
         assert!(row.prepare(&bodies));
