@@ -241,8 +241,8 @@ pub fn contact_frame(n: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 impl Row {
-    /// Fills `w` and `w_inv` from the bodies' responses; `false` when the block is singular
-    /// (two bodies that cannot move).
+    /// Fills `w` (and `w_inv` where it exists) from the bodies' responses; `false` when the
+    /// bodies cannot move along the normal (two bodies that cannot move, a robot's joints).
     pub fn prepare(&mut self, bodies: &Responses) -> bool {
         let mut k = bodies.block(self.a, &self.r_a, self.a, &self.r_a);
         if let Some(b) = self.b {
@@ -251,21 +251,21 @@ impl Row {
                 - bodies.block(b, &self.r_b, self.a, &self.r_a);
         }
         self.w = self.frame.transpose() * k * self.frame;
-        match self.w.try_inverse() {
-            Some(inv) => {
-                self.w_inv = inv;
-                let w_tt = nalgebra::Matrix2::new(
-                    self.w[(1, 1)],
-                    self.w[(1, 2)],
-                    self.w[(2, 1)],
-                    self.w[(2, 2)],
-                );
-                let eig = nalgebra::SymmetricEigen::new(w_tt);
-                self.tangent_eigen = (eig.eigenvalues, eig.eigenvectors);
-                true
-            }
-            None => false,
+        // A normal the bodies cannot move along (a robot's joints hold it): nothing to solve.
+        if self.w[(0, 0)] <= 1e-12 * self.w.amax() {
+            return false;
         }
+        // Singular for a robot that can move its contact point in fewer than three directions.
+        self.w_inv = self.w.try_inverse().unwrap_or_else(Matrix3::zeros);
+        let w_tt = nalgebra::Matrix2::new(
+            self.w[(1, 1)],
+            self.w[(1, 2)],
+            self.w[(2, 1)],
+            self.w[(2, 2)],
+        );
+        let eig = nalgebra::SymmetricEigen::new(w_tt);
+        self.tangent_eigen = (eig.eigenvalues, eig.eigenvectors);
+        true
     }
 
     /// The contact's velocity over the step with the impulses so far, contact frame.
@@ -356,7 +356,17 @@ pub fn friction_in_disk_eigen(
     if limit <= 0.0 || *u0 == nalgebra::Vector2::zeros() {
         return nalgebra::Vector2::zeros();
     }
-    let (a, q) = *eigen;
+    let (mut a, q) = *eigen;
+    // A direction the contact cannot move in (a robot's joints forbid it: `W` singular) keeps
+    // its slip whatever the friction; its eigenvalue, zero up to round-off, is raised to
+    // `1e-12` of the other so that the secular equation stays finite (the friction along it
+    // then opposes the slip at the limit, as maximum dissipation asks).
+    let top = a.x.max(a.y);
+    if top <= 0.0 {
+        return nalgebra::Vector2::zeros();
+    }
+    a.x = a.x.max(1e-12 * top);
+    a.y = a.y.max(1e-12 * top);
     let c = q.transpose() * u0;
     let norm_at = |g: f64| ((c.x / (a.x + g)).powi(2) + (c.y / (a.y + g)).powi(2)).sqrt();
     if a.x > 0.0 && a.y > 0.0 && norm_at(0.0) <= limit {
