@@ -421,11 +421,67 @@ pub fn solve(
     rel_tol: f64,
     max_sweeps: u32,
 ) -> SolveStats {
-    let mut stats = SolveStats::default();
+    let mut stats = SolveStats {
+        sweeps: 0,
+        converged: true,
+    };
     if rows.is_empty() {
-        stats.converged = true;
         return stats;
     }
+    // Island by island (rows joined by the bodies they move; a robot's bodies are one): each
+    // stops when it is solved, and a pile does not make a lone resting box sweep on. The rows
+    // are grouped by island for the solve, in one order, then put back in theirs.
+    let mut parent: Vec<usize> = (0..bodies.bodies.len()).collect();
+    for i in 0..parent.len() {
+        union(&mut parent, i, bodies.island_seed(i));
+    }
+    for row in rows.iter() {
+        if let Some(b) = row.b {
+            union(&mut parent, row.a, b);
+        }
+    }
+    let roots: Vec<usize> = (0..parent.len()).map(|i| find(&mut parent, i)).collect();
+    rows.sort_by_key(|r| (roots[r.a], r.source));
+    let mut start = 0;
+    while start < rows.len() {
+        let key = roots[rows[start].a];
+        let len = rows[start..]
+            .iter()
+            .position(|r| roots[r.a] != key)
+            .unwrap_or(rows.len() - start);
+        let island = solve_island(&mut rows[start..start + len], bodies, rel_tol, max_sweeps);
+        stats.sweeps = stats.sweeps.max(island.sweeps);
+        stats.converged &= island.converged;
+        start += len;
+    }
+    rows.sort_by_key(|r| r.source);
+    stats
+}
+
+/// The root of `i` in the union-find forest `parent` (halving the path).
+fn find(parent: &mut [usize], mut i: usize) -> usize {
+    while parent[i] != i {
+        parent[i] = parent[parent[i]];
+        i = parent[i];
+    }
+    i
+}
+
+/// Joins the trees of `a` and `b` under the smaller root.
+fn union(parent: &mut [usize], a: usize, b: usize) {
+    let (ra, rb) = (find(parent, a), find(parent, b));
+    let (lo, hi) = (ra.min(rb), ra.max(rb));
+    parent[hi] = lo;
+}
+
+/// [`solve`] on one island's rows.
+fn solve_island(
+    rows: &mut [Row],
+    bodies: &mut Responses,
+    rel_tol: f64,
+    max_sweeps: u32,
+) -> SolveStats {
+    let mut stats = SolveStats::default();
     // The velocities the rows ask for: the scale of the velocity criterion.
     let velocity_scale = rows
         .iter()
