@@ -6,7 +6,8 @@ random positions overlap (10 000 bodies a few metres up would start in about a h
 overlapping pairs); a grid never does.
 
 Usage: python3 scripts/make_contact_rain.py > DIR/contact_rain.toml  (beside links to models/cube.urdf and
-models/ball.urdf; scripts/contact_cost.sh writes it into target/contact_rain/)
+models/ball.urdf). The bundled models/large/contact_rain.toml is its output with the URDF paths made
+`../cube.urdf` and `../ball.urdf` (scripts/contact_cost.sh says how).
 """
 
 import math
