@@ -23,10 +23,10 @@ threads="${THREADS:-$(nproc)}"
 [ -f "$scene" ] || { echo "error: no scene $scene" >&2; exit 1; }
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
-# The free scene sits beside links to the scene folder's URDFs (its paths are relative to it).
-for f in "$(cd "$(dirname "$scene")" && pwd)"/*.urdf; do ln -s "$f" "$work/"; done
 free="$work/free.toml"
-awk '
+# The free scene lives elsewhere: its relative URDF paths are made absolute (against the scene's folder).
+awk -v dir="$(cd "$(dirname "$scene")" && pwd)" '
+  /^[[:space:]]*urdf[[:space:]]*=[[:space:]]*"[^\/]/ { sub(/"/, "\"" dir "/") }
   /^[[:space:]]*\[/ { table = $0; gsub(/[[:space:]]/, "", table) }
   table == "[ground]" { next }
   table == "[[model]]" && /^[[:space:]]*(collisions|friction|restitution|self_collision)[[:space:]]*=/ { next }
