@@ -246,6 +246,18 @@ impl Guard {
         }
     }
 
+    /// Exempts the articulated models holding body `local` (an index of this guard's batch)
+    /// from the energy test: contact changes their kinetic energy (a landing robot's fall
+    /// turns into its legs' motion), as inputs do; like driven models they are watched for
+    /// finiteness only.
+    pub fn exempt_mechanism_of(&mut self, local: usize) {
+        for w in &mut self.mechanisms {
+            if w.bodies.contains(&local) {
+                w.reference = 0.0;
+            }
+        }
+    }
+
     /// The per-body test ([`Watch`]), for an integrator that runs it inside its step.
     pub fn watch(&self) -> &Watch {
         &self.watch

@@ -348,6 +348,7 @@ impl<'a> Partitions<'a> {
         for c in &model.colliders {
             let part = &mut self.parts[locate(c.body, self.uniform, &self.starts)];
             part.guard.exempt_bodies([c.body - part.first]);
+            part.guard.exempt_mechanism_of(c.body - part.first);
         }
         let mut robots = Vec::new();
         let mut settings = None;

@@ -370,3 +370,61 @@ fn solo12_stands_on_its_servos_for_ten_seconds() {
     assert!(slip <= 1e-6, "{slip:e}");
     assert!(imbalance <= 1e-6, "{imbalance:e}");
 }
+
+/// Twenty hinged pairs dropped tilted onto the ground (and onto each other) step to the same
+/// bits on one thread and on three (five partitions, cut between the pairs): the contact phase
+/// runs on the whole batch in one order, each robot's prediction on its own state.
+#[test]
+fn robots_in_contact_step_the_same_bits_on_any_thread_count() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("hinge2.urdf"), HINGE2).unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(
+        &path,
+        "[sim]\ndt = 0.001\nduration = 1.0\ngravity = [0.0, 0.0, -9.81]\n\
+         [ground]\nheight = 0.0\nfriction = 0.8\n\
+         [[model]]\nurdf = \"hinge2.urdf\"\nbodies = \"articulated\"\ncopies = 20\nseed = 7\n\
+         position = { uniform = [[-2.0, -2.0, 0.3], [2.0, 2.0, 0.8]] }\n\
+         rpy = { uniform = [[-0.5, -0.5, 0.0], [0.5, 0.5, 3.0]] }\n\
+         angvel = { uniform = [[-2.0, -2.0, -2.0], [2.0, 2.0, 2.0]] }\ncollisions = \"urdf\"\n",
+    )
+    .unwrap();
+    let scene = Scene::load(&path).unwrap();
+    let world = scene.build().unwrap();
+    let run = |threads: usize| {
+        let mut sim = Simulation::of_world(
+            &world,
+            scene.integrator(),
+            scene.sim.dt,
+            &scene.variational_settings(),
+            threads,
+            &scene.run_settings(),
+        )
+        .unwrap();
+        let parts = sim.partitions().parts.len();
+        let mut touching = 0;
+        for _ in 0..1000 {
+            sim.advance(1).unwrap();
+            touching = touching.max(sim.partitions().contacts().len());
+        }
+        let summary = sim.summary();
+        assert_eq!(summary.stopped, None, "{summary:?}");
+        let view = sim.view();
+        let poses: Vec<[u64; 7]> = (0..view.len())
+            .map(|i| {
+                let p = view.world_from_body(i);
+                let t = p.translation.vector;
+                let q = p.rotation.coords;
+                [t.x, t.y, t.z, q.x, q.y, q.z, q.w].map(f64::to_bits)
+            })
+            .collect();
+        (parts, touching, poses)
+    };
+    let (parts1, touching, one) = run(1);
+    let (parts3, _, three) = run(3);
+    eprintln!("{parts1} and {parts3} partitions, up to {touching} contacts");
+    assert_eq!(parts1, 1);
+    assert!(parts3 > 1, "{parts3}");
+    assert!(touching >= 40, "{touching}");
+    assert!(one == three, "the same bits on 1 and 3 threads");
+}

@@ -24,6 +24,9 @@ use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Translation3, UnitQuaternio
 /// gap is that far off), is closed: held by the end projection, m.
 const CLOSED_M: f64 = 1e-9;
 
+/// The fastest a penetration is pushed out, m/s (see [`ContactPhase::start`]'s targets).
+const PUSH_OUT_M_PER_S: f64 = 1.0;
+
 /// A contact's identity from one step to the next: its colliders and touching features.
 type Key = (u32, u32, u64);
 
@@ -633,7 +636,10 @@ impl ContactPhase {
                 .b
                 .map_or(Vector3::zeros(), |b| displacement(&self.slots[b], &row.r_b));
             row.u_free = row.frame.transpose() * (dx_a - dx_b) / h;
-            let mut target_n = -raw.gap_m / h;
+            // A penetration (bodies placed overlapping) is pushed out at most at
+            // `PUSH_OUT_M_PER_S`: a 1 mm overlap in one step of 1 ms, a deep one over several
+            // steps, not in one step at `gap / h` (10 cm in 1 ms would be 100 m/s).
+            let mut target_n = (-raw.gap_m / h).min(PUSH_OUT_M_PER_S);
             let approach = -row.u_free.x;
             let mut leave_n = 0.0;
             if row.restitution > 0.0 && approach > bounce_min {
