@@ -431,6 +431,7 @@ fn shared_model(
         coordinates,
         mimics,
         drives: Vec::new(),
+        stops: Vec::new(),
         base: if fixed { Base::Fixed } else { Base::Floating },
         length_scale,
     };

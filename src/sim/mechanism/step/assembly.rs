@@ -178,7 +178,10 @@ impl Workspace {
         }
         self.coord_next = values;
         let drives = self.drive_rows_end(model, h, tol).map_err(|f| (f, 0))?;
-        Ok(ratio.max(drives))
+        let stops = self
+            .stop_rows_end(model, h, tol, len_tol, dot_tol)
+            .map_err(|f| (f, 0))?;
+        Ok(ratio.max(drives).max(stops))
     }
 }
 

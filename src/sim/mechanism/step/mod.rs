@@ -40,11 +40,15 @@ mod drive_tests;
 mod drives;
 mod newton;
 #[cfg(test)]
+mod stop_tests;
+mod stops;
+#[cfg(test)]
 pub(crate) mod tests;
 mod warm;
 mod workspace;
 
 pub use drives::DriveWork;
+pub use stops::StopRows;
 pub use warm::Warm;
 pub use workspace::Workspace;
 
