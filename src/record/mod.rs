@@ -316,6 +316,10 @@ pub struct JointState {
     pub target: Option<f64>,
     /// Whether the actuator's effort limit clamped the effort at the sample.
     pub saturated: bool,
+    /// Whether the joint is at a bound of its URDF range with its limit on (within 1e-9 of
+    /// the bound, relative to `1 + |bound|`): the limit is what holds it there (joint limits,
+    /// `crate::sim::mechanism::stop`). `false` for a joint without an enforced limit.
+    pub at_limit: bool,
 }
 
 /// One articulated model's totals at a recorded step, world frame, SI units (from the momenta

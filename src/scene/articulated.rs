@@ -203,6 +203,7 @@ fn prepare(
         actuators,
         &merged,
     )?;
+    shared.stops = super::drives::stops(model, entry, &label, &shared, &mut world.notes)?;
     shared
         .validate()
         .map_err(|e| anyhow::anyhow!("internal error driving model `{}`: {e}", model.name))?;
