@@ -69,6 +69,12 @@ pub struct RecordingLayout {
     /// [`Frame::contacts`]. Filled, with [`Self::ground`], by
     /// `crate::world::World::describe_contact`.
     pub contacts: bool,
+    /// The joints whose URDF limit is enforced (joint limits, issue 31): indices into
+    /// [`Self::joints`], increasing; empty when none is. It decides which joints carry
+    /// [`JointState::at_limit`] in the recordings (a Rerun series, an MCAP field), so a
+    /// recording without limits keeps those bytes. Filled by
+    /// `crate::world::World::describe_drives`.
+    pub limited: Vec<usize>,
 }
 
 /// The ground of a scene as the recordings draw it: the plane through [`Self::point`] with
