@@ -237,7 +237,8 @@ impl MechanismModel {
                 return Err("stops not sorted by coordinate, or two on one".into());
             }
             if !(s.friction >= 0.0 && s.friction.is_finite())
-                || s.limits.is_some_and(|[lo, hi]| !(lo < hi))
+                || s.limits
+                    .is_some_and(|[lo, hi]| lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less))
             {
                 return Err(format!("joint {:?}: invalid limit or friction", c.name));
             }
