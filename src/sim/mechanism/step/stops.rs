@@ -94,10 +94,19 @@ impl Workspace {
         let mut ratio: f64 = 0.0;
         for (k, s) in model.stops.iter().enumerate() {
             let (j, row) = self.stops.slot[k];
-            let (theta, ga, gb) = self.coordinate_gradient(model, &self.pose_next, s.coordinate)?;
-            self.stops.theta_next[k] = theta;
-            let nu = self.lambda[j][row];
             let mode = self.stops.mode[k];
+            // An impulse row needs no end gradient, and `θ_{k+1}` only once Newton has
+            // converged ([`Self::stops_switch`], [`Self::stop_commit`]): NaN until then.
+            let (ga, gb) = if mode.holds_position() {
+                let (theta, ga, gb) =
+                    self.coordinate_gradient(model, &self.pose_next, s.coordinate)?;
+                self.stops.theta_next[k] = theta;
+                (ga, gb)
+            } else {
+                self.stops.theta_next[k] = f64::NAN;
+                (Row6::zeros(), Row6::zeros())
+            };
+            let nu = self.lambda[j][row];
             let theta_k = self.stops.theta_k[k];
             let theta_tol = if model.coordinates[s.coordinate].is_linear {
                 len_tol
@@ -116,14 +125,14 @@ impl Workspace {
                 };
                 jp.set_row(row, &ga);
                 jc.set_row(row, &gb);
-                (theta - target, 0.0, theta_tol)
+                (self.stops.theta_next[k] - target, 0.0, theta_tol)
             } else {
                 let target = match mode {
                     StopMode::Slide(dir) => -f64::from(dir) * hold,
                     _ => 0.0,
                 };
-                jp.set_row(row, &Row6::zeros());
-                jc.set_row(row, &Row6::zeros());
+                jp.set_row(row, &ga);
+                jc.set_row(row, &gb);
                 let child = model.joints[j].child;
                 let scale = nu.abs().max(hold).max(self.impulse_scale[child]);
                 (nu - target, 1.0, tol * scale)
@@ -135,9 +144,25 @@ impl Workspace {
         Ok(ratio)
     }
 
+    /// `θ_{k+1}` of the stops whose rows did not evaluate it (impulse rows), at the current
+    /// end poses.
+    fn stops_theta_next(&mut self, model: &Mechanism) -> Result<(), Failure> {
+        for (k, s) in model.stops.iter().enumerate() {
+            if self.stops.theta_next[k].is_nan() {
+                let (theta, _, _) =
+                    self.coordinate_gradient(model, &self.pose_next, s.coordinate)?;
+                self.stops.theta_next[k] = theta;
+            }
+        }
+        Ok(())
+    }
+
     /// The active set: each stop's next mode from the converged iterate; `true` when any
     /// changed (the step must be solved again).
     pub(super) fn stops_switch(&mut self, model: &Mechanism, h: f64, tol: f64) -> bool {
+        if self.stops_theta_next(model).is_err() {
+            return false;
+        }
         let mut changed = false;
         for (k, s) in model.stops.iter().enumerate() {
             let (j, row) = self.stops.slot[k];
@@ -172,10 +197,16 @@ impl Workspace {
     /// `F |Δθ|` (to O(h)), and the two steps of an impact (the one that reaches the bound, the
     /// one that stops there) the kinetic energy at impact (to O(h)).
     pub(super) fn stop_commit(&mut self, model: &Mechanism, h: f64) {
+        // A NaN θ_{k+1} (not evaluated) would poison the references: keep θ_k then.
+        let _ = self.stops_theta_next(model);
         for (k, s) in model.stops.iter().enumerate() {
             let (j, row) = self.stops.slot[k];
             let nu = self.lambda[j][row];
-            let theta_next = self.stops.theta_next[k];
+            let theta_next = if self.stops.theta_next[k].is_finite() {
+                self.stops.theta_next[k]
+            } else {
+                self.stops.theta_k[k]
+            };
             let rate = (theta_next - self.stops.theta_k[k]) / h;
             let before = self.stops.rate_prev[k];
             self.stops.rate_prev[k] = rate;
