@@ -10,10 +10,10 @@
 //!
 //! ```text
 //! free        ν = 0                                       (F = 0, no limit reached)
-//! stick       θ_{k+1} − θ_k = 0,          |ν| ≤ F h        (static friction)
-//! slide(s)    ν = −s F h,                 s (θ_{k+1} − θ_k) > 0   (Coulomb friction, s = ±1)
-//! upper       θ_{k+1} = max(upper, θ_k),  ν ≤ F h          (the limit holds the joint)
-//! lower       θ_{k+1} = min(lower, θ_k),  ν ≥ −F h
+//! stick       θ_{k+1} − θ_k = 0,          |ν/h| ≤ F        (static friction)
+//! slide(s)    ν = −s F h,                 s (θ_{k+1} − θ_k)/h > 0   (Coulomb, s = ±1)
+//! upper       θ_{k+1} = upper,            ν/h ≤ F          (the limit holds the joint)
+//! lower       θ_{k+1} = lower,            ν/h ≥ −F
 //! ```
 //!
 //! A limit is a position-level, SHAKE-like one-sided constraint: the impulse that keeps
@@ -113,6 +113,9 @@ impl JointStop {
     ) -> Option<StopMode> {
         let [lo, hi] = self.bounds(theta_k, theta_tol);
         let hold = self.friction * h.abs();
+        // `ν sgn(h) = τ |h|` with `τ = ν / h` the torque the row applied: the rules compare
+        // torques, so they hold for the negative steps of the compositions too.
+        let nu = nu * h.signum();
         let moving = |s: i8| {
             if self.friction > 0.0 {
                 StopMode::Slide(s)
@@ -222,6 +225,27 @@ mod tests {
         assert_eq!(
             next(StopMode::Lower, -1.0, -1.0, -1.1 * hold),
             Some(StopMode::Slide(1))
+        );
+        // A negative step (the compositions' middle stage): the rules compare the torque
+        // ν / h, so the same load slides the same way.
+        let back = |m, tk, tn, nu| f.next_mode(m, tk, tn, nu, -h, 1e-9, 1e-12);
+        assert_eq!(
+            back(StopMode::Stick, 0.0, 0.0, -1.1 * hold),
+            Some(StopMode::Slide(-1))
+        );
+        assert_eq!(
+            back(StopMode::Stick, 0.0, 0.0, 1.1 * hold),
+            Some(StopMode::Slide(1))
+        );
+        assert_eq!(back(StopMode::Slide(1), 0.0, -0.1, hold), None);
+        assert_eq!(
+            back(StopMode::Slide(1), 0.0, 0.1, hold),
+            Some(StopMode::Stick)
+        );
+        assert_eq!(back(StopMode::Upper, 1.0, 1.0, 0.5), None);
+        assert_eq!(
+            back(StopMode::Upper, 1.0, 1.0, -0.5),
+            Some(StopMode::Slide(-1))
         );
         assert!(StopMode::Stick.holds_position() && !StopMode::Slide(1).holds_position());
         assert!(StopMode::Upper.at_limit() && !StopMode::Stick.at_limit());

@@ -128,7 +128,7 @@ impl Workspace {
                 (self.stops.theta_next[k] - target, 0.0, theta_tol)
             } else {
                 let target = match mode {
-                    StopMode::Slide(dir) => -f64::from(dir) * hold,
+                    StopMode::Slide(dir) => -f64::from(dir) * s.friction * h,
                     _ => 0.0,
                 };
                 jp.set_row(row, &ga);
