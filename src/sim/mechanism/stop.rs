@@ -165,6 +165,47 @@ mod tests {
         }
     }
 
+    /// The hysteresis: a bound or a friction limit exactly at its tolerance does not switch a
+    /// mode (and within it neither), just past it does; the sliding direction is read from
+    /// `θ_{k+1} − θ_k` wherever the joint is.
+    #[test]
+    fn modes_switch_only_past_the_tolerances() {
+        let (h, tt, nt) = (0.01, 1e-9, 1e-12);
+        let s = stop(Some([-1.0, 1.0]), 0.0);
+        // A joint within the slack of a bound keeps the bound; exactly at the slack too.
+        assert_eq!(s.bounds(-1.0 - tt, tt), [-1.0, 1.0]);
+        assert_eq!(s.bounds(-1.0 - 0.5 * tt, tt), [-1.0, 1.0]);
+        assert_eq!(s.bounds(1.0 + tt, tt), [-1.0, 1.0]);
+        assert_eq!(s.bounds(1.0 + 0.5 * tt, tt), [-1.0, 1.0]);
+        let next = |m, tk, tn, nu| s.next_mode(m, tk, tn, nu, h, tt, nt);
+        assert_eq!(next(StopMode::Free, 0.9, 1.0 + tt, 0.0), None);
+        assert_eq!(next(StopMode::Free, -0.9, -1.0 - tt, 0.0), None);
+        assert_eq!(next(StopMode::Free, -0.9, -1.0 - 0.5 * tt, 0.0), None);
+        assert_eq!(
+            next(StopMode::Free, -0.9, -1.0 - 2.0 * tt, 0.0),
+            Some(StopMode::Lower)
+        );
+        let f = stop(Some([-1.0, 1.0]), 2.0);
+        let hold = 2.0 * h;
+        let next = |m, tk, tn, nu| f.next_mode(m, tk, tn, nu, h, tt, nt);
+        for nu in [hold + nt, hold + 0.5 * nt, -hold - nt, -hold - 0.5 * nt] {
+            assert_eq!(next(StopMode::Stick, 0.0, 0.0, nu), None, "{nu}");
+            assert_eq!(next(StopMode::Upper, 1.0, 1.0, nu.abs()), None, "{nu}");
+            assert_eq!(next(StopMode::Lower, -1.0, -1.0, -nu.abs()), None, "{nu}");
+        }
+        // Friction holds a pull off the lower bound below F; the push into it always.
+        assert_eq!(next(StopMode::Lower, -1.0, -1.0, -0.5 * hold), None);
+        assert_eq!(next(StopMode::Lower, -1.0, -1.0, 0.5 * hold), None);
+        assert_eq!(next(StopMode::Upper, 1.0, 1.0, 0.5 * hold), None);
+        // Sliding back towards where it came from, away from 0: sticks.
+        assert_eq!(
+            next(StopMode::Slide(1), 0.5, 0.45, -hold),
+            Some(StopMode::Stick)
+        );
+        assert_eq!(next(StopMode::Slide(1), 0.5, 0.55, -hold), None);
+        assert_eq!(next(StopMode::Slide(-1), 0.5, 0.45, hold), None);
+    }
+
     /// The active set's rules of the module doc, one transition at a time.
     #[test]
     fn modes_follow_the_complementarity_rules() {
