@@ -204,6 +204,11 @@ mod tests {
         );
         assert_eq!(next(StopMode::Slide(1), 0.5, 0.55, -hold), None);
         assert_eq!(next(StopMode::Slide(-1), 0.5, 0.45, hold), None);
+        // Stopped exactly: sticks.
+        assert_eq!(
+            next(StopMode::Slide(1), 0.5, 0.5, -hold),
+            Some(StopMode::Stick)
+        );
     }
 
     /// The active set's rules of the module doc, one transition at a time.
