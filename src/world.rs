@@ -108,6 +108,7 @@ impl World {
     /// ([`Self::check_drive_layout`], [`Self::check_contact_layout`]).
     pub fn describe_drives(&mut self) {
         self.layout.drives = self.drive_layouts();
+        self.layout.limited = self.limited_joints();
         self.describe_contact();
     }
 
@@ -169,12 +170,32 @@ impl World {
         out
     }
 
+    /// The layout joints whose limit is enforced ([`RecordingLayout::limited`]): coordinate `c`
+    /// of mechanism `k` is layout joint `layout.mechanisms[k].joints.start + c`.
+    pub fn limited_joints(&self) -> Vec<usize> {
+        let mut out = Vec::new();
+        for (mechanism, layout) in self.mechanisms.iter().zip(&self.layout.mechanisms) {
+            for s in mechanism.stops.iter().filter(|s| s.limits.is_some()) {
+                out.push(layout.joints.start + s.coordinate);
+            }
+        }
+        out
+    }
+
     /// Fails when `layout.drives` is not what the mechanisms' drives make of it (the world was
     /// built without [`Self::describe_drives`]): the recordings would leave out what drives
     /// the joints.
     pub fn check_drive_layout(&self) -> anyhow::Result<()> {
         let expected = self.drive_layouts();
         let drives: usize = self.mechanisms.iter().map(|m| m.drives.len()).sum();
+        if self.layout.limited != self.limited_joints() {
+            anyhow::bail!(
+                "internal error: the recording layout lists {} limited joints, the mechanisms \
+                 have {} (World::describe_drives was not called after the models were placed)",
+                self.layout.limited.len(),
+                self.limited_joints().len()
+            );
+        }
         if self.layout.drives != expected || expected.len() != drives {
             anyhow::bail!(
                 "internal error: the recording layout lists {} joint drives, the mechanisms have \

@@ -513,6 +513,7 @@ mod tests {
                 }),
                 limits: None,
                 damping: 0.0,
+                friction: 0.0,
                 effort_limit: 0.0,
             })
             .collect()

@@ -91,6 +91,9 @@ pub struct Joint {
     /// when absent. Not checked here: a scene that uses it checks it
     /// (`crate::scene` turns it into joint damping of articulated models).
     pub damping: f64,
+    /// The `<dynamics friction>` as written (N m, or N for a prismatic joint); 0 when absent.
+    /// Not checked here: a scene that uses it checks it (joint friction of articulated models).
+    pub friction: f64,
     /// The `<limit effort>` as written (N m, or N for a prismatic joint), any joint type; 0
     /// when absent. Not checked here: an actuator that uses it as its clamp checks it.
     pub effort_limit: f64,
@@ -347,6 +350,7 @@ mod tests {
             mimic: None,
             limits: None,
             damping: 0.0,
+            friction: 0.0,
             effort_limit: 0.0,
         }
     }

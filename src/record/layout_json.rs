@@ -17,7 +17,9 @@
 //! `damping` N m s/rad or N s/m) is written only when a joint is driven, so a recording without
 //! drives has the JSON it had before drives existed. Likewise `"ground": {"normal": [x, y, z],
 //! "point": [x, y, z]}` ([`super::GroundLayout`]) only with a ground, and `"contacts": true`
-//! only in runs that can have contacts ([`RecordingLayout::contacts`]). Poses are `{"translation": [x,
+//! only in runs that can have contacts ([`RecordingLayout::contacts`]), and `"limited": [j, ...]`
+//! (indices into `joints`, increasing) only when a joint's limit is enforced
+//! ([`RecordingLayout::limited`]). Poses are `{"translation": [x,
 //! y, z], "rotation_xyzw": [x, y, z, w]}` (metres; unit quaternion, Hamilton convention); geometry
 //! is `{"box": {"size": [..]}}`, `{"cylinder": {"radius", "length"}}`, `{"sphere": {"radius"}}`,
 //! `{"capsule": {"radius", "length"}}` or `{"mesh": {"uri", "path", "scale"}}` (the mesh path as
@@ -66,6 +68,8 @@ struct LayoutJson {
     ground: Option<GroundJson>,
     #[serde(default)]
     contacts: bool,
+    #[serde(default)]
+    limited: Vec<usize>,
 }
 
 /// The ground (read and written: plain data).
@@ -136,6 +140,9 @@ struct LayoutOut<'a> {
     ground: Option<GroundJson>,
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     contacts: bool,
+    /// Absent without enforced joint limits: a recording without them keeps its JSON.
+    #[serde(skip_serializing_if = "<[usize]>::is_empty")]
+    limited: &'a [usize],
 }
 
 #[derive(Serialize)]
@@ -407,6 +414,7 @@ pub fn to_json(layout: &RecordingLayout) -> String {
             point: g.point.into(),
         }),
         contacts: layout.contacts,
+        limited: &layout.limited,
     };
     // Plain data (strings, finite or non-finite numbers become null): cannot fail. Sized by a
     // counting pass, so the text is built in place once (no doubling buffer).
@@ -558,6 +566,18 @@ pub fn from_json(text: &str) -> anyhow::Result<RecordingLayout> {
             mechanisms: g.mechanisms[0]..g.mechanisms[1],
         });
     }
+    if json
+        .limited
+        .iter()
+        .enumerate()
+        .any(|(k, &j)| j >= joints.len() || (k > 0 && json.limited[k - 1] >= j))
+    {
+        bail!(
+            "limited joints {:?} of {} (they must name joints in increasing order)",
+            json.limited,
+            joints.len()
+        );
+    }
     let ground = match json.ground {
         Some(g) => {
             let normal = Vector3::from(g.normal);
@@ -586,6 +606,7 @@ pub fn from_json(text: &str) -> anyhow::Result<RecordingLayout> {
         drives,
         ground,
         contacts: json.contacts,
+        limited: json.limited,
     })
 }
 

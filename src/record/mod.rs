@@ -69,6 +69,12 @@ pub struct RecordingLayout {
     /// [`Frame::contacts`]. Filled, with [`Self::ground`], by
     /// `crate::world::World::describe_contact`.
     pub contacts: bool,
+    /// The joints whose URDF limit is enforced (joint limits, issue 31): indices into
+    /// [`Self::joints`], increasing; empty when none is. It decides which joints carry
+    /// [`JointState::at_limit`] in the recordings (a Rerun series, an MCAP field), so a
+    /// recording without limits keeps those bytes. Filled by
+    /// `crate::world::World::describe_drives`.
+    pub limited: Vec<usize>,
 }
 
 /// The ground of a scene as the recordings draw it: the plane through [`Self::point`] with
@@ -316,6 +322,10 @@ pub struct JointState {
     pub target: Option<f64>,
     /// Whether the actuator's effort limit clamped the effort at the sample.
     pub saturated: bool,
+    /// Whether the joint is at a bound of its URDF range with its limit on (within 1e-9 of
+    /// the bound, relative to `1 + |bound|`): the limit is what holds it there (joint limits,
+    /// `crate::sim::mechanism::stop`). `false` for a joint without an enforced limit.
+    pub at_limit: bool,
 }
 
 /// One articulated model's totals at a recorded step, world frame, SI units (from the momenta

@@ -155,6 +155,7 @@ mod tests {
             effort: 2.5,
             target: Some(0.25),
             saturated: true,
+            at_limit: true,
         }];
         let contacts = [ContactState {
             body_a: 1,

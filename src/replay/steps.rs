@@ -365,6 +365,7 @@ impl StepReader {
                     effort: j.effort.unwrap_or(0.0),
                     target: j.target,
                     saturated: j.saturated,
+                    at_limit: j.at_limit,
                 });
             }
         } else if topic.ends_with(MECHANISMS_TOPIC) {

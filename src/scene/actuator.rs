@@ -425,6 +425,7 @@ mod tests {
             mimic: None,
             limits: None,
             damping: 0.0,
+            friction: 0.0,
             effort_limit,
         }
     }

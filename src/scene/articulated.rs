@@ -203,6 +203,7 @@ fn prepare(
         actuators,
         &merged,
     )?;
+    shared.stops = super::drives::stops(model, entry, &label, &shared, &mut world.notes)?;
     shared
         .validate()
         .map_err(|e| anyhow::anyhow!("internal error driving model `{}`: {e}", model.name))?;
@@ -431,6 +432,7 @@ fn shared_model(
         coordinates,
         mimics,
         drives: Vec::new(),
+        stops: Vec::new(),
         base: if fixed { Base::Fixed } else { Base::Floating },
         length_scale,
     };

@@ -11,11 +11,15 @@
 //!   from it) is refused, naming the reason.
 //!
 //! One drive per coordinate, sorted by coordinate, as `MechanismModel::validate` requires.
+//!
+//! The joints' limits and friction ([`stops`]) are built here too: `<limit lower upper>` and
+//! `<dynamics friction>`, unless `joint_limits = false` / `joint_friction = false`.
 
 use super::ModelEntry;
 use super::actuator::ResolvedActuator;
 use crate::model::Model;
-use crate::sim::mechanism::{Coordinate, JointDrive};
+use crate::sim::mechanism::rows::MAX_ROWS;
+use crate::sim::mechanism::{Coordinate, JointDrive, JointStop, MechanismModel};
 use anyhow::bail;
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -92,4 +96,67 @@ pub(super) fn drives(
             .actuator = Some(a.actuator.clone());
     }
     Ok(drives.into_values().collect())
+}
+
+/// The limits and friction of a mechanism's coordinates ([`JointStop`]): the URDF's
+/// `<limit lower upper>` of a revolute or prismatic joint (unless `joint_limits = false`) and its
+/// `<dynamics friction>` (unless `joint_friction = false`; a finite number `>= 0`, else an error
+/// naming the joint, the file and the key). A mimic follower takes none (its leader's stop moves
+/// it; a second row on the pair would make the step singular). A stop that finds no room left
+/// in its joint's block (a compound joint whose stages are driven) is left out with a note in
+/// `notes`. Sorted by coordinate, as `MechanismModel::validate` requires.
+pub(super) fn stops(
+    model: &Model,
+    entry: &ModelEntry,
+    label: &str,
+    shared: &MechanismModel,
+    notes: &mut Vec<String>,
+) -> anyhow::Result<Vec<JointStop>> {
+    let mut used: Vec<usize> = shared.joints.iter().map(|j| j.rows.count()).collect();
+    for d in &shared.drives {
+        used[shared.coordinates[d.coordinate].joint] += 1;
+    }
+    let mut stops = Vec::new();
+    for (k, c) in shared.coordinates.iter().enumerate() {
+        let Some(joint) = model.joints.iter().find(|j| j.name == c.name) else {
+            continue;
+        };
+        let friction = if entry.joint_friction == Some(false) {
+            0.0
+        } else {
+            joint.friction
+        };
+        if !(friction.is_finite() && friction >= 0.0) {
+            bail!(
+                "joint_friction: joint `{}` of model `{label}` has <dynamics friction=\"{friction}\"> \
+                 ({}): friction must be a finite number >= 0 (or set joint_friction = false to \
+                 leave the URDF's friction out)",
+                c.name,
+                entry.urdf.display()
+            );
+        }
+        let limits = if entry.joint_limits == Some(false) {
+            None
+        } else {
+            c.limits
+        };
+        if (limits.is_none() && friction == 0.0) || shared.mimics.iter().any(|m| m.follower == k) {
+            continue;
+        }
+        if used[c.joint] >= MAX_ROWS {
+            notes.push(format!(
+                "model `{label}`: joint `{}` is a driven stage of a compound joint: its limit \
+                 and friction are left out (no room in the joint's rows)",
+                c.name
+            ));
+            continue;
+        }
+        used[c.joint] += 1;
+        stops.push(JointStop {
+            coordinate: k,
+            limits,
+            friction,
+        });
+    }
+    Ok(stops)
 }

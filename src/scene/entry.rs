@@ -116,6 +116,14 @@ pub struct ModelEntry {
     /// default, damping on).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub joint_damping: Option<bool>,
+    /// Articulated models: `false` turns the URDF's `<limit lower upper>` off (`None`: the
+    /// default, limits on: a kept revolute or prismatic joint stops at its range).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint_limits: Option<bool>,
+    /// Articulated models: `false` leaves the URDF's `<dynamics friction>` out (`None`: the
+    /// default, joint friction on).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint_friction: Option<bool>,
     /// Which geometry collides (issue 31): `"none"` (default), `"urdf"` (the `<collision>`
     /// elements) or `"visual"` (the `<visual>` elements), as written (checked by
     /// [`Scene::validate`](super::Scene::validate), read by [`ModelEntry::collisions`]).
@@ -250,6 +258,8 @@ impl ModelEntry {
             actuators: Vec::new(),
             loads: Vec::new(),
             joint_damping: None,
+            joint_limits: None,
+            joint_friction: None,
             collisions: None,
             self_collision: None,
             friction: None,

@@ -36,6 +36,8 @@
 //! copies = 10000                # the table stands for N models named <name>_<index> (default: one, named `name`; docs/scale.md)
 //! seed = 7                      # copy i draws its distributions from streams seeded by (seed, i) (default 0)
 //! joint_damping = true          # articulated: the URDF's <dynamics damping> on every moving joint (default true)
+//! joint_limits = true           # articulated: the URDF's <limit lower upper> stop revolute and prismatic joints (default true)
+//! joint_friction = true         # articulated: the URDF's <dynamics friction> on every moving joint (default true)
 //! collisions = "none"           # "none" | "urdf" (<collision>) | "visual" (<visual>): what collides (crate::scene::contact)
 //! self_collision = false        # the links of one copy collide with each other (default false)
 //! friction = 0.8                # Coulomb coefficient of the model's colliders (default 0.8)
@@ -486,6 +488,10 @@ impl Scene {
                     Some("locked_joints")
                 } else if m.joint_damping.is_some() {
                     Some("joint_damping")
+                } else if m.joint_limits.is_some() {
+                    Some("joint_limits")
+                } else if m.joint_friction.is_some() {
+                    Some("joint_friction")
                 } else {
                     None
                 };

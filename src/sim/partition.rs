@@ -787,6 +787,7 @@ mod tests {
             coordinates: Vec::new(),
             mimics: Vec::new(),
             drives: Vec::new(),
+            stops: Vec::new(),
             base: Base::Floating,
             length_scale: 1.0,
         });

@@ -209,6 +209,7 @@ impl FrameBuilder {
         let joints = self.mechanism_ranges[k].1.clone();
         // The drives are sorted by coordinate: one pass beside the joints.
         let mut drives = model.drives.iter().peekable();
+        let mut stops = model.stops.iter().peekable();
         for (c, j) in joints.enumerate() {
             let (position, velocity) = (report.position[c], report.velocity[c]);
             let drive = drives.next_if(|d| d.coordinate == c);
@@ -226,16 +227,35 @@ impl FrameBuilder {
                         effort: effort.total(),
                         target: d.target(time_secs),
                         saturated: effort.saturated,
+                        ..JointState::default()
                     }
                 }
             };
+            let stop = stops.next_if(|s| s.coordinate == c);
             if let Some([lo, hi]) = model.coordinates[c].limits {
                 let p = report.position[c];
-                if !self.warned_range[j] && !(lo..=hi).contains(&p) {
+                let enforced = stop.and_then(|s| s.limits).is_some();
+                // With the limit on, the joint stays in its range to the solver's tolerance:
+                // only a joint placed beyond a bound (which the limit keeps from going
+                // further) is outside it by more.
+                let slack = if enforced {
+                    1e-9 * (1.0 + lo.abs().max(hi.abs()))
+                } else {
+                    0.0
+                };
+                if enforced {
+                    out.joints[j].at_limit = p >= hi - slack || p <= lo + slack;
+                }
+                if !self.warned_range[j] && !(lo - slack..=hi + slack).contains(&p) {
                     self.warned_range[j] = true;
+                    let why = if enforced {
+                        "it was placed there: its limit keeps it from going further"
+                    } else {
+                        "its limit is off (joint_limits = false, or a mimic follower)"
+                    };
                     eprintln!(
                         "warning: joint {:?} left its URDF range [{}, {}] at t = {} s \
-                         (position {}); joint limits are not modelled (docs/mechanisms.md)",
+                         (position {}); {why} (docs/mechanisms.md)",
                         self.joint_names[j],
                         readable(lo),
                         readable(hi),

@@ -14,6 +14,7 @@ mod driven;
 mod driven_hostile;
 mod forces;
 mod hostile;
+mod limits;
 mod mechanism;
 mod pinocchio_driven;
 mod recordings;

@@ -24,8 +24,9 @@ struct Swing {
 }
 
 /// `robot` (relative to example-robot-data's `robots/`) welded at 1 m, 10 s at 1 ms, passive:
-/// `joint_damping = false` leaves out the URDF's `<dynamics damping>` (the panda's), so the
-/// energy is conserved.
+/// `joint_damping = false` leaves out the URDF's `<dynamics damping>` (the panda's), and
+/// `joint_limits = false`, `joint_friction = false` its limits (the panda's swing passes them:
+/// each stop is inelastic) and friction, so the energy is conserved.
 fn swing(robot: &str) -> Swing {
     let urdf = common::run_py("pin_composite.py", &[Path::new(robot), Path::new("zero")]);
     let urdf = urdf["urdf"].as_str().unwrap().to_string();
@@ -33,7 +34,7 @@ fn swing(robot: &str) -> Swing {
         "[sim]\ndt = 0.001\nduration = 10.0\nintegrator = \"variational\"\n\
          [[model]]\nurdf = {urdf:?}\nbodies = \"articulated\"\nbase = \"fixed\"\n\
          position = [0.0, 0.0, 1.0]\nallow_non_physical_inertia = true\n\
-         joint_damping = false\n"
+         joint_damping = false\njoint_limits = false\njoint_friction = false\n"
     );
     let dir = tempfile::tempdir().unwrap();
     let scene = Scene::parse(&text, &dir.path().join("robot.toml")).unwrap();

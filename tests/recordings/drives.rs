@@ -316,7 +316,8 @@ fn every_format_records_the_drives() {
             "velocity",
             "effort",
             "target",
-            "saturated"
+            "saturated",
+            "at_limit"
         ])
     );
     let pb = samples(&py);
@@ -422,7 +423,8 @@ fn every_format_records_the_drives() {
                 "effort",
                 "target",
                 "saturated",
-                "drive"
+                "drive",
+                "at_limit"
             ]),
             "{reader}"
         );
@@ -628,7 +630,8 @@ fn a_run_without_drives_records_no_drive_fields() {
     let py = common::run_py("read_joints.py", &[&file(&stem, "mcap")]);
     assert_eq!(
         py["joint_fields"],
-        serde_json::json!(["name", "position", "velocity"])
+        // The URDFs' limits are on: `at_limit` (not a drive field) is declared.
+        serde_json::json!(["name", "position", "velocity", "at_limit"])
     );
     let ros = common::run_py("read_ros2.py", &[&file(&stem, "ros2.mcap")]);
     for name in JOINTS {

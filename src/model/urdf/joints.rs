@@ -36,7 +36,7 @@ pub(super) type DroppedMimic<'r> = (&'r str, &'r str);
 /// The joints in file order, their links by index: checks that no joint name is used twice
 /// ([`ModelError::DuplicateJoint`]) and that parent and child are links of the robot
 /// ([`ModelError::UnknownLink`]). Limits are kept for revolute and prismatic joints whose
-/// upper bound is above the lower; `<dynamics damping>` and `<limit effort>` are kept as
+/// upper bound is above the lower; `<dynamics damping friction>` and `<limit effort>` are kept as
 /// written (0 when absent), for every joint type. In lenient mode a `<mimic>` of a joint that does not exist
 /// is dropped and returned as a (joint, mimicked) pair for its warning.
 pub(super) fn joints<'r>(
@@ -96,6 +96,7 @@ pub(super) fn joints<'r>(
             .then_some([j.limit.lower, j.limit.upper])
             .filter(|[lo, hi]| hi > lo),
             damping: j.dynamics.as_ref().map_or(0.0, |d| d.damping),
+            friction: j.dynamics.as_ref().map_or(0.0, |d| d.friction),
             effort_limit: j.limit.effort,
         });
     }

@@ -5,7 +5,7 @@
 //! ```text
 //! message JointState      { string name = 1; double position = 2; double velocity = 3;
 //!                           optional double effort = 4; optional double target = 5;
-//!                           bool saturated = 6; }
+//!                           bool saturated = 6; bool at_limit = 7; }
 //! message JointStates     { google.protobuf.Timestamp timestamp = 1; uint64 step = 2;
 //!                           repeated JointState joints = 3; }
 //! message MechanismState  { string name = 1; Vector3 linear_momentum = 2;
@@ -33,6 +33,9 @@
 //! only in recordings with a driven joint ([`joint_states_descriptor`]), so a recording without
 //! drives is byte for byte the one it was. A reader decodes both with either schema (fields it
 //! does not know are skipped).
+//! `at_limit` ([`crate::record::JointState::at_limit`]): the joint is at a bound of its range,
+//! its limit on. Listed in the schema only in recordings with an enforced limit, and (proto3)
+//! encoded only when true, so a recording without limits is byte for byte the one it was.
 //! Each schema is a self-contained `FileDescriptorSet` (`tumble.Vector3` from
 //! `tumble/BodyStates.proto`, which it includes, as `/bodies` does).
 
@@ -62,6 +65,8 @@ pub struct JointState {
     pub target: Option<f64>,
     #[prost(bool, tag = "6")]
     pub saturated: bool,
+    #[prost(bool, tag = "7")]
+    pub at_limit: bool,
 }
 
 /// `tumble.JointStates`
@@ -175,11 +180,12 @@ pub(super) fn stamp_and_step() -> [FieldDescriptorProto; 2] {
 }
 
 /// The `FileDescriptorSet` of [`JointStates`] (field numbers as the `prost` tags above). With
+/// `limited` (the recording has an enforced joint limit) it lists `at_limit`. With
 /// `driven` (the recording has a driven joint) `JointState` lists `effort` and `target` (each
 /// proto3 `optional`: a synthetic oneof `_effort`, `_target`, as `protoc` describes them) and
 /// `saturated`; without, the three are left out and the schema is the one recordings had
 /// before drives.
-pub fn joint_states_descriptor(driven: bool) -> Vec<u8> {
+pub fn joint_states_descriptor(driven: bool, limited: bool) -> Vec<u8> {
     let [ts, step] = stamp_and_step();
     let mut joint_state = message(
         "JointState",
@@ -206,6 +212,11 @@ pub fn joint_states_descriptor(driven: bool) -> Vec<u8> {
                 ..Default::default()
             });
         }
+    }
+    if limited {
+        joint_state
+            .field
+            .push(field("at_limit", 7, Type::Bool, None));
     }
     descriptor(
         "tumble/JointStates.proto",
@@ -295,6 +306,7 @@ pub fn joint_states(
                     effort: driven.then_some(s.effort),
                     target: s.target.filter(|_| driven),
                     saturated: s.saturated && driven,
+                    at_limit: s.at_limit,
                 }
             })
             .collect(),

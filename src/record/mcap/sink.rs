@@ -206,7 +206,10 @@ impl McapSink {
                 writer.add_schema(
                     mp::JOINT_STATES_SCHEMA,
                     "protobuf",
-                    &mp::joint_states_descriptor(!layout.drives.is_empty()),
+                    &mp::joint_states_descriptor(
+                        !layout.drives.is_empty(),
+                        !layout.limited.is_empty(),
+                    ),
                 )?,
                 writer.add_schema(
                     mp::MECHANISM_STATES_SCHEMA,

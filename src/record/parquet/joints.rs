@@ -16,6 +16,7 @@
 //! | `target` | float64, nullable | a position servo's target (rad or m), a velocity servo's (rad/s or m/s); null otherwise |
 //! | `saturated` | bool | whether the effort limit clamped the actuator's effort |
 //! | `drive` | string, nullable | `position`, `velocity`, `motor`, `damping` (damping alone), null for an undriven joint |
+//! | `at_limit` | bool | whether the joint is at a bound of its range with its limit on (joint limits) |
 //!
 //! Values are the frame's ([`crate::record::JointState`]), the same as the MCAP `/joints`.
 
@@ -54,6 +55,7 @@ pub fn joints_schema() -> SchemaRef {
                 ),
                 field("saturated", DataType::Boolean, false, ""),
                 field("drive", DataType::Utf8, true, ""),
+                field("at_limit", DataType::Boolean, false, ""),
             ]))
         })
         .clone()
@@ -71,6 +73,7 @@ struct JointColumns {
     effort: Vec<f64>,
     target: Vec<Option<f64>>,
     saturated: Vec<bool>,
+    at_limit: Vec<bool>,
 }
 
 /// Writes `STEM.joints.parquet` (module doc), with the trajectories table's writer settings.
@@ -138,6 +141,7 @@ impl JointsSink {
             Arc::new(Float64Array::from(rows.target)),
             Arc::new(BooleanArray::from(rows.saturated)),
             Arc::new(drive),
+            Arc::new(BooleanArray::from(rows.at_limit)),
         ];
         let batch = RecordBatch::try_new(joints_schema(), columns)?;
         let writer = self.writer.as_mut().context("the file is closed")?;
@@ -166,6 +170,7 @@ impl Sink for JointsSink {
             rows.effort.push(s.effort);
             rows.target.push(s.target);
             rows.saturated.push(s.saturated);
+            rows.at_limit.push(s.at_limit);
         }
         if rows.step.len() >= ROW_GROUP_ROWS {
             self.flush()?;

@@ -1,5 +1,7 @@
 //! The Rerun series of driven joints ([`crate::record::RecordingLayout::drives`]; none without
-//! drives, so a recording of undriven models is the one it was before drives existed):
+//! drives, so a recording of undriven models is the one it was before drives existed), and of
+//! the joints held by their limits ([`crate::record::RecordingLayout::limited`]; likewise none
+//! without):
 //!
 //! | entity | `Scalars` (series name) | joints |
 //! |---|---|---|
@@ -7,6 +9,7 @@
 //! | `/plots/joints/position_target/<joint>` | [`<joint> target`] rad or m | position servos |
 //! | `/plots/joints/velocity_target/<joint>` | [`<joint> target`] rad/s or m/s | velocity servos |
 //! | `/plots/joints/saturated/<joint>` | [`<joint> saturated`] 1 while the effort limit clamps, else 0 | actuators with an effort limit |
+//! | `/plots/joints/at_limit/<joint>` | [`<joint> at limit`] 1 while the joint is at a bound of its range, else 0 | joints whose URDF limit is enforced ([`RecordingLayout::limited`]) |
 //!
 //! Each servo's measured series (its position, or its velocity for a velocity servo) and its
 //! target share a colour ([`PALETTE`], in joint order; not when batched), the target drawn wide
@@ -44,7 +47,7 @@ struct Quantity {
 }
 
 /// Entity of a driven joint's quantity `kind` (`effort`, `position_target`,
-/// `velocity_target`, `saturated`).
+/// `velocity_target`, `saturated`, `at_limit`).
 pub fn drive_entity_path(kind: &str, joint: &str) -> EntityPath {
     named_path(&["plots", "joints", kind], joint)
 }
@@ -64,6 +67,18 @@ impl Quantity {
             .filter(|d| covers(d))
             .map(|d| d.joint)
             .collect();
+        Self::of_joints(layout, joints, kind, suffix, value, batched)
+    }
+
+    /// The quantity `kind` of the layout joints `joints` (increasing).
+    fn of_joints(
+        layout: &RecordingLayout,
+        joints: Vec<usize>,
+        kind: &str,
+        suffix: &str,
+        value: fn(&JointState) -> f64,
+        batched: bool,
+    ) -> Self {
         let names: Vec<String> = joints
             .iter()
             .map(|&j| format!("{}{suffix}", layout.joints[j].name))
@@ -120,6 +135,7 @@ pub(super) struct DriveSeries {
     position_target: Quantity,
     velocity_target: Quantity,
     saturated: Quantity,
+    at_limit: Quantity,
 }
 
 fn has_law(d: &DriveLayout, law: ActuatorLaw) -> bool {
@@ -168,24 +184,34 @@ impl DriveSeries {
                 |s| f64::from(u8::from(s.saturated)),
                 batched,
             ),
+            at_limit: Quantity::of_joints(
+                layout,
+                layout.limited.clone(),
+                "at_limit",
+                " at limit",
+                |s| f64::from(u8::from(s.at_limit)),
+                batched,
+            ),
         }
     }
 
-    fn quantities(&self) -> [&Quantity; 4] {
+    fn quantities(&self) -> [&Quantity; 5] {
         [
             &self.effort,
             &self.position_target,
             &self.velocity_target,
             &self.saturated,
+            &self.at_limit,
         ]
     }
 
-    fn quantities_mut(&mut self) -> [&mut Quantity; 4] {
+    fn quantities_mut(&mut self) -> [&mut Quantity; 5] {
         [
             &mut self.effort,
             &mut self.position_target,
             &mut self.velocity_target,
             &mut self.saturated,
+            &mut self.at_limit,
         ]
     }
 
@@ -313,6 +339,12 @@ impl DriveSeries {
             views.push(PlotView::new(
                 "joint efforts, actuator + damping (N m, N)",
                 &[all("effort").as_str()],
+            ));
+        }
+        if !self.at_limit.joints.is_empty() {
+            views.push(PlotView::new(
+                "joints at their limit (1: at a bound of the URDF range)",
+                &[all("at_limit").as_str()],
             ));
         }
         views

@@ -39,12 +39,14 @@ pub mod project;
 pub mod rows;
 pub mod step;
 pub mod stepper;
+pub mod stop;
 pub mod tree;
 
 pub use coords::{CompoundChain, CoordinateKind};
 pub use drive::{Actuator, ActuatorKind, Effort, JointDrive};
 pub use rows::{BodyPose, JointRows, RowKind};
 pub use stepper::{Articulated, UnsupportedIntegrator};
+pub use stop::{JointStop, StopMode};
 
 use nalgebra::{Isometry3, Vector3};
 use std::sync::Arc;
@@ -92,6 +94,9 @@ pub struct MechanismModel {
     /// What drives the coordinates (actuators, damping), at most one per coordinate, sorted by
     /// coordinate; each adds one row to its joint's block in the step ([`step`]).
     pub drives: Vec<JointDrive>,
+    /// Limits and friction on the coordinates ([`stop`]), at most one per coordinate, sorted by
+    /// coordinate; each adds one row to its joint's block (after the drives' rows).
+    pub stops: Vec<JointStop>,
     /// `Fixed`: the root link is welded to the world (joints on it have no parent body).
     pub base: Base,
     /// A length typical of the mechanism (largest anchor distance from a centre of mass, ≥ 1 mm):
@@ -223,6 +228,29 @@ impl MechanismModel {
             extra_rows[c.joint] += 1;
             if self.joints[c.joint].rows.count() + extra_rows[c.joint] > rows::MAX_ROWS {
                 return Err(format!("joint {:?}: too many driven rows", c.name));
+            }
+        }
+        for (k, s) in self.stops.iter().enumerate() {
+            let Some(c) = self.coordinates.get(s.coordinate) else {
+                return Err(format!("stop {k} on an unknown coordinate"));
+            };
+            if k > 0 && self.stops[k - 1].coordinate >= s.coordinate {
+                return Err("stops not sorted by coordinate, or two on one".into());
+            }
+            if !(s.friction >= 0.0 && s.friction.is_finite())
+                || s.limits
+                    .is_some_and(|[lo, hi]| lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less))
+            {
+                return Err(format!("joint {:?}: invalid limit or friction", c.name));
+            }
+            if matches!(c.kind, CoordinateKind::Compound { .. })
+                && self.joints[c.joint].compound.is_none()
+            {
+                return Err(format!("compound stage {:?} without its chain", c.name));
+            }
+            extra_rows[c.joint] += 1;
+            if self.joints[c.joint].rows.count() + extra_rows[c.joint] > rows::MAX_ROWS {
+                return Err(format!("joint {:?}: too many rows", c.name));
             }
         }
         Ok(())

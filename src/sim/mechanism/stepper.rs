@@ -202,7 +202,7 @@ impl Integrator for Articulated {
             let ws = &slot.state.ws;
             a + EnergyFlow {
                 input_work: ws.drive_work.actuators + ws.load_work.work,
-                dissipated: ws.drive_work.damping,
+                dissipated: ws.drive_work.dissipated(),
                 ..Default::default()
             }
         })

@@ -82,6 +82,23 @@ impl Workspace {
                 self.impulse_scale[p] = self.impulse_scale[p].max(torque.amax());
             }
         }
+        // A stop's impulse may be balanced by its joint's own rows (a joint held at rest by
+        // friction or a limit): the sum over the joint's block above is then round-off, but
+        // the stop's torque alone sets the round-off floor.
+        for &(j, row) in &self.stops.slot {
+            let nu = self.lambda[j][row];
+            if nu != 0.0 {
+                let joint = &model.joints[j];
+                let (gp, gc) = &self.jac_k[j];
+                let size = |g: &super::super::rows::RowJacobian| {
+                    (g.fixed_view::<1, 3>(row, 3) * nu).amax()
+                };
+                self.impulse_scale[joint.child] = self.impulse_scale[joint.child].max(size(gc));
+                if let Some(p) = joint.parent {
+                    self.impulse_scale[p] = self.impulse_scale[p].max(size(gp));
+                }
+            }
+        }
         for (m, row) in self.mimic_jac_k.iter().enumerate() {
             for (i, r) in row.bodies.iter().flatten() {
                 let imp = r.transpose() * self.mu[m];
@@ -178,7 +195,10 @@ impl Workspace {
         }
         self.coord_next = values;
         let drives = self.drive_rows_end(model, h, tol).map_err(|f| (f, 0))?;
-        Ok(ratio.max(drives))
+        let stops = self
+            .stop_rows_end(model, h, tol, len_tol, dot_tol)
+            .map_err(|f| (f, 0))?;
+        Ok(ratio.max(drives).max(stops))
     }
 }
 

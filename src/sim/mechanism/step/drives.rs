@@ -29,7 +29,7 @@
 //! structure; a pure motor has `c = 0` and its row just reads `ν = (h/2) τ̄`.
 
 use super::super::coords::{CompoundChain, decompose};
-use super::super::drive::{JointDrive, StepEffort};
+use super::super::drive::StepEffort;
 use super::super::rows::{BodyPose, Row6};
 use super::super::{CoordinateKind, Mechanism};
 use super::assembly::{parent_pose, relative};
@@ -83,6 +83,17 @@ pub struct DriveWork {
     pub actuators: f64,
     /// `Σ b (θ_{k+1} − θ_k)² / h`: the energy the joint damping removed (≥ 0), J.
     pub damping: f64,
+    /// The energy the joint limits removed (≥ 0 up to round-off), J ([`super::stops`]).
+    pub limits: f64,
+    /// The energy joint friction removed (≥ 0 up to round-off), J.
+    pub friction: f64,
+}
+
+impl DriveWork {
+    /// Everything the drives, limits and friction removed: damping, limits, friction.
+    pub fn dissipated(&self) -> f64 {
+        self.damping + self.limits + self.friction
+    }
 }
 
 impl Workspace {
@@ -90,7 +101,7 @@ impl Workspace {
     pub(super) fn drive_rows_start(&mut self, model: &Mechanism) -> Result<(), Failure> {
         for (k, d) in model.drives.iter().enumerate() {
             let (j, row) = self.drives.slot[k];
-            let (theta, ga, gb) = self.coordinate_gradient(model, &self.pose_k, d)?;
+            let (theta, ga, gb) = self.coordinate_gradient(model, &self.pose_k, d.coordinate)?;
             self.drives.theta_k[k] = theta;
             let (jp, jc) = &mut self.jac_k[j];
             jp.set_row(row, &ga);
@@ -112,7 +123,7 @@ impl Workspace {
         let t0 = self.time0_secs;
         for (k, d) in model.drives.iter().enumerate() {
             let (j, row) = self.drives.slot[k];
-            let (theta, ga, gb) = self.coordinate_gradient(model, &self.pose_next, d)?;
+            let (theta, ga, gb) = self.coordinate_gradient(model, &self.pose_next, d.coordinate)?;
             let effort = d.step_effort(t0, h, self.drives.theta_k[k], theta);
             let nu = self.lambda[j][row];
             let target = 0.5 * h * effort.effort.total();
@@ -149,15 +160,15 @@ impl Workspace {
         Ok(ratio)
     }
 
-    /// `θ` and `∇θ` (parent, child) of drive `d`'s coordinate at `poses`, unwrapped near the
+    /// `θ` and `∇θ` (parent, child) of coordinate `coordinate` at `poses`, unwrapped near the
     /// coordinate's reference.
-    fn coordinate_gradient(
+    pub(super) fn coordinate_gradient(
         &self,
         model: &Mechanism,
         poses: &[BodyPose],
-        d: &JointDrive,
+        coordinate: usize,
     ) -> Result<(f64, Row6, Row6), Failure> {
-        let c = &model.coordinates[d.coordinate];
+        let c = &model.coordinates[coordinate];
         let a = parent_pose(model, poses, c.joint);
         let b = &poses[model.joints[c.joint].child];
         if let CoordinateKind::Compound { stage } = c.kind {
@@ -168,7 +179,7 @@ impl Workspace {
             return compound_gradient(model, c.joint, chain, stage, a, b, &self.coord_ref);
         }
         c.kind
-            .gradient(a, b, self.coord_ref[d.coordinate])
+            .gradient(a, b, self.coord_ref[coordinate])
             .ok_or(Failure::Singular)
     }
 

@@ -40,11 +40,15 @@ mod drive_tests;
 mod drives;
 mod newton;
 #[cfg(test)]
+mod stop_tests;
+mod stops;
+#[cfg(test)]
 pub(crate) mod tests;
 mod warm;
 mod workspace;
 
 pub use drives::DriveWork;
+pub use stops::StopRows;
 pub use warm::Warm;
 pub use workspace::Workspace;
 
@@ -138,11 +142,10 @@ pub fn predict(
         let gi = first + i;
         *o = (bodies.com_world[gi], bodies.world_from_body[gi]);
     }
-    // The coordinates' references follow the predicted step (a continuous joint stays on its
-    // branch); the bodies go back.
-    let ws = &mut state.ws;
-    ws.backup_coords.copy_from_slice(&ws.coord_ref);
-    ws.restore(model, bodies);
+    // The coordinates' references and the stops' modes follow the predicted step (a continuous
+    // joint stays on its branch, a joint at its limit stays there); the bodies go back.
+    state.ws.keep_references();
+    state.ws.restore(model, bodies);
     stats
 }
 

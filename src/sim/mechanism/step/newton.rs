@@ -12,6 +12,11 @@ use crate::sim::integrators::VariationalSettings;
 use crate::sim::loads::Loads;
 use nalgebra::Vector3;
 
+/// The most mode switches of the stop rows in one solve (limits reached or released, friction
+/// sticking or sliding: one or two per stop in practice); past it the last converged modes are
+/// kept.
+const MAX_SWITCHES: u32 = 8;
+
 /// `π²`: a step's rotation `ξ` must stay below `π` in norm.
 const PI_SQUARED: f64 = std::f64::consts::PI * std::f64::consts::PI;
 
@@ -64,6 +69,9 @@ impl Workspace {
         }
         self.coord_next = scratch;
         if let Err(f) = self.drive_rows_start(model) {
+            return Err((f, 0));
+        }
+        if let Err(f) = self.stop_rows_start(model) {
             return Err((f, 0));
         }
         // Start: warm λ, μ, ξ, or cold (λ = 0, ξ from the momenta).
@@ -126,11 +134,19 @@ impl Workspace {
         }
         let mut previous = f64::INFINITY;
         let mut iterations = 0;
+        let mut switches = 0;
         loop {
             if iterations > 0 {
                 self.impulses(model, bodies);
             }
             let ratio = self.residuals(model, bodies, h, loads, alpha, tol)?;
+            if ratio <= 1.0 && switches < MAX_SWITCHES && self.stops_switch(model, h, tol) {
+                // A limit reached or released, friction sliding or sticking: solve the step
+                // again in the new modes, from this iterate.
+                switches += 1;
+                previous = f64::INFINITY;
+                continue;
+            }
             if ratio <= 1.0 {
                 // Converged: reject a root that turns a body by π or more in one step (the
                 // exponential map is one-to-one only below π: such a root aliases a rotation
@@ -153,7 +169,7 @@ impl Workspace {
             if iterations >= 2 && ratio > 10.0 * previous {
                 return Err((Failure::Diverging, iterations));
             }
-            if iterations >= settings.newton_max_iters {
+            if iterations >= settings.newton_max_iters * (1 + switches) {
                 return Err((Failure::NotConverged, iterations));
             }
             previous = ratio;
@@ -248,6 +264,7 @@ impl Workspace {
         warm: &mut Warm,
     ) {
         let first = model.first_body;
+        self.stop_commit(model, h);
         for i in 0..model.body_count {
             let gi = first + i;
             let (q, m) = self.free_evals[i].advance(&bodies.world_from_body[gi]);

@@ -57,6 +57,7 @@ pub(crate) fn pendulum(theta0: f64) -> (Mechanism, Vec<BodyInit>, f64) {
         }],
         mimics: Vec::new(),
         drives: Vec::new(),
+        stops: Vec::new(),
         base: Base::Fixed,
         length_scale: d,
     };

@@ -77,6 +77,8 @@ pub struct Workspace {
     pub(super) coord_next: Vec<f64>,
     /// The drive rows ([`super::drives`]).
     pub(super) drives: super::drives::DriveRows,
+    /// The stop rows: limits and friction ([`super::stops`]).
+    pub stops: super::stops::StopRows,
     /// The time at the start of the step (or substep) being solved, s.
     pub(super) time0_secs: f64,
     /// The drives' work and dissipation so far.
@@ -85,7 +87,9 @@ pub struct Workspace {
     pub load_work: crate::sim::loads::KickLedger,
     /// Body state saved before a split step.
     backup: Backup,
-    pub(super) backup_coords: Vec<f64>,
+    backup_coords: Vec<f64>,
+    backup_modes: Vec<super::super::StopMode>,
+    backup_rates: Vec<f64>,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -141,6 +145,7 @@ impl Workspace {
             coord_ref: model.coordinates.iter().map(|c| c.initial).collect(),
             coord_next: model.coordinates.iter().map(|c| c.initial).collect(),
             drives: super::drives::DriveRows::new(model),
+            stops: super::stops::StopRows::new(model),
             time0_secs: 0.0,
             drive_work: super::drives::DriveWork::default(),
             load_work: crate::sim::loads::KickLedger::default(),
@@ -151,6 +156,8 @@ impl Workspace {
                 v: vec![Vector3::zeros(); n],
             },
             backup_coords: vec![0.0; model.coordinates.len()],
+            backup_modes: vec![Default::default(); model.stops.len()],
+            backup_rates: vec![0.0; model.stops.len()],
         }
     }
 
@@ -165,6 +172,17 @@ impl Workspace {
         self.backup.c.copy_from_slice(&bodies.com_world[r.clone()]);
         self.backup.v.copy_from_slice(&bodies.linvel_world[r]);
         self.backup_coords.copy_from_slice(&self.coord_ref);
+        self.backup_modes.copy_from_slice(&self.stops.mode);
+        self.backup_rates.copy_from_slice(&self.stops.rate_prev);
+    }
+
+    /// Makes the saved state's coordinate references and stop modes the current ones, so that
+    /// [`Workspace::restore`] puts the bodies back but keeps them (a prediction step:
+    /// [`super::predict`]).
+    pub(super) fn keep_references(&mut self) {
+        self.backup_coords.copy_from_slice(&self.coord_ref);
+        self.backup_modes.copy_from_slice(&self.stops.mode);
+        self.backup_rates.copy_from_slice(&self.stops.rate_prev);
     }
 
     pub(super) fn restore(&mut self, model: &Mechanism, bodies: &mut Bodies) {
@@ -174,5 +192,7 @@ impl Workspace {
         bodies.com_world[r.clone()].copy_from_slice(&self.backup.c);
         bodies.linvel_world[r].copy_from_slice(&self.backup.v);
         self.coord_ref.copy_from_slice(&self.backup_coords);
+        self.stops.mode.copy_from_slice(&self.backup_modes);
+        self.stops.rate_prev.copy_from_slice(&self.backup_rates);
     }
 }
