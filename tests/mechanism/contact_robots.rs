@@ -26,22 +26,28 @@ pub const HINGE2: &str = r#"<?xml version="1.0"?>
 </robot>
 "#;
 
+/// The scene file `path`, its world and a simulation of it on `threads` threads.
+fn load(path: &std::path::Path, threads: usize) -> (Scene, tumble::world::World, Simulation) {
+    let scene = Scene::load(path).unwrap();
+    let world = scene.build().unwrap();
+    let sim = Simulation::of_world(
+        &world,
+        scene.integrator(),
+        scene.sim.dt,
+        &scene.variational_settings(),
+        threads,
+        &scene.run_settings(),
+    )
+    .unwrap();
+    (scene, world, sim)
+}
+
 /// A simulation of `scene` (TOML, in a directory holding `hinge2.urdf`) on one thread.
 fn simulation(scene: &str, dir: &std::path::Path) -> Simulation {
     std::fs::write(dir.join("hinge2.urdf"), HINGE2).unwrap();
     let path = dir.join("scene.toml");
     std::fs::write(&path, scene).unwrap();
-    let scene = Scene::load(&path).unwrap();
-    let world = scene.build().unwrap();
-    Simulation::of_world(
-        &world,
-        scene.integrator(),
-        scene.sim.dt,
-        &scene.variational_settings(),
-        1,
-        &scene.run_settings(),
-    )
-    .unwrap()
+    load(&path, 1).2
 }
 
 /// The two cubes dropped flat from 0.2 m onto the ground land and rest: heights at the
@@ -199,17 +205,7 @@ fn a_pendulum_striking_the_ground_stops_there() {
          position = [0.0, 0.0, 0.4]\ncollisions = \"urdf\"\n",
     )
     .unwrap();
-    let scene = Scene::load(&path).unwrap();
-    let world = scene.build().unwrap();
-    let mut sim = Simulation::of_world(
-        &world,
-        scene.integrator(),
-        scene.sim.dt,
-        &scene.variational_settings(),
-        1,
-        &scene.run_settings(),
-    )
-    .unwrap();
+    let mut sim = load(&path, 1).2;
     let e0 = sim.summary().energy_initial;
     let mut first_contact = None;
     let mut lowest: f64 = f64::MAX;
@@ -319,19 +315,9 @@ fn solo12_stands_on_its_servos_for_ten_seconds() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("solo.toml");
     std::fs::write(&path, solo12_scene(10.0, 0.25)).unwrap();
-    let scene = Scene::load(&path).unwrap();
-    let world = scene.build().unwrap();
+    let (scene, world, mut sim) = load(&path, 1);
     assert_eq!(world.mechanisms.len(), 1);
     let mass: f64 = world.bodies.iter().map(|b| b.mass).sum();
-    let mut sim = Simulation::of_world(
-        &world,
-        scene.integrator(),
-        scene.sim.dt,
-        &scene.variational_settings(),
-        1,
-        &scene.run_settings(),
-    )
-    .unwrap();
     let dt = scene.sim.dt;
     let mut base_at_1s = None;
     let mut feet_at_1s: Vec<nalgebra::Vector3<f64>> = Vec::new();
@@ -389,18 +375,8 @@ fn robots_in_contact_step_the_same_bits_on_any_thread_count() {
          angvel = { uniform = [[-2.0, -2.0, -2.0], [2.0, 2.0, 2.0]] }\ncollisions = \"urdf\"\n",
     )
     .unwrap();
-    let scene = Scene::load(&path).unwrap();
-    let world = scene.build().unwrap();
     let run = |threads: usize| {
-        let mut sim = Simulation::of_world(
-            &world,
-            scene.integrator(),
-            scene.sim.dt,
-            &scene.variational_settings(),
-            threads,
-            &scene.run_settings(),
-        )
-        .unwrap();
+        let mut sim = load(&path, threads).2;
         let parts = sim.partitions().parts.len();
         let mut touching = 0;
         for _ in 0..1000 {

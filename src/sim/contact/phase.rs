@@ -403,20 +403,10 @@ impl ContactPhase {
             if !self.robot_touches[r] {
                 continue;
             }
-            for k in robot.kicks.iter_mut() {
-                *k = Impulse6::zeros();
-            }
-            for (s, slot_robot) in self.slot_robot.iter().enumerate() {
-                if let Some((rr, local)) = slot_robot
-                    && *rr == r
-                {
-                    let resp = &self.responses.bodies[s];
-                    let body_l = self.slots[s].rotation.inverse_transform_vector(&resp.dl);
-                    robot.kicks[*local] = Impulse6::new(
-                        resp.df.x, resp.df.y, resp.df.z, body_l.x, body_l.y, body_l.z,
-                    );
-                }
-            }
+            let slots = &self.slots;
+            gather_kicks(robot, r, &self.slot_robot, &self.responses, |s| {
+                slots[s].rotation
+            });
             let k = robot.part;
             let range = starts[k]..starts[k] + parts[k].len();
             let part_loads = loads.part(range);
@@ -442,21 +432,11 @@ impl ContactPhase {
             if !self.robot_touches[r] {
                 continue;
             }
-            for k in robot.kicks.iter_mut() {
-                *k = Impulse6::zeros();
-            }
-            for (s, slot_robot) in self.slot_robot.iter().enumerate() {
-                if let Some((rr, local)) = slot_robot
-                    && *rr == r
-                {
-                    let resp = &self.responses.bodies[s];
-                    let (k, j) = locate(starts, self.slot_body[s]);
-                    let body_l = parts[k].world_from_body[j].inverse_transform_vector(&resp.dl);
-                    robot.kicks[*local] = Impulse6::new(
-                        resp.df.x, resp.df.y, resp.df.z, body_l.x, body_l.y, body_l.z,
-                    );
-                }
-            }
+            let slot_body = &self.slot_body;
+            gather_kicks(robot, r, &self.slot_robot, &self.responses, |s| {
+                let (k, j) = locate(starts, slot_body[s]);
+                parts[k].world_from_body[j]
+            });
             work += robot.apply_kicks(parts[robot.part]);
         }
         work
@@ -688,6 +668,32 @@ impl ContactPhase {
             });
         }
         self.previous.sort_unstable_by_key(|p| p.0);
+    }
+}
+
+/// Robot `r`'s kicks from the impulses the solve put on its slots (`slot_robot`: each slot's
+/// robot and body there): `[ΔP; Rᵀ ΔL]` per body, `rotation(s)` the rotation `R` of slot `s`'s
+/// body now; zero on the bodies nothing touched.
+fn gather_kicks(
+    robot: &mut Robot,
+    r: usize,
+    slot_robot: &[Option<(usize, usize)>],
+    responses: &Responses,
+    rotation: impl Fn(usize) -> UnitQuaternion<f64>,
+) {
+    for k in robot.kicks.iter_mut() {
+        *k = Impulse6::zeros();
+    }
+    for (s, slot) in slot_robot.iter().enumerate() {
+        if let Some((rr, local)) = slot
+            && *rr == r
+        {
+            let resp = &responses.bodies[s];
+            let body_l = rotation(s).inverse_transform_vector(&resp.dl);
+            robot.kicks[*local] = Impulse6::new(
+                resp.df.x, resp.df.y, resp.df.z, body_l.x, body_l.y, body_l.z,
+            );
+        }
     }
 }
 
