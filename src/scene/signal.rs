@@ -150,10 +150,13 @@ pub fn read_table(text: &str, column: &str) -> anyhow::Result<Signal> {
     };
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let find = |name: &str| {
-        names
-            .iter()
-            .position(|n| *n == name)
-            .with_context(|| format!("no column `{name}` (the header has: {})", names.join(", ")))
+        names.iter().position(|n| *n == name).with_context(|| {
+            format!(
+                "no column `{name}` (the header has: {}){}",
+                names.join(", "),
+                crate::message::did_you_mean(name, names.iter().copied())
+            )
+        })
     };
     let (t_col, v_col) = (find("time")?, find(column)?);
     let (mut times_secs, mut values) = (Vec::new(), Vec::new());
