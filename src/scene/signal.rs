@@ -287,5 +287,15 @@ mod tests {
             e.contains("no column `j` (the header has: time, wrist)"),
             "{e}"
         );
+        assert!(!e.contains("did you mean"), "{e}");
+        // A misspelt joint's column: the closest header name is suggested.
+        let e = format!(
+            "{:#}",
+            parse("k", &value("{ table = \"other.csv\" }"), d, "wirst", None).unwrap_err()
+        );
+        assert!(
+            e.contains("no column `wirst` (the header has: time, wrist): did you mean `wrist`?"),
+            "{e}"
+        );
     }
 }
