@@ -59,6 +59,20 @@
 //!   "com": [x, y, z] | null,              // model frame; null when total_mass is 0
 //!   "inertia_about_com": [[..],[..],[..]] | null,   // about "com", model axes
 //!   "principal_moments": [a, b, c] | null,
+//!   "joints": [                           // URDF order
+//!     {
+//!       "name": "elbow",
+//!       "type": "revolute" | "continuous" | "prismatic" | "fixed" | "floating" | "planar" | "spherical",
+//!       "parent": "upper_arm", "child": "forearm",   // link names
+//!       "axis": [x, y, z],                // the <axis> as written, joint frame
+//!       "origin": {"translation": [..], "rotation_xyzw": [..]},   // joint frame in the parent link
+//!       "lower": -1.57 | null, "upper": 1.57 | null,   // <limit lower upper> when upper > lower
+//!                                         //   (revolute, prismatic), else null
+//!       "effort": 12.0, "velocity": 3.0,  // <limit effort velocity>, 0 when absent
+//!       "damping": 0.1, "friction": 0.05, // <dynamics>, 0 when absent
+//!       "mimic": {"joint", "multiplier", "offset"} | null
+//!     }
+//!   ],
 //!   "meshes": [                           // every <mesh>, visual and collision, file order
 //!     {
 //!       "link": "forearm",
@@ -85,6 +99,7 @@ pub mod compare;
 
 use crate::model::confine::{MeshAccess, MeshStatus, MeshUse};
 use crate::model::geometry::GeometryUsed;
+use crate::model::kinematics::{Joint, JointKind};
 use crate::model::policy::{self, GeometrySource, InertiaPolicy, ModelMassSettings};
 use crate::model::{InertiaSource, Link, MassProperties, Model, urdf};
 use compare::Comparison;
@@ -345,8 +360,84 @@ pub fn report_with(model: &Model, options: &ReportOptions) -> Value {
         "com": total.map(|t| vec3(&t.com)),
         "inertia_about_com": total.map(|t| mat3(&t.inertia)),
         "principal_moments": total.map(|t| vec3(&t.principal_moments())),
+        "joints": model.joints.iter().map(|j| joint_json(model, j)).collect::<Vec<_>>(),
         "meshes": model.meshes.iter().map(mesh_json).collect::<Vec<_>>(),
     })
+}
+
+/// A link's name by index (`?` if out of range, which a loaded model never has).
+fn link_name(model: &Model, index: usize) -> &str {
+    model.links.get(index).map_or("?", |l| l.name.as_str())
+}
+
+fn joint_json(model: &Model, joint: &Joint) -> Value {
+    json!({
+        "name": joint.name,
+        "type": joint.kind.as_str(),
+        "parent": link_name(model, joint.parent),
+        "child": link_name(model, joint.child),
+        "axis": vec3(&joint.axis),
+        "origin": pose(&joint.parent_from_joint),
+        "lower": joint.limits.map(|l| l[0]),
+        "upper": joint.limits.map(|l| l[1]),
+        "effort": joint.effort_limit,
+        "velocity": joint.velocity_limit,
+        "damping": joint.damping,
+        "friction": joint.friction,
+        "mimic": joint.mimic.as_ref().map(|m| json!({
+            "joint": m.joint,
+            "multiplier": m.multiplier,
+            "offset": m.offset,
+        })),
+    })
+}
+
+/// The "joints" section of the text report: one line per joint, URDF order.
+fn render_joints(out: &mut String, model: &Model) {
+    if model.joints.is_empty() {
+        return;
+    }
+    let moving = model
+        .joints
+        .iter()
+        .filter(|j| j.kind != JointKind::Fixed)
+        .count();
+    let _ = writeln!(out);
+    let _ = writeln!(out, "joints ({}, {moving} moving)", model.joints.len());
+    for j in &model.joints {
+        let mut line = format!(
+            "  joint `{}` {}: `{}` -> `{}`",
+            j.name,
+            j.kind.as_str(),
+            link_name(model, j.parent),
+            link_name(model, j.child)
+        );
+        if j.kind != JointKind::Fixed {
+            let limits = match j.limits {
+                Some([lower, upper]) => format!("lower {} upper {}", num(lower), num(upper)),
+                None => "none".into(),
+            };
+            let _ = write!(
+                line,
+                ", axis [{}], limits {limits}, effort {}, velocity {}, damping {}, friction {}",
+                numbers(j.axis.as_slice()),
+                num(j.effort_limit),
+                num(j.velocity_limit),
+                num(j.damping),
+                num(j.friction)
+            );
+        }
+        if let Some(m) = &j.mimic {
+            let _ = write!(
+                line,
+                ", mimics `{}` (multiplier {}, offset {})",
+                m.joint,
+                num(m.multiplier),
+                num(m.offset)
+            );
+        }
+        let _ = writeln!(out, "{line}");
+    }
 }
 
 /// A mesh's status as the JSON's `status` and `detail`.
@@ -625,6 +716,7 @@ pub fn render_text_with(model: &Model, options: &ReportOptions) -> String {
             render_comparison(&mut out, &Comparison::of(link, &settings));
         }
     }
+    render_joints(&mut out, model);
     render_meshes(&mut out, &model.meshes);
     let _ = writeln!(out);
     match model.total_mass_properties() {

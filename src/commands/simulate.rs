@@ -7,7 +7,7 @@ use crate::record::format::with_extension;
 use crate::record::mcap::ChunkCompression;
 use crate::record::rerun::RerunOptions;
 use crate::record::{Format, FormatSet, OutputFile};
-use crate::scene::{Scene, SimOverrides};
+use crate::scene::{BaseMode, BodiesMode, Scene, SimOverrides};
 use crate::sim::integrators::{Jacobian, Potential};
 use crate::sim::{Bodies, limits};
 use crate::simulation::{AccuracyReport, SimulateOptions, output_paths, simulate_world};
@@ -78,6 +78,15 @@ pub struct SimulateArgs {
     /// With a URDF input: world position x,y,z of the root link, m.
     #[arg(long, value_parser = super::parse_vec3, allow_hyphen_values = true)]
     pub position: Option<[f64; 3]>,
+    /// With a URDF input: keep its joints (a scene's bodies = "articulated"): revolute,
+    /// continuous and prismatic joints as constraints, fixed joints merged. Without it, every
+    /// link with mass is a free body and the links fall apart.
+    #[arg(long)]
+    pub articulated: bool,
+    /// With --articulated: floating (default, the root link moves freely) or fixed (the root
+    /// link welded to the world at --position), as a scene's base.
+    #[arg(long, value_parser = parse_base)]
+    pub base: Option<BaseMode>,
     /// With a URDF input: extra folders searched for package:// meshes.
     #[arg(long = "package-path")]
     pub package_paths: Vec<PathBuf>,
@@ -147,6 +156,14 @@ pub fn thread_count(requested: Option<usize>) -> anyhow::Result<usize> {
     }
 }
 
+fn parse_base(s: &str) -> Result<BaseMode, String> {
+    match s {
+        "floating" => Ok(BaseMode::Floating),
+        "fixed" => Ok(BaseMode::Fixed),
+        _ => Err(format!("expected floating or fixed, got {s:?}")),
+    }
+}
+
 fn parse_jacobian(s: &str) -> Result<Jacobian, String> {
     match s {
         "analytic" => Ok(Jacobian::Analytic),
@@ -203,15 +220,29 @@ pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
         model.position = args.position.unwrap_or_default();
         model.package_paths = args.package_paths.clone();
         model.allow_non_physical_inertia = args.allow_non_physical_inertia;
+        if args.base.is_some() && !args.articulated {
+            anyhow::bail!(
+                "--base applies to an articulated model: add --articulated (without it every link \
+                 is a free body and there is no base to fix)"
+            );
+        }
+        if args.articulated {
+            model.bodies = BodiesMode::Articulated;
+            model.base = args.base;
+        }
         scene
     } else {
         if args.angvel.is_some()
             || args.linvel.is_some()
             || args.position.is_some()
             || args.allow_non_physical_inertia
+            || args.articulated
+            || args.base.is_some()
         {
             anyhow::bail!(
-                "--angvel, --linvel, --position and --allow-non-physical-inertia apply to a URDF input; set them per [[model]] in {}",
+                "--angvel, --linvel, --position, --allow-non-physical-inertia, --articulated and \
+                 --base apply to a URDF input; set them per [[model]] in {} (bodies = \"articulated\", \
+                 base = \"fixed\")",
                 input.display()
             );
         }
@@ -238,6 +269,50 @@ pub fn scene_from_args(args: &SimulateArgs) -> anyhow::Result<Scene> {
         mass: args.mass.settings(),
     })?;
     Ok(scene)
+}
+
+/// A bare URDF simulated as free links (no `--articulated`) whose joints move: the note saying
+/// that its links fall apart, naming the flag. `None` for a scene, an articulated or rigid
+/// model, or a URDF whose joints are all fixed.
+pub fn free_links_note(scene: &Scene, loaded: &crate::scene::LoadedModels) -> Option<String> {
+    let from_urdf = scene.text.is_empty()
+        && scene
+            .source
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("urdf"));
+    let (entry, table) = (scene.models.first()?, loaded.tables.first()?);
+    if !from_urdf || entry.bodies != BodiesMode::Links {
+        return None;
+    }
+    let moving: Vec<&str> = table
+        .model
+        .joints
+        .iter()
+        .filter(|j| j.kind != crate::model::kinematics::JointKind::Fixed)
+        .map(|j| j.name.as_str())
+        .collect();
+    if moving.is_empty() {
+        return None;
+    }
+    let shown = moving
+        .iter()
+        .take(5)
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>();
+    let more = if moving.len() > 5 {
+        format!(" and {} more", moving.len() - 5)
+    } else {
+        String::new()
+    };
+    Some(format!(
+        "note: {} has {} moving joint{} ({}{more}), but its links move as free bodies: nothing \
+         holds them together and they fall apart. Add --articulated to keep the joints \
+         (--base fixed welds the root link to the world)",
+        scene.source.display(),
+        moving.len(),
+        if moving.len() == 1 { "" } else { "s" },
+        shown.join(", ")
+    ))
 }
 
 /// The warning for a step too large for some body's spin ([`crate::sim::limits`]), if any.
@@ -394,7 +469,13 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         check_not_overwriting(&accuracy_json, args.force)?;
     }
     let threads = thread_count(args.threads)?;
-    let mut world = scene.build()?;
+    // `Scene::build`, in its steps: the loaded model says whether a bare URDF has joints.
+    let loaded = scene.load_models()?;
+    let mut world = scene.assemble(&loaded, &|table, copy| scene.models[table].placement(copy))?;
+    scene.describe(&loaded, &mut world);
+    if let Some(note) = free_links_note(&scene, &loaded) {
+        eprintln!("{note}");
+    }
     // The files only some scenes write (the contacts table), once the scene says.
     for path in formats.paths_of(&stem, &world.layout) {
         check_not_overwriting(&path, args.force)?;

@@ -515,6 +515,7 @@ mod tests {
                 damping: 0.0,
                 friction: 0.0,
                 effort_limit: 0.0,
+                velocity_limit: 0.0,
             })
             .collect()
     }

@@ -97,6 +97,9 @@ pub struct Joint {
     /// The `<limit effort>` as written (N m, or N for a prismatic joint), any joint type; 0
     /// when absent. Not checked here: an actuator that uses it as its clamp checks it.
     pub effort_limit: f64,
+    /// The `<limit velocity>` as written (rad/s, or m/s for a prismatic joint); 0 when absent.
+    /// Reported by `inspect`; the simulation does not use it.
+    pub velocity_limit: f64,
 }
 
 /// Why a set of joints is not a tree, or a configuration cannot be applied.
@@ -112,8 +115,12 @@ pub enum KinematicsError {
     SeveralRoots { roots: Vec<String> },
     #[error("the joints form a cycle through links {}", .links.join(" -> "))]
     Cycle { links: Vec<String> },
-    #[error("no joint named `{joint}` (a position was given for it)")]
-    UnknownJoint { joint: String },
+    #[error("joints.{joint}: no joint named `{joint}` (a position was given for it){suggestion}")]
+    UnknownJoint {
+        joint: String,
+        /// `": did you mean `NAME`?"` ([`crate::message::did_you_mean`]), or empty.
+        suggestion: String,
+    },
     #[error("joint `{joint}` is {kind}: one number cannot set it")]
     NotSingleDof { joint: String, kind: &'static str },
     #[error("joint `{joint}`: position {value} is not finite")]
@@ -286,6 +293,10 @@ pub fn forward_kinematics(
             .get(name.as_str())
             .ok_or_else(|| KinematicsError::UnknownJoint {
                 joint: name.clone(),
+                suggestion: crate::message::did_you_mean(
+                    name,
+                    joints.iter().map(|j| j.name.as_str()),
+                ),
             })?;
         if !joint.kind.is_single_dof() && value != 0.0 {
             return Err(KinematicsError::NotSingleDof {
@@ -352,6 +363,7 @@ mod tests {
             damping: 0.0,
             friction: 0.0,
             effort_limit: 0.0,
+            velocity_limit: 0.0,
         }
     }
 

@@ -104,9 +104,10 @@ impl ModelMassSettings {
 #[derive(Debug, thiserror::Error)]
 pub enum PolicyError {
     #[error(
-        "{}: links.{link}: the model `{model}` has no link `{link}` (its links: {})",
+        "{}: links.{link}: the model `{model}` has no link `{link}` (its links: {}){}",
         .path.display(),
-        list_names(.known)
+        list_names(.known),
+        crate::message::did_you_mean(.link, .known.iter().map(String::as_str))
     )]
     UnknownLink {
         path: PathBuf,

@@ -214,14 +214,18 @@ pub(crate) fn resolve_all(
                 .take(40)
                 .collect();
             bail!(
-                "{at}.joint: no joint `{}` in model `{label}` ({}; its joints: {})",
+                "{at}.joint: no joint `{}` in model `{label}` ({}; its joints: {}){}",
                 spec.joint,
                 entry.urdf.display(),
                 if names.is_empty() {
                     "none".to_string()
                 } else {
                     names.join(", ")
-                }
+                },
+                crate::message::did_you_mean(
+                    &spec.joint,
+                    model.joints.iter().map(|j| j.name.as_str())
+                )
             );
         };
         if joint.kind == JointKind::Fixed {
@@ -427,6 +431,7 @@ mod tests {
             damping: 0.0,
             friction: 0.0,
             effort_limit,
+            velocity_limit: 0.0,
         }
     }
 

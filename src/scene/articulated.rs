@@ -116,8 +116,9 @@ fn prepare(
     let known = |key: &str, name: &str| -> anyhow::Result<usize> {
         joint_index.get(name).copied().with_context(|| {
             format!(
-                "{key}: model `{label}` ({}) has no joint named `{name}`",
-                model.path.display()
+                "{key}: model `{label}` ({}) has no joint named `{name}`{}",
+                model.path.display(),
+                crate::message::did_you_mean(name, model.joints.iter().map(|j| j.name.as_str()))
             )
         })
     };

@@ -133,10 +133,14 @@ pub(crate) fn resolve_all(
                 .take(40)
                 .collect();
             bail!(
-                "{at}.link: no link `{}` in model `{label}` ({}; its links: {})",
+                "{at}.link: no link `{}` in model `{label}` ({}; its links: {}){}",
                 spec.link,
                 entry.urdf.display(),
-                names.join(", ")
+                names.join(", "),
+                crate::message::did_you_mean(
+                    &spec.link,
+                    model.links.iter().map(|l| l.name.as_str())
+                )
             );
         }
         let read = |name: &str, values: &[toml::Value; 3], columns: [&str; 3]| {

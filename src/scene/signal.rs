@@ -150,10 +150,13 @@ pub fn read_table(text: &str, column: &str) -> anyhow::Result<Signal> {
     };
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let find = |name: &str| {
-        names
-            .iter()
-            .position(|n| *n == name)
-            .with_context(|| format!("no column `{name}` (the header has: {})", names.join(", ")))
+        names.iter().position(|n| *n == name).with_context(|| {
+            format!(
+                "no column `{name}` (the header has: {}){}",
+                names.join(", "),
+                crate::message::did_you_mean(name, names.iter().copied())
+            )
+        })
     };
     let (t_col, v_col) = (find("time")?, find(column)?);
     let (mut times_secs, mut values) = (Vec::new(), Vec::new());
@@ -282,6 +285,16 @@ mod tests {
         );
         assert!(
             e.contains("no column `j` (the header has: time, wrist)"),
+            "{e}"
+        );
+        assert!(!e.contains("did you mean"), "{e}");
+        // A misspelt joint's column: the closest header name is suggested.
+        let e = format!(
+            "{:#}",
+            parse("k", &value("{ table = \"other.csv\" }"), d, "wirst", None).unwrap_err()
+        );
+        assert!(
+            e.contains("no column `wirst` (the header has: time, wrist): did you mean `wrist`?"),
             "{e}"
         );
     }

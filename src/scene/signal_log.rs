@@ -143,14 +143,15 @@ pub fn read_from(mut source: impl Read, topic: &str, pick: Pick<'_>) -> anyhow::
     if rows.times_secs.is_empty() {
         bail!(
             "no message on `{topic}` names joint `{}` ({} messages; the joints they name: {}); \
-             give the log's name of the joint with `joint = \"...\"` in the log table",
+             give the log's name of the joint with `joint = \"...\"` in the log table{}",
             pick.joint,
             rows.messages,
             if rows.names.is_empty() {
                 "none".to_string()
             } else {
                 rows.names.join(", ")
-            }
+            },
+            crate::message::did_you_mean(pick.joint, rows.names.iter().map(|n| n.as_ref()))
         );
     }
     Ok(Signal::Table {

@@ -649,5 +649,7 @@ fn joint_damping_and_effort_are_read_as_written() {
     assert_eq!(
         read,
         [("hinge", 0.3, 12.5), ("spin", 0.0, 4.0), ("weld", 2.0, 0.0)]
-    );
+    ); // `<limit velocity>` as written, for `inspect` (0 without a `<limit>`).
+    let velocity: Vec<f64> = model.joints.iter().map(|j| j.velocity_limit).collect();
+    assert_eq!(velocity, [1.0, 1.0, 0.0]);
 }

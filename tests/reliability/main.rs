@@ -9,4 +9,5 @@ mod common;
 mod cli;
 mod ownership;
 mod reliability;
+mod robot_cli;
 mod scale;

@@ -98,6 +98,7 @@ pub(super) fn joints<'r>(
             damping: j.dynamics.as_ref().map_or(0.0, |d| d.damping),
             friction: j.dynamics.as_ref().map_or(0.0, |d| d.friction),
             effort_limit: j.limit.effort,
+            velocity_limit: j.limit.velocity,
         });
     }
     Ok((joints, missing_mimics))
