@@ -4,7 +4,7 @@
 //! tolerance.
 
 use super::super::Mechanism;
-use super::super::rows::BodyPose;
+use super::super::rows::{BodyPose, MAX_ROWS};
 use super::super::tree::ExtraRow;
 use super::{Failure, Workspace};
 use crate::sim::integrators::variational::RotationEval;
@@ -57,6 +57,10 @@ pub(super) fn mimic_row(
     Some(value)
 }
 
+/// The round-off floor of a body's free-body residual, in units of `ε` times the size of the
+/// torque terms summed into its `M⁺` (see [`Workspace::impulses`]).
+const TORQUE_ROUNDOFF: f64 = 64.0;
+
 impl Workspace {
     /// `M⁺ = M + Gηᵀ λ`, `v⁺ = v + Gcᵀ λ / m` from the current `λ`, `μ`.
     pub(super) fn impulses(&mut self, model: &Mechanism, bodies: &Bodies) {
@@ -64,6 +68,7 @@ impl Workspace {
         for i in 0..model.body_count {
             self.angmom_plus[i] = bodies.angmom_body[first + i];
             self.impulse_scale[i] = 0.0;
+            self.torque_terms[i] = Vector3::zeros();
             self.linvel_plus[i] = Vector3::zeros();
         }
         for (j, joint) in model.joints.iter().enumerate() {
@@ -74,12 +79,19 @@ impl Workspace {
             self.linvel_plus[joint.child] += ic.fixed_rows::<3>(0);
             self.angmom_plus[joint.child] += torque;
             self.impulse_scale[joint.child] = self.impulse_scale[joint.child].max(torque.amax());
+            // The size of the terms summed into the torque, `Σ_r |G_η,r| |λ_r|` (per
+            // component): their round-off floor, which the net torque above loses when the
+            // rows cancel (a body at rest in equilibrium).
+            let l_abs = l.abs();
+            self.torque_terms[joint.child] +=
+                gc.fixed_view::<MAX_ROWS, 3>(0, 3).abs().tr_mul(&l_abs);
             if let Some(p) = joint.parent {
                 let ip = gp.transpose() * l;
                 let torque = ip.fixed_rows::<3>(3);
                 self.linvel_plus[p] += ip.fixed_rows::<3>(0);
                 self.angmom_plus[p] += torque;
                 self.impulse_scale[p] = self.impulse_scale[p].max(torque.amax());
+                self.torque_terms[p] += gp.fixed_view::<MAX_ROWS, 3>(0, 3).abs().tr_mul(&l_abs);
             }
         }
         // A stop's impulse may be balanced by its joint's own rows (a joint held at rest by
@@ -106,6 +118,7 @@ impl Workspace {
                 self.linvel_plus[*i] += imp.fixed_rows::<3>(0);
                 self.angmom_plus[*i] += torque;
                 self.impulse_scale[*i] = self.impulse_scale[*i].max(torque.amax());
+                self.torque_terms[*i] += torque.abs();
             }
         }
         for i in 0..model.body_count {
@@ -140,7 +153,8 @@ impl Workspace {
                 .max(bodies.angmom_body[gi].amax())
                 .max(self.impulse_scale[i])
                 .max((j.component_mul(&self.xi[i]) / h).amax());
-            ratio = ratio.max(relative(f.amax(), tol * scale));
+            let floor = TORQUE_ROUNDOFF * f64::EPSILON * self.torque_terms[i].amax();
+            ratio = ratio.max(relative(f.amax(), tol * scale + floor));
             self.free_residual[i] = f;
             self.free_evals[i] = eval;
             let q = bodies.world_from_body[gi] * so3::exp_quaternion(&self.xi[i]);

@@ -189,3 +189,94 @@ fn a_step_newton_cannot_solve_is_split_into_substeps() {
     // split step: measured 1.2e-14 m.
     assert!(gap.amax() < 1e-12, "{gap}");
 }
+
+/// Issue 32: bodies at rest in equilibrium beside one that moves. A two-link chain hangs
+/// straight down, its principal frames turned off the world axes, so the torques of its
+/// hinges' rows on each link cancel to round-off while the pendulum beside it swings and needs
+/// two Newton iterations. The free residual's tolerance relative to that cancelled sum alone
+/// was below its round-off floor: every step failed, substeps too (the Allegro hands' fingers
+/// standing up while the thumb falls, Alexander's pelvis between its legs).
+#[test]
+fn bodies_at_rest_in_equilibrium_beside_a_moving_one_converge() {
+    let (pendulum_model, mut inits, _) = pendulum(1.0);
+    let d = 0.3;
+    let turns = [
+        UnitQuaternion::from_axis_angle(
+            &nalgebra::Unit::new_normalize(Vector3::new(1.0, 2.0, 3.0)),
+            0.7,
+        ),
+        UnitQuaternion::from_axis_angle(
+            &nalgebra::Unit::new_normalize(Vector3::new(-3.0, 1.0, 2.0)),
+            1.1,
+        ),
+    ];
+    let pivot = Vector3::new(2.0, 0.0, 0.0);
+    let y = Vector3::y();
+    let mut shared = (*pendulum_model.shared).clone();
+    for (k, rot) in turns.iter().enumerate() {
+        // Link k: centre of mass d below its pivot, its child's pivot d below the centre.
+        let com = pivot - Vector3::new(0.0, 0.0, d * (2 * k + 1) as f64);
+        inits.push(BodyInit {
+            mass: 0.05,
+            principal_moments: Vector3::new(1e-5, 2e-5, 1.5e-5),
+            world_from_body: Isometry3::from_parts(Translation3::from(com), *rot),
+            linvel_world: Vector3::zeros(),
+            angvel_world: Vector3::zeros(),
+        });
+        let (parent, anchor_parent, axis_parent) = if k == 0 {
+            (None, pivot, y)
+        } else {
+            let up = turns[k - 1].inverse();
+            (Some(k), up * Vector3::new(0.0, 0.0, -d), up * y)
+        };
+        shared.joints.push(MechanismJoint {
+            name: format!("resting_{k}"),
+            parent,
+            child: k + 1,
+            rows: JointRows {
+                anchor_parent,
+                anchor_child: rot.inverse() * Vector3::new(0.0, 0.0, d),
+                kind: RowKind::Hinge {
+                    axis_parent,
+                    axis_child: rot.inverse() * y,
+                    normals_parent: normals(&axis_parent),
+                },
+            },
+            compound: None,
+            parent_from_first: Isometry3::identity(),
+            stage_origins: Vec::new(),
+        });
+    }
+    shared.body_count = 3;
+    shared.validate().unwrap();
+    let model = Mechanism {
+        shared: std::sync::Arc::new(shared),
+        ..pendulum_model
+    };
+    let g = Loads::uniform_gravity(Vector3::new(0.0, 0.0, -9.81));
+    let settings = VariationalSettings::default();
+    let mut bodies = Bodies::new(&inits);
+    let mut state = MechanismState::new(&model);
+    let mut warm = Warm::new(&model);
+    let start = bodies.com_world[2];
+    for _ in 0..1000 {
+        let stats = step(
+            &model,
+            &mut state,
+            &mut warm,
+            &mut bodies,
+            1e-3,
+            &g,
+            &settings,
+        );
+        assert_eq!(
+            (stats.newton_failures, stats.substepped),
+            (0, 0),
+            "{stats:?}"
+        );
+        assert!(stats.newton_iters_max <= 3, "{stats:?}");
+    }
+    // The hanging chain stays at rest.
+    let moved = (bodies.com_world[2] - start).amax();
+    assert!(moved < 1e-12, "{moved:e}");
+}

@@ -39,6 +39,9 @@ pub struct Workspace {
     /// Per body: the largest torque impulse added to `M` (its round-off sets the floor of the
     /// free-step residual's tolerance).
     pub(super) impulse_scale: Vec<f64>,
+    /// Per body, `Σ |G_η,r| |λ_r|` over every row acting on it (per component): the size of
+    /// the terms summed into its torque impulse, whose round-off floors its free residual.
+    pub(super) torque_terms: Vec<Vector3<f64>>,
     /// `v_i⁺ = v_i + G_cᵀ λ / m_i` (+ mimic rows): velocity after the start impulses.
     pub(super) linvel_plus: Vec<Vector3<f64>>,
     /// The unknowns `ξ_i`: each body's rotation over the step, `R_i' = R_i exp(ξ_i)`.
@@ -122,6 +125,7 @@ impl Workspace {
             mimic_residual: vec![0.0; nm],
             angmom_plus: vec![Vector3::zeros(); n],
             impulse_scale: vec![0.0; n],
+            torque_terms: vec![Vector3::zeros(); n],
             linvel_plus: vec![Vector3::zeros(); n],
             xi: vec![Vector3::zeros(); n],
             lambda: vec![RowValues::zeros(); nj],
