@@ -4,6 +4,11 @@
 use crate::sim::StepStats;
 use crate::sim::guard::Divergence;
 
+/// An initial angular momentum at most this fraction of its scale (the largest principal
+/// moment of inertia of its bodies times 1 rad/s) is at rest to round-off: its change is
+/// reported as an absolute figure ([`RunSummary::angmom_abs_change_max`]).
+pub const AT_REST: f64 = 1e-12;
+
 /// What a run did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RunSummary {
@@ -23,7 +28,24 @@ pub struct RunSummary {
     /// Largest change of any body's spatial angular momentum about its centre of mass, relative
     /// to that body's initial |L| (conserved exactly by the variational schemes), over the
     /// bodies without colliders (contact changes the others').
+    /// It is taken over the quantities with a reference: an initial |L| above
+    /// [`AT_REST`] times the quantity's own scale ([`RunSummary::angmom_abs_change_max`]
+    /// covers the others); 0 when there is none.
     pub angmom_rel_change_max: f64,
+    /// Largest change |L − L₀| of a conserved angular momentum that started at rest (|L₀| at
+    /// most [`AT_REST`] times its scale: the largest principal moment of inertia of its
+    /// bodies, summed over a mechanism's, times 1 rad/s), kg m²/s: a relative change has no
+    /// reference there. 0 when there is none.
+    pub angmom_abs_change_max: f64,
+    /// How many conserved angular momenta the two figures above cover: relative, absolute.
+    pub angmom_checked: [u32; 2],
+    /// Whether some articulated model has a fixed base: its angular momentum is not conserved
+    /// (the weld exchanges it with the world) and is in neither figure.
+    pub fixed_base: bool,
+    /// With mechanisms, the largest constraint residual over the frames built in the run
+    /// (recorded ones and the summary's): anchor gap, m, and axis misalignment, rad
+    /// ([`crate::sim::mechanism::Totals::residual_m`]). `None` without mechanisms.
+    pub constraint_residual: Option<[f64; 2]>,
     /// Whether contact acted in the run (a ground or colliding bodies): momenta are then
     /// exchanged with the ground, and `energy_flow.contact_work` is its term of the balance.
     pub contact: bool,
