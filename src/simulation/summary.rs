@@ -42,8 +42,9 @@ pub struct RunSummary {
     /// Whether some articulated model has a fixed base: its angular momentum is not conserved
     /// (the weld exchanges it with the world) and is in neither figure.
     pub fixed_base: bool,
-    /// With mechanisms, the largest constraint residual over the frames built in the run
-    /// (recorded ones and the summary's): anchor gap, m, and axis misalignment, rad
+    /// With mechanisms, the largest constraint residual over the frames built in the run (the
+    /// recorded ones and the summary's; a run without sinks builds only the first and the
+    /// last): anchor gap, m, and axis misalignment, rad
     /// ([`crate::sim::mechanism::Totals::residual_m`]). `None` without mechanisms.
     pub constraint_residual: Option<[f64; 2]>,
     /// Whether contact acted in the run (a ground or colliding bodies): momenta are then
