@@ -338,3 +338,27 @@ fn a_fixed_base_run_says_its_momentum_is_not_conserved() {
             .starts_with("angular momentum relative change max ")
     );
 }
+
+/// The Rerun blueprint plots the scene's angular momentum change only where one is conserved:
+/// not for a fixed-base robot alone (it would be a flat line at 0), but for a floating one.
+#[test]
+fn the_rerun_blueprint_omits_the_momentum_plot_of_fixed_base_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let views = |urdf: &str, base: &str| -> Vec<String> {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/views.toml");
+        let text = format!(
+            "[sim]\nduration = 0.01\n[[model]]\nurdf = \"{urdf}\"\nbodies = \"articulated\"\n{base}\n"
+        );
+        let world = Scene::parse(&text, &path).unwrap().build().unwrap();
+        let out = dir.path().join(format!("{urdf}.rrd"));
+        let sink = crate::record::rerun::RerunSink::create(&out, &world.layout, &Default::default())
+            .unwrap();
+        sink.plot_views().iter().map(|v| v.title.clone()).collect()
+    };
+    let has_momentum = |titles: &[String]| titles.iter().any(|t| t.starts_with("angular momentum"));
+    let fixed = views("double_pendulum.urdf", "base = \"fixed\"");
+    assert!(!has_momentum(&fixed), "{fixed:?}");
+    assert!(fixed.iter().any(|t| t.starts_with("energy change")), "{fixed:?}");
+    let floating = views("chain3_free.urdf", "");
+    assert!(has_momentum(&floating), "{floating:?}");
+}

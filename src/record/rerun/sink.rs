@@ -89,6 +89,11 @@ impl RerunSink {
         self.plot_views = views;
     }
 
+    /// The time series views of the blueprint (written when the recording finishes).
+    pub fn plot_views(&self) -> &[PlotView] {
+        &self.plot_views
+    }
+
     /// Opens `<path>.part` and writes the static layout. See the module doc for what is written.
     pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> Result<Self> {
         create(path, layout, options)
