@@ -35,8 +35,9 @@ fn position_text(p: f64) -> String {
 /// report. A driven joint reports its effort (actuator plus damping), target and saturation
 /// from its drive's continuous-time law ([`crate::sim::mechanism::JointDrive::effort`]) at the
 /// recorded time (`time_ns / 1e9`), with the recorded position and velocity. A joint found
-/// outside its URDF range at a recorded step is warned about once (on standard error), naming
-/// the joint and the time.
+/// outside its URDF range by more than round-off (1e-9 × (1 + the larger |bound|)) at a
+/// recorded step is warned about once (on standard error), naming the joint and the time;
+/// never when quiet ([`FrameBuilder::set_quiet`]: the sweeps of `trade` and `stability`).
 pub struct FrameBuilder {
     attachments: Arc<Vec<Attachment>>,
     interior: Vec<InteriorFrame>,
