@@ -10,7 +10,7 @@ use crate::record::{Format, FormatSet, OutputFile};
 use crate::scene::{Scene, SimOverrides};
 use crate::sim::integrators::{Jacobian, Potential};
 use crate::sim::{Bodies, limits};
-use crate::simulation::{AccuracyReport, RunSummary, SimulateOptions, output_paths, simulate_world};
+use crate::simulation::{AccuracyReport, SimulateOptions, output_paths, simulate_world};
 use crate::world::World;
 use std::path::{Path, PathBuf};
 
@@ -468,10 +468,12 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         "energy {:.9e} J -> {:.9e} J ({energy_change}); {}",
         s.energy_initial,
         s.energy_final,
-        momentum_text(s)
+        s.momentum_text()
     );
     if let Some([gap, angle]) = s.constraint_residual {
-        println!("constraint residual max: joint gap {gap:.2e} m, axis misalignment {angle:.2e} rad");
+        println!(
+            "constraint residual max: joint gap {gap:.2e} m, axis misalignment {angle:.2e} rad"
+        );
     }
     let flow = s.energy_flow;
     if flow != Default::default() {
@@ -568,47 +570,4 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
-}
-
-/// The angular momentum part of the summary line: the largest relative change over the
-/// conserved momenta with a reference, the largest absolute change (kg m²/s) over those that
-/// started at rest ([`crate::simulation::AT_REST`]), and "not conserved: fixed base" when only
-/// fixed-base models (whose weld exchanges momentum with the world) are in the run.
-pub fn momentum_text(s: &RunSummary) -> String {
-    let [relative, absolute] = s.angmom_checked;
-    let mut parts = Vec::new();
-    if relative > 0 {
-        parts.push(format!(
-            "angular momentum relative change max {:.2e}",
-            s.angmom_rel_change_max
-        ));
-    }
-    if absolute > 0 {
-        parts.push(format!(
-            "angular momentum absolute change max {:.2e} kg m^2/s (starting at rest)",
-            s.angmom_abs_change_max
-        ));
-    }
-    if parts.is_empty() {
-        return if s.fixed_base {
-            "angular momentum not conserved: fixed base".to_string()
-        } else if s.contact {
-            "angular momentum not checked: every body has colliders (contact exchanges momenta \
-             with the ground)"
-                .to_string()
-        } else {
-            "angular momentum not checked: no body".to_string()
-        };
-    }
-    let mut text = parts.join(", ");
-    if s.contact {
-        text.push_str(
-            " over the bodies without colliders (contact exchanges the others' momenta with the \
-             ground)",
-        );
-    }
-    if s.fixed_base {
-        text.push_str(" (fixed-base models excluded: not conserved)");
-    }
-    text
 }

@@ -58,6 +58,52 @@ pub struct RunSummary {
     pub interrupted: Option<i32>,
 }
 
+impl RunSummary {
+    /// The angular momentum part of the summary line: the largest relative change over the
+    /// conserved momenta with a reference, the largest absolute change (kg m²/s) over those that
+    /// started at rest ([`AT_REST`]), and "not conserved: fixed base" when only
+    /// fixed-base models (whose weld exchanges momentum with the world) are in the run.
+    pub fn momentum_text(&self) -> String {
+        let s = self;
+        let [relative, absolute] = s.angmom_checked;
+        let mut parts = Vec::new();
+        if relative > 0 {
+            parts.push(format!(
+                "angular momentum relative change max {:.2e}",
+                s.angmom_rel_change_max
+            ));
+        }
+        if absolute > 0 {
+            parts.push(format!(
+                "angular momentum absolute change max {:.2e} kg m^2/s (starting at rest)",
+                s.angmom_abs_change_max
+            ));
+        }
+        if parts.is_empty() {
+            return if s.fixed_base {
+                "angular momentum not conserved: fixed base".to_string()
+            } else if s.contact {
+                "angular momentum not checked: every body has colliders (contact exchanges momenta \
+                 with the ground)"
+                    .to_string()
+            } else {
+                "angular momentum not checked: no body".to_string()
+            };
+        }
+        let mut text = parts.join(", ");
+        if s.contact {
+            text.push_str(
+                " over the bodies without colliders (contact exchanges the others' momenta with the \
+                 ground)",
+            );
+        }
+        if s.fixed_base {
+            text.push_str(" (fixed-base models excluded: not conserved)");
+        }
+        text
+    }
+}
+
 /// Simulation time of step `k` in integer nanoseconds. Exact integer arithmetic when `dt_secs`
 /// is a whole number of nanoseconds (to 1e-6 ns), else rounded per step.
 pub fn time_ns(step: u64, dt_secs: f64) -> i64 {

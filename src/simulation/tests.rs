@@ -191,7 +191,10 @@ fn a_run_without_sinks_reports_what_a_recorded_run_reports() {
         match (a.constraint_residual.take(), b.constraint_residual.take()) {
             (None, None) => assert!(world.mechanisms.is_empty(), "{scene_file}"),
             (Some(ra), Some(rb)) => {
-                assert!(ra[0] >= rb[0] && ra[1] >= rb[1], "{scene_file}: {ra:?} {rb:?}")
+                assert!(
+                    ra[0] >= rb[0] && ra[1] >= rb[1],
+                    "{scene_file}: {ra:?} {rb:?}"
+                )
             }
             other => panic!("{scene_file}: {other:?}"),
         }
@@ -294,7 +297,7 @@ fn a_robot_released_at_rest_reports_an_absolute_momentum_change() {
     let [gap, angle] = s.constraint_residual.expect("an articulated run");
     // Measured 1.1e-16 m and 1.1e-16 rad.
     assert!(gap < 1e-9 && angle < 1e-9, "{gap:e} {angle:e}");
-    let text = crate::commands::simulate::momentum_text(&s);
+    let text = s.momentum_text();
     assert_eq!(
         text,
         format!(
@@ -317,7 +320,7 @@ fn a_fixed_base_run_says_its_momentum_is_not_conserved() {
     assert_eq!(s.angmom_checked, [0, 0], "{s:?}");
     assert!(s.fixed_base);
     assert_eq!(
-        crate::commands::simulate::momentum_text(&s),
+        s.momentum_text(),
         "angular momentum not conserved: fixed base"
     );
     // Measured 5.0e-16 m and 1.9e-16 rad over the 100 steps.
@@ -334,7 +337,7 @@ fn a_fixed_base_run_says_its_momentum_is_not_conserved() {
     // Measured 9.6e-16 (exact discrete conservation).
     assert!(s.angmom_rel_change_max < 1e-12, "{s:?}");
     assert!(
-        crate::commands::simulate::momentum_text(&s)
+        s.momentum_text()
             .starts_with("angular momentum relative change max ")
     );
 }
@@ -351,14 +354,18 @@ fn the_rerun_blueprint_omits_the_momentum_plot_of_fixed_base_runs() {
         );
         let world = Scene::parse(&text, &path).unwrap().build().unwrap();
         let out = dir.path().join(format!("{urdf}.rrd"));
-        let sink = crate::record::rerun::RerunSink::create(&out, &world.layout, &Default::default())
-            .unwrap();
+        let sink =
+            crate::record::rerun::RerunSink::create(&out, &world.layout, &Default::default())
+                .unwrap();
         sink.plot_views().iter().map(|v| v.title.clone()).collect()
     };
     let has_momentum = |titles: &[String]| titles.iter().any(|t| t.starts_with("angular momentum"));
     let fixed = views("double_pendulum.urdf", "base = \"fixed\"");
     assert!(!has_momentum(&fixed), "{fixed:?}");
-    assert!(fixed.iter().any(|t| t.starts_with("energy change")), "{fixed:?}");
+    assert!(
+        fixed.iter().any(|t| t.starts_with("energy change")),
+        "{fixed:?}"
+    );
     let floating = views("chain3_free.urdf", "");
     assert!(has_momentum(&floating), "{floating:?}");
 }

@@ -642,7 +642,10 @@ fn joint_range_warnings_need_more_than_round_off_and_stay_out_of_sweeps() {
     };
     let needle = "joint \"slide\" left its URDF range [0, 1]";
     scene(tmp.path(), "round_off.toml", "", &model("-1e-12"));
-    let r = run(&["simulate", "round_off.toml", "--out", "out/a"], tmp.path());
+    let r = run(
+        &["simulate", "round_off.toml", "--out", "out/a"],
+        tmp.path(),
+    );
     assert_eq!(r.status, Some(0), "{}", r.stderr);
     assert!(!r.stderr.contains("left its URDF range"), "{}", r.stderr);
     scene(tmp.path(), "outside.toml", "", &model("-1e-6"));

@@ -157,8 +157,11 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
     if !sink.joint_plots.is_empty() && !sink.joint_plots.conserves_angmom() {
         // Fixed-base models only: no conserved angular momentum, no plot of its change (the
         // series stays, at 0, for tools that read it).
-        sink.plot_views
-            .retain(|v| !v.contents.iter().any(|c| c.contains("angular_momentum_change")));
+        sink.plot_views.retain(|v| {
+            !v.contents
+                .iter()
+                .any(|c| c.contains("angular_momentum_change"))
+        });
     }
     let extra_views = sink.joint_plots.plot_views(layout);
     sink.plot_views.extend(extra_views);
