@@ -103,6 +103,7 @@ pub fn time_simulation(
         divergence_energy_ratio: f64::MAX,
         stop_on_newton_failure: None,
         stop_on_interrupt: false,
+        quiet: false,
     };
     let mut sim = Simulation::new(
         world,

@@ -545,22 +545,17 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             (s.energy_final - s.energy_initial) / s.energy_initial.abs()
         )
     };
-    let momentum = if s.contact {
-        format!(
-            "angular momentum relative change max {:.2e} over the bodies without colliders \
-             (contact exchanges the others' momenta with the ground)",
-            s.angmom_rel_change_max
-        )
-    } else {
-        format!(
-            "angular momentum relative change max {:.2e}",
-            s.angmom_rel_change_max
-        )
-    };
     println!(
-        "energy {:.9e} J -> {:.9e} J ({energy_change}); {momentum}",
-        s.energy_initial, s.energy_final
+        "energy {:.9e} J -> {:.9e} J ({energy_change}); {}",
+        s.energy_initial,
+        s.energy_final,
+        s.momentum_text()
     );
+    if let Some([gap, angle]) = s.constraint_residual {
+        println!(
+            "constraint residual max: joint gap {gap:.2e} m, axis misalignment {angle:.2e} rad"
+        );
+    }
     let flow = s.energy_flow;
     if flow != Default::default() {
         let change = s.energy_final - s.energy_initial;

@@ -121,7 +121,7 @@ impl Scene {
                             model.check_simulable(entry.allow_non_physical_inertia)
                         }
                         BodiesMode::Rigid | BodiesMode::Articulated => {
-                            rigid::check_rigid_parts(&model)
+                            rigid::check_rigid_parts(&model, entry.allow_non_physical_inertia)
                         }
                     }
                     .with_context(context)?;

@@ -543,6 +543,7 @@ impl Scene {
             divergence_energy_ratio: self.sim.divergence_energy_ratio,
             stop_on_newton_failure: self.sim.substep.then_some(self.sim.max_substeps),
             stop_on_interrupt: false,
+            quiet: false,
         }
     }
 

@@ -10,11 +10,32 @@ use anyhow::bail;
 use nalgebra::{Isometry3, Translation3};
 use std::collections::HashSet;
 
+/// Below this fraction of a model's largest principal moment of inertia, a part's principal
+/// moment is zero to round-off ([`check_rigid_parts`]).
+pub const PART_ROUND_OFF: f64 = 1e-12;
+
 /// The parts of a `bodies = "rigid"` model: each link with an `<inertial>` and a non-zero mass
 /// must have finite values, a positive mass and a positive *semi*-definite inertia (a point mass
 /// or a rod is a fine part of a composite: real robots have sensor links with mass and zero
 /// inertia); the composite itself is then validated in full by [`add_rigid_model`].
-pub(super) fn check_rigid_parts(model: &Model) -> Result<(), crate::model::urdf::ModelError> {
+///
+/// Semi-definiteness is judged to round-off of the model's scale: a principal moment counts as
+/// zero when its magnitude is at most [`PART_ROUND_OFF`] times the model's largest principal
+/// moment (or 1e-9 times the link's own largest inertia entry). A link written with moments of
+/// 1e-35 kg m² (zero to round-off: iCub's `head`, -2.4e-35, 0, 2.4e-35) is a point mass, not a
+/// defect. A moment below that is refused, and the message names the opt-in that accepts it
+/// (`allow_non_physical_inertia`: the composite is still validated in full).
+pub(super) fn check_rigid_parts(
+    model: &Model,
+    allow_non_physical_inertia: bool,
+) -> Result<(), crate::model::urdf::ModelError> {
+    let model_scale = model
+        .links
+        .iter()
+        .filter_map(|l| l.inertial.as_ref())
+        .filter(|mp| mp.mass != 0.0 && mp.inertia.iter().all(|x| x.is_finite()))
+        .map(|mp| mp.principal_moments().amax())
+        .fold(0.0, f64::max);
     for link in &model.links {
         let Some(mp) = &link.inertial else { continue };
         if mp.mass == 0.0 {
@@ -29,10 +50,14 @@ pub(super) fn check_rigid_parts(model: &Model) -> Result<(), crate::model::urdf:
             Some(format!("mass is negative: {} kg", mp.mass))
         } else {
             let moments = mp.principal_moments();
-            let scale = mp.inertia.amax();
-            (moments.min() < -1e-9 * scale).then(|| {
+            let tolerance = (1e-9 * mp.inertia.amax()).max(PART_ROUND_OFF * model_scale);
+            (!allow_non_physical_inertia && moments.min() < -tolerance).then(|| {
                 format!(
-                    "inertia is not positive semi-definite: principal moments {}, {}, {} kg m^2",
+                    "inertia is not positive semi-definite: principal moments {}, {}, {} kg m^2 \
+                     (a moment below -{tolerance:e} kg m^2, {PART_ROUND_OFF:e} of the model's \
+                     largest principal moment, is not round-off); to simulate it anyway set \
+                     allow_non_physical_inertia = true on its [[model]] (or pass \
+                     --allow-non-physical-inertia)",
                     moments.x, moments.y, moments.z
                 )
             })

@@ -18,4 +18,8 @@ pub struct RunSettings {
     /// step is recorded and `RunSummary::interrupted` (`crate::simulation`) set. Off in `Scene::run_settings` (a
     /// library caller decides); `simulate` turns it on.
     pub stop_on_interrupt: bool,
+    /// No joint-range warnings on standard error (`crate::simulation::FrameBuilder`): the
+    /// sweeps of `trade` and `stability`, which run many variants of one scene. Off in
+    /// `Scene::run_settings`.
+    pub quiet: bool,
 }

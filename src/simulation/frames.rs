@@ -35,8 +35,9 @@ fn position_text(p: f64) -> String {
 /// report. A driven joint reports its effort (actuator plus damping), target and saturation
 /// from its drive's continuous-time law ([`crate::sim::mechanism::JointDrive::effort`]) at the
 /// recorded time (`time_ns / 1e9`), with the recorded position and velocity. A joint found
-/// outside its URDF range at a recorded step is warned about once (on standard error), naming
-/// the joint and the time.
+/// outside its URDF range by more than round-off (1e-9 × (1 + the larger |bound|)) at a
+/// recorded step is warned about once (on standard error), naming the joint and the time;
+/// never when quiet ([`FrameBuilder::set_quiet`]: the sweeps of `trade` and `stability`).
 pub struct FrameBuilder {
     attachments: Arc<Vec<Attachment>>,
     interior: Vec<InteriorFrame>,
@@ -48,6 +49,10 @@ pub struct FrameBuilder {
     mechanism_ranges: Vec<(std::ops::Range<usize>, std::ops::Range<usize>)>,
     joint_names: Vec<String>,
     warned_range: Vec<bool>,
+    /// No joint-range warning (the sweeps of `trade` and `stability`).
+    quiet: bool,
+    /// The largest constraint residual over the mechanisms' frames built: m, rad.
+    residual_max: [f64; 2],
     /// The frames built: each is written once, straight into a buffer the sinks then share
     /// ([`FrameBuilder::shared`], [`crate::record::owned_frame`]).
     pool: FramePool,
@@ -111,6 +116,8 @@ impl FrameBuilder {
             mechanism_ranges,
             joint_names: world.layout.joints.iter().map(|j| j.name.clone()).collect(),
             warned_range: vec![false; world.layout.joints.len()],
+            quiet: false,
+            residual_max: [0.0; 2],
             pool: FramePool::default(),
         }
     }
@@ -127,6 +134,17 @@ impl FrameBuilder {
         out.mechanisms.resize(sizes[3], MechanismState::default());
         out.contacts.clear();
         out
+    }
+
+    /// Silences the joint-range warnings (sweeps that run many variants of one scene).
+    pub fn set_quiet(&mut self, quiet: bool) {
+        self.quiet = quiet;
+    }
+
+    /// The largest constraint residual over the mechanism frames built so far: anchor gap, m,
+    /// and axis misalignment, rad ([`crate::sim::mechanism::Totals`]).
+    pub fn residual_max(&self) -> [f64; 2] {
+        self.residual_max
     }
 
     fn sizes(&self, bodies: usize) -> [usize; 4] {
@@ -246,7 +264,13 @@ impl FrameBuilder {
                 if enforced {
                     out.joints[j].at_limit = p >= hi - slack || p <= lo + slack;
                 }
-                if !self.warned_range[j] && !(lo - slack..=hi + slack).contains(&p) {
+                // A warning only beyond round-off of the bounds (a joint at -0.0 or -1e-17
+                // in [0, x] is at its bound, limit on or off), and none in quiet sweeps.
+                let tolerance = 1e-9 * (1.0 + lo.abs().max(hi.abs()));
+                if !self.quiet
+                    && !self.warned_range[j]
+                    && !(lo - tolerance..=hi + tolerance).contains(&p)
+                {
                     self.warned_range[j] = true;
                     let why = if enforced {
                         "it was placed there: its limit keeps it from going further"
@@ -266,6 +290,8 @@ impl FrameBuilder {
             }
         }
         let t = &report.totals;
+        self.residual_max[0] = self.residual_max[0].max(t.residual_m);
+        self.residual_max[1] = self.residual_max[1].max(t.residual_rad);
         out.mechanisms[k] = MechanismState {
             linear_momentum: t.linear_momentum,
             angular_momentum: t.angular_momentum,
@@ -394,6 +420,35 @@ impl FrameBuilder {
             .iter()
             .map(|s| s.kinetic_energy + s.potential_energy)
             .sum()
+    }
+
+    /// The scale of each quantity of [`Self::conserved_angmom`], in its order: the sum of
+    /// `body_scale` over its bodies (one free body's own; a floating mechanism's summed).
+    pub fn conserved_scales(
+        &self,
+        touches: &dyn Fn(usize) -> bool,
+        body_scale: &dyn Fn(usize) -> f64,
+    ) -> Vec<f64> {
+        let last = self.last();
+        let mut out = Vec::new();
+        let mut in_mechanism: Vec<bool> = (0..last.bodies.len()).map(touches).collect();
+        for (model, _) in &self.mechanisms {
+            let collides = model.bodies().any(touches);
+            for i in model.bodies() {
+                in_mechanism[i] = true;
+            }
+            if model.base == crate::sim::mechanism::Base::Floating && !collides {
+                out.push(model.bodies().map(body_scale).sum());
+            }
+        }
+        out.extend(
+            in_mechanism
+                .iter()
+                .enumerate()
+                .filter(|(_, m)| !**m)
+                .map(|(i, _)| body_scale(i)),
+        );
+        out
     }
 
     /// Angular momenta whose conservation the run summary checks, from the last frame built:

@@ -25,7 +25,7 @@ mod tests;
 
 pub use files::{AccuracyReport, Outputs, SimulateOptions, output_paths, simulate, simulate_world};
 pub use frames::{FrameBuilder, contact_states};
-pub use summary::{Diverged, RunSummary, time_ns};
+pub use summary::{AT_REST, Diverged, RunSummary, time_ns};
 
 use crate::record::{OwnedFrame, Sink};
 use crate::sim::integrators::{IntegratorKind, VariationalSettings};
@@ -86,6 +86,8 @@ pub struct Simulation {
     articulated: bool,
     /// Per conserved quantity, its initial angular momentum ([`RunSummary::angmom_rel_change_max`]).
     angmom0: Vec<Vector3<f64>>,
+    /// Per conserved quantity, whether it started at rest ([`summary::AT_REST`]).
+    at_rest: Vec<bool>,
     summary: RunSummary,
 }
 
@@ -148,9 +150,11 @@ impl Simulation {
             steps: settings.steps,
             ..Default::default()
         };
+        let mut frames = FrameBuilder::new(world);
+        frames.set_quiet(settings.quiet);
         let mut sim = Self {
             parts,
-            frames: FrameBuilder::new(world),
+            frames,
             sinks: Vec::new(),
             settings: *settings,
             loads,
@@ -160,6 +164,7 @@ impl Simulation {
             progress: Progress::Running,
             articulated,
             angmom0,
+            at_rest: Vec::new(),
             summary,
         };
         // Frame 0 is built now (an articulated run's initial totals are the reported ones);
@@ -171,6 +176,27 @@ impl Simulation {
             sim.frames
                 .conserved_angmom(&mut sim.angmom0, &|i| parts.collides(i));
         }
+        let body_scale = |i: usize| {
+            let (bodies, j) = sim.parts.body(i);
+            bodies.inertia_body[j].max() * 1.0
+        };
+        let scales: Vec<f64> = if articulated {
+            let parts = &sim.parts;
+            sim.frames
+                .conserved_scales(&|i| parts.collides(i), &body_scale)
+        } else {
+            (0..sim.parts.len()).map(body_scale).collect()
+        };
+        sim.at_rest = sim
+            .angmom0
+            .iter()
+            .zip(&scales)
+            .map(|(l0, scale)| l0.norm() <= summary::AT_REST * scale)
+            .collect();
+        sim.summary.fixed_base = world
+            .mechanisms
+            .iter()
+            .any(|m| m.base == crate::sim::mechanism::Base::Fixed);
         if settings.steps == 0 {
             sim.progress = Progress::Done;
         }
@@ -367,14 +393,26 @@ impl Simulation {
         };
         summary.energy_flow = self.parts.energy_flow();
         summary.contact = self.parts.has_contact();
-        summary.angmom_rel_change_max = self
-            .angmom0
-            .iter()
-            .zip(&angmom1)
-            .enumerate()
-            .filter(|(i, _)| self.articulated || !self.parts.collides(*i))
-            .map(|(_, (l0, l1))| (l1 - l0).norm() / l0.norm().max(f64::MIN_POSITIVE))
-            .fold(0.0, f64::max);
+        let (mut rel, mut abs, mut checked) = (0.0_f64, 0.0_f64, [0_u32; 2]);
+        for (i, (l0, l1)) in self.angmom0.iter().zip(&angmom1).enumerate() {
+            if !self.articulated && self.parts.collides(i) {
+                continue;
+            }
+            let change = (l1 - l0).norm();
+            if self.at_rest[i] {
+                abs = abs.max(change);
+                checked[1] += 1;
+            } else {
+                rel = rel.max(change / l0.norm());
+                checked[0] += 1;
+            }
+        }
+        summary.angmom_rel_change_max = rel;
+        summary.angmom_abs_change_max = abs;
+        summary.angmom_checked = checked;
+        if self.articulated {
+            summary.constraint_residual = Some(self.frames.residual_max());
+        }
         summary
     }
 

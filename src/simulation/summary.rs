@@ -4,6 +4,11 @@
 use crate::sim::StepStats;
 use crate::sim::guard::Divergence;
 
+/// An initial angular momentum at most this fraction of its scale (the largest principal
+/// moment of inertia of its bodies times 1 rad/s) is at rest to round-off: its change is
+/// reported as an absolute figure ([`RunSummary::angmom_abs_change_max`]).
+pub const AT_REST: f64 = 1e-12;
+
 /// What a run did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RunSummary {
@@ -23,7 +28,25 @@ pub struct RunSummary {
     /// Largest change of any body's spatial angular momentum about its centre of mass, relative
     /// to that body's initial |L| (conserved exactly by the variational schemes), over the
     /// bodies without colliders (contact changes the others').
+    /// It is taken over the quantities with a reference: an initial |L| above
+    /// [`AT_REST`] times the quantity's own scale ([`RunSummary::angmom_abs_change_max`]
+    /// covers the others); 0 when there is none.
     pub angmom_rel_change_max: f64,
+    /// Largest change |L − L₀| of a conserved angular momentum that started at rest (|L₀| at
+    /// most [`AT_REST`] times its scale: the largest principal moment of inertia of its
+    /// bodies, summed over a mechanism's, times 1 rad/s), kg m²/s: a relative change has no
+    /// reference there. 0 when there is none.
+    pub angmom_abs_change_max: f64,
+    /// How many conserved angular momenta the two figures above cover: relative, absolute.
+    pub angmom_checked: [u32; 2],
+    /// Whether some articulated model has a fixed base: its angular momentum is not conserved
+    /// (the weld exchanges it with the world) and is in neither figure.
+    pub fixed_base: bool,
+    /// With mechanisms, the largest constraint residual over the frames built in the run (the
+    /// recorded ones and the summary's; a run without sinks builds only the first and the
+    /// last): anchor gap, m, and axis misalignment, rad
+    /// ([`crate::sim::mechanism::Totals::residual_m`]). `None` without mechanisms.
+    pub constraint_residual: Option<[f64; 2]>,
     /// Whether contact acted in the run (a ground or colliding bodies): momenta are then
     /// exchanged with the ground, and `energy_flow.contact_work` is its term of the balance.
     pub contact: bool,
@@ -33,6 +56,52 @@ pub struct RunSummary {
     /// Set when SIGINT/SIGTERM stopped the run (the signal number; 0 for a request from code):
     /// `steps` is then the last step done, and it was recorded.
     pub interrupted: Option<i32>,
+}
+
+impl RunSummary {
+    /// The angular momentum part of the summary line: the largest relative change over the
+    /// conserved momenta with a reference, the largest absolute change (kg m²/s) over those that
+    /// started at rest ([`AT_REST`]), and "not conserved: fixed base" when only
+    /// fixed-base models (whose weld exchanges momentum with the world) are in the run.
+    pub fn momentum_text(&self) -> String {
+        let s = self;
+        let [relative, absolute] = s.angmom_checked;
+        let mut parts = Vec::new();
+        if relative > 0 {
+            parts.push(format!(
+                "angular momentum relative change max {:.2e}",
+                s.angmom_rel_change_max
+            ));
+        }
+        if absolute > 0 {
+            parts.push(format!(
+                "angular momentum absolute change max {:.2e} kg m^2/s (starting at rest)",
+                s.angmom_abs_change_max
+            ));
+        }
+        if parts.is_empty() {
+            return if s.fixed_base {
+                "angular momentum not conserved: fixed base".to_string()
+            } else if s.contact {
+                "angular momentum not checked: every body has colliders (contact exchanges momenta \
+                 with the ground)"
+                    .to_string()
+            } else {
+                "angular momentum not checked: no body".to_string()
+            };
+        }
+        let mut text = parts.join(", ");
+        if s.contact {
+            text.push_str(
+                " over the bodies without colliders (contact exchanges the others' momenta with the \
+                 ground)",
+            );
+        }
+        if s.fixed_base {
+            text.push_str(" (fixed-base models excluded: not conserved)");
+        }
+        text
+    }
 }
 
 /// Simulation time of step `k` in integer nanoseconds. Exact integer arithmetic when `dt_secs`

@@ -161,7 +161,9 @@ fn a_run_of_no_steps_records_frame_zero() {
 
 /// A run without sinks counts its record points and reports the same summary as one with a
 /// sink (its final frame built when the summary asks), for free bodies and for a mechanism
-/// (whose totals are the reported ones, read from the frames).
+/// (whose totals are the reported ones, read from the frames). The constraint residual is the
+/// largest over the frames built: the recorded run's (frames 0, 10, …, 95) covers the bare
+/// run's (frame 0 and the final one), so it is at least as large.
 #[test]
 fn a_run_without_sinks_reports_what_a_recorded_run_reports() {
     for scene_file in ["models/default.toml", "models/double_pendulum.toml"] {
@@ -185,7 +187,17 @@ fn a_run_without_sinks_reports_what_a_recorded_run_reports() {
         )
         .unwrap();
         bare.run().unwrap();
-        let (a, b) = (recorded.summary(), bare.summary());
+        let (mut a, mut b) = (recorded.summary(), bare.summary());
+        match (a.constraint_residual.take(), b.constraint_residual.take()) {
+            (None, None) => assert!(world.mechanisms.is_empty(), "{scene_file}"),
+            (Some(ra), Some(rb)) => {
+                assert!(
+                    ra[0] >= rb[0] && ra[1] >= rb[1],
+                    "{scene_file}: {ra:?} {rb:?}"
+                )
+            }
+            other => panic!("{scene_file}: {other:?}"),
+        }
         assert_eq!(a, b, "{scene_file}");
         assert_eq!(b.frames_recorded, 11, "{scene_file}");
         // The final totals are the final state's, not the initial ones.
@@ -248,4 +260,112 @@ fn run_to_end_runs_every_step_and_finishes() {
     let summary = sim.run_to_end(&[]).unwrap();
     assert_eq!((summary.steps, summary.frames_recorded), (95, 11));
     assert_eq!(seen.lock().unwrap().last().unwrap().0, 95);
+}
+
+/// A run of `steps` steps of the scene `text` (its files beside the bundled models).
+fn run_scene(text: &str, steps: u64) -> RunSummary {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/summary_test.toml");
+    let scene = Scene::parse(text, &path).unwrap();
+    let world = scene.build().unwrap();
+    let settings = RunSettings {
+        steps,
+        log_every: 10,
+        ..scene.run_settings()
+    };
+    let (mut sim, _) = simulation(&scene, &world, &settings);
+    sim.run().unwrap();
+    sim.finish(&[]).unwrap()
+}
+
+/// A floating robot released at rest under gravity keeps a zero angular momentum (uniform
+/// gravity has no moment about its centre of mass): the change is reported as an absolute
+/// figure in kg m²/s, not divided by the zero initial momentum (which printed 1.5e294), and the
+/// constraint residual over the run is reported.
+#[test]
+fn a_robot_released_at_rest_reports_an_absolute_momentum_change() {
+    let s = run_scene(
+        "[sim]\ndt = 0.001\nduration = 1.0\n[[model]]\nurdf = \"chain3_free.urdf\"\n\
+         bodies = \"articulated\"\njoints = { j1 = 0.4, j2 = -0.3 }\n",
+        200,
+    );
+    assert_eq!(s.angmom_checked, [0, 1], "{s:?}");
+    assert_eq!(s.angmom_rel_change_max, 0.0);
+    // Measured 1.1e-16 kg m²/s over the 200 steps (the old relative figure divided it by
+    // |L0| = 0).
+    assert!(s.angmom_abs_change_max < 1e-15, "{s:?}");
+    assert!(!s.fixed_base);
+    let [gap, angle] = s.constraint_residual.expect("an articulated run");
+    // Measured 1.1e-16 m and 1.1e-16 rad.
+    assert!(gap < 1e-9 && angle < 1e-9, "{gap:e} {angle:e}");
+    let text = s.momentum_text();
+    assert_eq!(
+        text,
+        format!(
+            "angular momentum absolute change max {:.2e} kg m^2/s (starting at rest)",
+            s.angmom_abs_change_max
+        )
+    );
+}
+
+/// A fixed-base robot's angular momentum is not conserved (the weld exchanges it with the
+/// world): the summary says so instead of printing 0.00e0; a spinning chain keeps the
+/// relative figure.
+#[test]
+fn a_fixed_base_run_says_its_momentum_is_not_conserved() {
+    let s = run_scene(
+        "[sim]\ndt = 0.001\nduration = 1.0\n[[model]]\nurdf = \"double_pendulum.urdf\"\n\
+         bodies = \"articulated\"\nbase = \"fixed\"\njoints = { shoulder = 2.0, elbow = 0.5 }\n",
+        100,
+    );
+    assert_eq!(s.angmom_checked, [0, 0], "{s:?}");
+    assert!(s.fixed_base);
+    assert_eq!(
+        s.momentum_text(),
+        "angular momentum not conserved: fixed base"
+    );
+    // Measured 5.0e-16 m and 1.9e-16 rad over the 100 steps.
+    let [gap, angle] = s.constraint_residual.expect("an articulated run");
+    assert!(gap < 1e-12 && angle < 1e-12, "{gap:e} {angle:e}");
+
+    let s = run_scene(
+        "[sim]\ndt = 0.001\nduration = 1.0\ngravity = [0, 0, 0]\n[[model]]\n\
+         urdf = \"chain3_free.urdf\"\nbodies = \"articulated\"\nangvel = [0.0, 0.3, 0.5]\n\
+         joint_velocities = { j1 = 2.0, j2 = -3.0 }\n",
+        100,
+    );
+    assert_eq!(s.angmom_checked, [1, 0], "{s:?}");
+    // Measured 9.6e-16 (exact discrete conservation).
+    assert!(s.angmom_rel_change_max < 1e-12, "{s:?}");
+    assert!(
+        s.momentum_text()
+            .starts_with("angular momentum relative change max ")
+    );
+}
+
+/// The Rerun blueprint plots the scene's angular momentum change only where one is conserved:
+/// not for a fixed-base robot alone (it would be a flat line at 0), but for a floating one.
+#[test]
+fn the_rerun_blueprint_omits_the_momentum_plot_of_fixed_base_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let views = |urdf: &str, base: &str| -> Vec<String> {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/views.toml");
+        let text = format!(
+            "[sim]\nduration = 0.01\n[[model]]\nurdf = \"{urdf}\"\nbodies = \"articulated\"\n{base}\n"
+        );
+        let world = Scene::parse(&text, &path).unwrap().build().unwrap();
+        let out = dir.path().join(format!("{urdf}.rrd"));
+        let sink =
+            crate::record::rerun::RerunSink::create(&out, &world.layout, &Default::default())
+                .unwrap();
+        sink.plot_views().iter().map(|v| v.title.clone()).collect()
+    };
+    let has_momentum = |titles: &[String]| titles.iter().any(|t| t.starts_with("angular momentum"));
+    let fixed = views("double_pendulum.urdf", "base = \"fixed\"");
+    assert!(!has_momentum(&fixed), "{fixed:?}");
+    assert!(
+        fixed.iter().any(|t| t.starts_with("energy change")),
+        "{fixed:?}"
+    );
+    let floating = views("chain3_free.urdf", "");
+    assert!(has_momentum(&floating), "{floating:?}");
 }

@@ -35,6 +35,7 @@ pub fn run_cell(kind: IntegratorKind, cell: Cell) -> Row {
         divergence_energy_ratio: DEFAULT_DIVERGENCE_ENERGY_RATIO,
         stop_on_newton_failure: settings.substep.then_some(settings.max_substeps),
         stop_on_interrupt: false,
+        quiet: true,
     };
     let mut row = Row {
         integrator: kind,

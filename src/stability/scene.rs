@@ -134,6 +134,7 @@ pub fn run_row(
     let settings = RunSettings {
         steps,
         log_every: steps,
+        quiet: true,
         ..scene.run_settings()
     };
     let mut sim =

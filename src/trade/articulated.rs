@@ -167,6 +167,7 @@ pub fn measure(
     let steps = steps_in(settings.duration_secs, dt);
     let start = Bodies::new(&world.bodies);
     let mut frames = FrameBuilder::new(world);
+    frames.set_quiet(true);
     let (mut l0, mut l) = (Vec::new(), Vec::new());
 
     // Errors over the measurement horizon, on the reported states. Stepped directly, not

@@ -107,6 +107,7 @@ pub fn record(
     let settings = RunSettings {
         steps,
         log_every,
+        quiet: true,
         ..scene.run_settings()
     };
     let variational = scene.variational_settings();

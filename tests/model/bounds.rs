@@ -620,3 +620,57 @@ fn warnings_print_numbers_readably() {
     );
     assert!(longest_digit_run(&r.stderr) <= 20, "{}", r.stderr);
 }
+
+/// The joint-range warning fires only beyond round-off of the bounds (1e-9 of them, plus
+/// 1e-9): a slide placed at -1e-12 in [0, 1] (a read-back "-0.000000") is at its bound and
+/// stays quiet; at -1e-6 it warns, once. The sweeps of `trade` run many variants of a scene and
+/// never warn.
+#[test]
+fn joint_range_warnings_need_more_than_round_off_and_stay_out_of_sweeps() {
+    let tmp = tempfile::tempdir().unwrap();
+    edited_model(
+        tmp.path(),
+        "cart_pole.urdf",
+        "rail.urdf",
+        &[("lower=\"-100\" upper=\"100\"", "lower=\"0\" upper=\"1\"")],
+    );
+    let model = |slide: &str| {
+        format!(
+            "urdf = \"rail.urdf\"\nbodies = \"articulated\"\nbase = \"fixed\"\n\
+             joint_limits = false\njoints = {{ slide = {slide} }}"
+        )
+    };
+    let needle = "joint \"slide\" left its URDF range [0, 1]";
+    scene(tmp.path(), "round_off.toml", "", &model("-1e-12"));
+    let r = run(
+        &["simulate", "round_off.toml", "--out", "out/a"],
+        tmp.path(),
+    );
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+    assert!(!r.stderr.contains("left its URDF range"), "{}", r.stderr);
+    scene(tmp.path(), "outside.toml", "", &model("-1e-6"));
+    let r = run(&["simulate", "outside.toml", "--out", "out/b"], tmp.path());
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+    assert_eq!(r.stderr.matches(needle).count(), 1, "{}", r.stderr);
+    let r = run(
+        &[
+            "trade",
+            "outside.toml",
+            "--out",
+            "t",
+            "--dt",
+            "0.01",
+            "--duration",
+            "0.1",
+            "--drift-horizon",
+            "0.1",
+            "--repeats",
+            "1",
+            "--integrators",
+            "variational",
+        ],
+        tmp.path(),
+    );
+    assert_eq!(r.status, Some(0), "{}", r.stderr);
+    assert!(!r.stderr.contains("left its URDF range"), "{}", r.stderr);
+}

@@ -522,6 +522,66 @@ fn joint_and_rigid_errors_name_file_model_and_cause() {
     assert_contains(&m, &["model[1]", "body name \"arm\""]);
 }
 
+/// A base with 1e-3 kg m² moments and, fixed to it, a part whose moments are `head`.
+fn part_urdf(dir: &Path, robot: &str, head: [f64; 3]) -> PathBuf {
+    let [a, b, c] = head;
+    let xml = format!(
+        "<?xml version=\"1.0\"?>\n<robot name=\"{robot}\">\n\
+         <link name=\"base\"><inertial><mass value=\"1\"/>\
+         <inertia ixx=\"1e-3\" ixy=\"0\" ixz=\"0\" iyy=\"1e-3\" iyz=\"0\" izz=\"1e-3\"/>\
+         </inertial></link>\n\
+         <link name=\"head\"><inertial><mass value=\"0.1\"/>\
+         <inertia ixx=\"{a:e}\" ixy=\"0\" ixz=\"0\" iyy=\"{b:e}\" iyz=\"0\" izz=\"{c:e}\"/>\
+         </inertial></link>\n\
+         <joint name=\"neck\" type=\"fixed\"><parent link=\"base\"/><child link=\"head\"/>\
+         <origin xyz=\"0 0 0.1\"/></joint>\n</robot>\n"
+    );
+    let path = dir.join(format!("{robot}.urdf"));
+    std::fs::write(&path, xml).unwrap();
+    path
+}
+
+/// A part's inertia is judged to round-off of the model's scale: iCub's `head` (principal
+/// moments -2.4e-35, 0, 2.4e-35 kg m², zero to round-off) next to a 1e-3 kg m² link loads in
+/// rigid and articulated modes (it was refused as "not positive semi-definite"); a real defect
+/// (a moment of -1e-4 kg m²) is refused with the keys that accept it, and accepted with them.
+#[test]
+fn part_inertia_is_judged_to_the_models_round_off() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = |urdf: &Path, mode: &str, keys: &str| {
+        let text = format!(
+            "[sim]\nduration = 0.0\n[[model]]\nurdf = \"{}\"\nbodies = \"{mode}\"\n{keys}\n",
+            urdf.display()
+        );
+        Scene::parse(&text, &dir.path().join("scene.toml"))
+    };
+    let round_off = part_urdf(dir.path(), "round_off", [-2.4e-35, 0.0, 2.4e-35]);
+    for mode in ["rigid", "articulated"] {
+        let world = scene(&round_off, mode, "").unwrap().build();
+        assert!(world.is_ok(), "{mode}: {:#}", world.err().unwrap());
+    }
+    let negative = part_urdf(dir.path(), "negative", [-1e-4, 1e-3, 1e-3]);
+    for mode in ["rigid", "articulated"] {
+        let m = build_err(scene(&negative, mode, ""));
+        assert_contains(
+            &m,
+            &[
+                "negative.urdf",
+                "head",
+                "not positive semi-definite",
+                "allow_non_physical_inertia = true",
+                "--allow-non-physical-inertia",
+            ],
+        );
+        // With the opt-in the composite (positive definite: the base's 1e-3 and the part's
+        // offset outweigh -1e-4) is simulated.
+        let world = scene(&negative, mode, "allow_non_physical_inertia = true")
+            .unwrap()
+            .build();
+        assert!(world.is_ok(), "{mode}: {:#}", world.err().unwrap());
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Interoperability: Pinocchio's composite rigid-body inertia of real robots.
 // ---------------------------------------------------------------------------------------------

@@ -15,7 +15,10 @@
 //! geometry, fit in view. The plots show the relative change of the conserved quantities (what
 //! the integrators are judged by; a raw |L| plot only shows round-off noise at full scale) and
 //! the scene's energies, each over the whole run (time axis from −∞ to +∞) on `sim_time`.
-//! Other recordings ([`super::RerunSink::set_plot_views`]) replace the plots.
+//! A recording of fixed-base models only has no conserved angular momentum (the weld exchanges
+//! it with the world): its blueprint omits the angular momentum change plot, which would be a
+//! flat line at 0 (the series is still written). Other recordings
+//! ([`super::RerunSink::set_plot_views`]) replace the plots.
 //!
 //! Rerun's own blueprint API (`re_sdk::blueprint`) gives every view and container a random
 //! UUID and logs through a recording stream with a random store id, so two runs would write

@@ -259,6 +259,14 @@ impl JointPlots {
         Ok(())
     }
 
+    /// Whether the layout has an angular momentum that is conserved (a floating model or a
+    /// body outside the models): without one (fixed-base models only) the scene's angular
+    /// momentum change plot would be a meaningless flat line, and the blueprint omits it.
+    pub(super) fn conserves_angmom(&self) -> bool {
+        self.model_bodies.iter().any(|(_, floating)| *floating)
+            || self.in_mechanism.iter().any(|m| !*m)
+    }
+
     /// The angular momenta conserved in this frame (see the module doc).
     pub(super) fn conserved_angmom(&self, frame: &Frame<'_>) -> Vec<nalgebra::Vector3<f64>> {
         let mut out: Vec<_> = self

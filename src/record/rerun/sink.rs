@@ -89,6 +89,11 @@ impl RerunSink {
         self.plot_views = views;
     }
 
+    /// The time series views of the blueprint (written when the recording finishes).
+    pub fn plot_views(&self) -> &[PlotView] {
+        &self.plot_views
+    }
+
     /// Opens `<path>.part` and writes the static layout. See the module doc for what is written.
     pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> Result<Self> {
         create(path, layout, options)
@@ -149,6 +154,15 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         batched,
         done: false,
     };
+    if !sink.joint_plots.is_empty() && !sink.joint_plots.conserves_angmom() {
+        // Fixed-base models only: no conserved angular momentum, no plot of its change (the
+        // series stays, at 0, for tools that read it).
+        sink.plot_views.retain(|v| {
+            !v.contents
+                .iter()
+                .any(|c| c.contains("angular_momentum_change"))
+        });
+    }
     let extra_views = sink.joint_plots.plot_views(layout);
     sink.plot_views.extend(extra_views);
     lock(&state).encoder = Some(encoder.context("cannot write the .rrd header")?);
