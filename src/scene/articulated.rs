@@ -231,12 +231,22 @@ fn check_groups(
                 .iter()
                 .map(|&l| model.links[l].name.as_str())
                 .collect();
+            // What lets a user run the file anyway: the integrator turns every body, so it
+            // needs positive principal moments; the links' geometry can give them.
+            let overrides: Vec<String> = links
+                .iter()
+                .map(|l| format!("{l} = {{ inertia = \"geometry\" }}"))
+                .collect();
             bail!(
                 "bodies = \"articulated\": model `{label}` ({}): the body made of link(s) {} is \
-                 not a valid rigid body: {}",
+                 not a valid rigid body: {} (to run it anyway, take these links' mass properties \
+                 from their geometry: `links = {{ {} }}` on the model, or `inertia = \"geometry\"` \
+                 for the whole model (`--inertia geometry`); `allow_non_physical_inertia = true` \
+                 accepts moments that break the triangle inequality, not zero ones)",
                 model.path.display(),
                 links.join(", "),
-                rules.join("; ")
+                rules.join("; "),
+                overrides.join(", ")
             );
         }
     }

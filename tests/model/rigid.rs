@@ -683,3 +683,45 @@ fn composite_matches_pinocchio_ccrba_on_real_robots() {
         worst.0, worst.1, worst.2
     );
 }
+
+/// A moving link with mass and zero inertia (iCub's `r_hip_1`: 0.754 kg, every moment 0) is a
+/// body the articulated step cannot turn: refused, naming the link and the keys that run it
+/// anyway (its mass properties from its geometry).
+#[test]
+fn a_point_mass_body_is_refused_with_the_keys_that_run_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let xml = "<?xml version=\"1.0\"?>\n<robot name=\"hip\">\n\
+         <link name=\"pelvis\"><inertial><mass value=\"1\"/>\
+         <inertia ixx=\"1e-3\" ixy=\"0\" ixz=\"0\" iyy=\"1e-3\" iyz=\"0\" izz=\"1e-3\"/>\
+         </inertial></link>\n\
+         <link name=\"r_hip_1\"><inertial><mass value=\"0.754\"/>\
+         <inertia ixx=\"0\" ixy=\"0\" ixz=\"0\" iyy=\"0\" iyz=\"0\" izz=\"0\"/>\
+         </inertial><collision><geometry><box size=\"0.05 0.05 0.1\"/></geometry></collision></link>\n\
+         <joint name=\"r_hip_pitch\" type=\"revolute\"><parent link=\"pelvis\"/><child link=\"r_hip_1\"/>\
+         <axis xyz=\"0 1 0\"/><limit lower=\"-1\" upper=\"1\" effort=\"10\" velocity=\"1\"/></joint>\n</robot>\n";
+    let urdf = dir.path().join("hip.urdf");
+    std::fs::write(&urdf, xml).unwrap();
+    let scene = |keys: &str| {
+        let text = format!(
+            "[sim]\nduration = 0.0\n[[model]]\nurdf = \"{}\"\nbodies = \"articulated\"\n{keys}\n",
+            urdf.display()
+        );
+        Scene::parse(&text, &dir.path().join("scene.toml"))
+    };
+    let m = build_err(scene(""));
+    assert_contains(
+        &m,
+        &[
+            "hip.urdf",
+            "r_hip_1",
+            "not positive definite",
+            "links = { r_hip_1 = { inertia = \"geometry\" } }",
+            "--inertia geometry",
+        ],
+    );
+    // The key it names runs it: the box gives the link its moments.
+    let world = scene("links = { r_hip_1 = { inertia = \"geometry\" } }")
+        .unwrap()
+        .build();
+    assert!(world.is_ok(), "{:#}", world.err().unwrap());
+}
