@@ -19,7 +19,7 @@ use super::ModelEntry;
 use super::actuator::ResolvedActuator;
 use crate::model::Model;
 use crate::sim::mechanism::rows::MAX_ROWS;
-use crate::sim::mechanism::{Coordinate, JointDrive, JointStop, MechanismModel};
+use crate::sim::mechanism::{Coordinate, CoordinateKind, JointDrive, JointStop, MechanismModel};
 use anyhow::bail;
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -141,6 +141,17 @@ pub(super) fn stops(
             c.limits
         };
         if (limits.is_none() && friction == 0.0) || shared.mimics.iter().any(|m| m.follower == k) {
+            continue;
+        }
+        if matches!(c.kind, CoordinateKind::Compound { .. }) {
+            // A stage of revolutes through one point (a ball joint): its stop rows made the
+            // step's Newton solve fail at the limit (example-robot-data's human.urdf, fixed
+            // base, at 0.451 s at any dt): left out until that is understood.
+            notes.push(format!(
+                "model `{label}`: joint `{}` is a stage of a compound joint (revolutes through \
+                 one point): its limit and friction are not enforced (docs/mechanisms.md)",
+                c.name
+            ));
             continue;
         }
         if used[c.joint] >= MAX_ROWS {
