@@ -181,16 +181,23 @@ impl Responses {
         }
     }
 
-    /// The body whose island body `i` belongs to at least: a mechanism's members are one.
-    fn island_seed(&self, i: usize) -> usize {
-        match self.bodies[i].member {
-            None => i,
-            Some((g, _)) => self
-                .bodies
-                .iter()
-                .position(|b| b.member.is_some_and(|(gb, _)| gb == g))
-                .expect("the group's first member"),
-        }
+    /// Per body, the body whose island it belongs to at least (a mechanism's members are one:
+    /// its first member), in one pass.
+    fn island_seeds(&self) -> Vec<usize> {
+        let mut first = vec![usize::MAX; self.groups.len()];
+        self.bodies
+            .iter()
+            .enumerate()
+            .map(|(i, b)| match b.member {
+                None => i,
+                Some((g, _)) => {
+                    if first[g] == usize::MAX {
+                        first[g] = i;
+                    }
+                    first[g]
+                }
+            })
+            .collect()
     }
 }
 
@@ -432,8 +439,8 @@ pub fn solve(
     // stops when it is solved, and a pile does not make a lone resting box sweep on. The rows
     // are grouped by island for the solve, in one order, then put back in theirs.
     let mut parent: Vec<usize> = (0..bodies.bodies.len()).collect();
-    for i in 0..parent.len() {
-        union(&mut parent, i, bodies.island_seed(i));
+    for (i, seed) in bodies.island_seeds().into_iter().enumerate() {
+        union(&mut parent, i, seed);
     }
     for row in rows.iter() {
         if let Some(b) = row.b {
@@ -564,8 +571,7 @@ pub fn polish(rows: &mut [Row], bodies: &mut Responses) -> bool {
         i
     }
     // A mechanism's members are one island whatever touches them.
-    for i in 0..bodies.bodies.len() {
-        let seed = bodies.island_seed(i);
+    for (i, seed) in bodies.island_seeds().into_iter().enumerate() {
         if seed != i {
             let (ra, rb) = (root(&mut parent, i), root(&mut parent, seed));
             let (lo, hi) = (ra.min(rb), ra.max(rb));
