@@ -190,16 +190,7 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
     let dt = scene.sim.dt;
     let settings = scene.variational_settings();
     let world = scene.build()?;
-    if world.contact.is_active() {
-        // Its loops step the integrators directly, without the contact phase: refused rather
-        // than measured without contact (docs/contact.md).
-        anyhow::bail!(
-            "{}: {} does not support contact yet ([ground] or colliding models); \
-             time or measure it with tumble simulate (docs/contact.md)",
-            scene.source.display(),
-            "bench --scene"
-        );
-    }
+    crate::scene::refuse_contact(&scene, &world, "bench --scene")?;
     let bodies = world.bodies.len();
     crate::budget::Estimate::run(
         bodies as f64,

@@ -681,6 +681,24 @@ pub(crate) fn finish(contact: &mut ContactModel) {
     contact.excluded_body_pairs.shrink_to_fit();
 }
 
+/// Refuses a scene with contact for `verb` (`trade`, `stability --scene`, `bench --scene`):
+/// their loops step the integrators directly, without the contact phase, so they would
+/// measure a run without contact (docs/contact.md).
+pub fn refuse_contact(
+    scene: &super::Scene,
+    world: &crate::world::World,
+    verb: &str,
+) -> anyhow::Result<()> {
+    if world.contact.is_active() {
+        anyhow::bail!(
+            "{}: {verb} does not support contact yet ([ground] or colliding models); \
+             time or measure it with tumble simulate (docs/contact.md)",
+            scene.source.display()
+        );
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

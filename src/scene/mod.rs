@@ -82,6 +82,7 @@ mod actuator;
 mod articulated;
 mod build;
 mod contact;
+pub use contact::refuse_contact;
 mod drives;
 mod entry;
 mod joint_states;

@@ -74,16 +74,7 @@ pub fn sweep(
     mut progress: impl FnMut(&SceneRow),
 ) -> anyhow::Result<SceneMap> {
     let world = scene.build()?;
-    if world.contact.is_active() {
-        // Its loops step the integrators directly, without the contact phase: refused rather
-        // than measured without contact (docs/contact.md).
-        anyhow::bail!(
-            "{}: {} does not support contact yet ([ground] or colliding models); \
-             time or measure it with tumble simulate (docs/contact.md)",
-            scene.source.display(),
-            "stability --scene"
-        );
-    }
+    crate::scene::refuse_contact(scene, &world, "stability --scene")?;
     let mut skipped = Vec::new();
     let mut rows = Vec::new();
     for &kind in kinds {

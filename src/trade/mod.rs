@@ -84,16 +84,7 @@ pub fn run(
 ) -> anyhow::Result<TradeReport> {
     let world = scene.build()?;
     let loads = world.loads(scene.gravity());
-    if world.contact.is_active() {
-        // Its loops step the integrators directly, without the contact phase: refused rather
-        // than measured without contact (docs/contact.md).
-        anyhow::bail!(
-            "{}: {} does not support contact yet ([ground] or colliding models); \
-             time or measure it with tumble simulate (docs/contact.md)",
-            scene.source.display(),
-            "trade"
-        );
-    }
+    crate::scene::refuse_contact(scene, &world, "trade")?;
     // Applied loads on free bodies: no closed form; the numerical reference and the energy
     // balance of the articulated path (which also steps free bodies) measure them.
     let numerical = !world.mechanisms.is_empty() || !world.body_loads.is_empty();

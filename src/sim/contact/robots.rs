@@ -29,7 +29,7 @@ use crate::sim::Bodies;
 use crate::sim::integrators::VariationalSettings;
 use crate::sim::loads::Loads;
 use crate::sim::mechanism::Mechanism;
-use crate::sim::mechanism::constrained::{Impulse6, Projector};
+use crate::sim::mechanism::constrained::{Impulse6, Projector, add_impulses};
 use crate::sim::mechanism::step::{self, MechanismState, Warm};
 use nalgebra::{DMatrix, Matrix3, UnitQuaternion, Vector3};
 use std::sync::Arc;
@@ -208,12 +208,7 @@ impl Robot {
         }
         let before = self.kinetic_energy(bodies, false);
         let after = self.kinetic_energy(bodies, true);
-        let first = self.model.first_body;
-        for (i, k) in self.kicks.iter().enumerate() {
-            let gi = first + i;
-            bodies.linvel_world[gi] += k.fixed_rows::<3>(0) / bodies.mass[gi];
-            bodies.angmom_body[gi] += k.fixed_rows::<3>(3);
-        }
+        add_impulses(bodies, self.model.first_body, &self.kicks);
         after - before
     }
 }

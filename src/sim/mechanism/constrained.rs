@@ -24,6 +24,16 @@ use nalgebra::{Matrix3, SVector};
 /// One body's impulse or momentum `[linear (world); angular (body frame)]`.
 pub type Impulse6 = SVector<f64, 6>;
 
+/// Adds `impulses` (one per body of a mechanism whose first body is `first` in `bodies`) to
+/// the bodies' momenta: `v += P / m`, `M += L` (body frame).
+pub fn add_impulses(bodies: &mut Bodies, first: usize, impulses: &[Impulse6]) {
+    for (i, k) in impulses.iter().enumerate() {
+        let gi = first + i;
+        bodies.linvel_world[gi] += k.fixed_rows::<3>(0) / bodies.mass[gi];
+        bodies.angmom_body[gi] += k.fixed_rows::<3>(3);
+    }
+}
+
 /// Reusable buffers for the projection of one mechanism.
 #[derive(Debug, Clone)]
 pub struct Projector {

@@ -132,11 +132,7 @@ pub fn predict(
 ) -> StepStats {
     state.ws.save(model, bodies);
     let first = model.first_body;
-    for (i, k) in kicks.iter().enumerate() {
-        let gi = first + i;
-        bodies.linvel_world[gi] += k.fixed_rows::<3>(0) / bodies.mass[gi];
-        bodies.angmom_body[gi] += k.fixed_rows::<3>(3);
-    }
+    super::constrained::add_impulses(bodies, first, kicks);
     let stats = step(model, state, warm, bodies, h, loads, settings);
     for (i, o) in out.iter_mut().enumerate() {
         let gi = first + i;
