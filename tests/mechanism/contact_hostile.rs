@@ -301,3 +301,28 @@ fn collision_meshes_outside_the_allowed_folders_are_refused() {
         ],
     );
 }
+
+/// `trade`, `stability --scene` and `bench --scene` step the integrators directly, without the
+/// contact phase: on a scene with contact each is refused, naming the scene and the verb, exit 2.
+#[test]
+fn sweeps_refuse_scenes_with_contact() {
+    let scene = crate::common::scene("contact_box.toml");
+    let dir = tempfile::tempdir().unwrap();
+    for (args, verb) in [
+        (vec!["trade", scene.as_str()], "trade"),
+        (
+            vec!["stability", "--scene", scene.as_str()],
+            "stability --scene",
+        ),
+        (vec!["bench", "--scene", scene.as_str()], "bench --scene"),
+    ] {
+        let out = crate::common::tumble(&args, dir.path());
+        let err = crate::common::text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{verb}: {err}");
+        assert!(
+            err.contains("contact_box.toml")
+                && err.contains(&format!("{verb} does not support contact")),
+            "{verb}: {err}"
+        );
+    }
+}
