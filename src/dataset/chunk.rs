@@ -1,6 +1,6 @@
 //! One chunk: runs `[c · runs_per_file, (c + 1) · runs_per_file)` simulated in run order by one
-//! thread into `trajectories/part-c.parquet`, `runs/part-c.parquet` and the chunk's per-run
-//! recordings. The chunk is the atomic unit of the dataset: its files are complete, or
+//! thread into `trajectories/part-c.parquet`, `joints/part-c.parquet`, `runs/part-c.parquet`
+//! and the chunk's per-run recordings. The chunk is the atomic unit of the dataset: its files are complete, or
 //! discarded and recomputed.
 
 use super::manifest::ChunkRecord;
@@ -8,6 +8,7 @@ use super::runs::{RunRow, runs_batch};
 use super::sample::{ModelCache, RunParams, draw, run_scene};
 use super::spec::DatasetSpec;
 use crate::record::parquet::files::{FileInfo, PartWriter, recording_info, write_file};
+use crate::record::parquet::joints::{JointColumns, JointRowsSink, joints_schema};
 use crate::record::parquet::tables::{RowsSink, TrajectoryColumns, trajectories_schema};
 use crate::record::{OutputFile, RecordingLayout, Sink, SinkOptions};
 use crate::simulation::{Inits, Simulation};
@@ -19,6 +20,11 @@ use std::sync::Arc;
 /// `trajectories/part-NNNNN.parquet`.
 pub fn trajectories_name(chunk: u64) -> String {
     format!("trajectories/part-{chunk:05}.parquet")
+}
+
+/// `joints/part-NNNNN.parquet`: the joints of articulated models (no rows for a rigid one).
+pub fn joints_name(chunk: u64) -> String {
+    format!("joints/part-{chunk:05}.parquet")
 }
 
 /// `runs/part-NNNNN.parquet`.
@@ -94,17 +100,22 @@ pub fn run_chunk(
         trajectories_schema(),
         true,
     )?;
+    let mut joints = PartWriter::create(ctx.dir, &joints_name(chunk), joints_schema(), true)?;
     let rows = Rc::new(RefCell::new(TrajectoryColumns::default()));
+    let joint_rows = Rc::new(RefCell::new(JointColumns::default()));
     let mut run_rows = Vec::with_capacity((runs.end - runs.start) as usize);
     let mut recordings: Vec<String> = Vec::new();
     let mut stats = ChunkStats::default();
     for run in runs.clone() {
         let params = draw(spec, run);
         let rows_before = rows.borrow().len() as u64;
-        let mut row = simulate_run(ctx, &params, &rows, &mut recordings)?;
+        let mut row = simulate_run(ctx, &params, (&rows, &joint_rows), &mut recordings)?;
         row.rows = rows.borrow().len() as u64 - rows_before;
         if rows.borrow().len() >= BATCH_ROWS {
             trajectories.write(&rows.borrow_mut().take_batch()?)?;
+        }
+        if joint_rows.borrow().len() >= BATCH_ROWS {
+            joints.write(&joint_rows.borrow_mut().take_batch()?)?;
         }
         stats.runs += 1;
         stats.rows += row.rows;
@@ -116,7 +127,10 @@ pub fn run_chunk(
     if !rows.borrow().is_empty() {
         trajectories.write(&rows.borrow_mut().take_batch()?)?;
     }
-    let mut files: Vec<FileInfo> = vec![trajectories.finish()?];
+    if !joint_rows.borrow().is_empty() {
+        joints.write(&joint_rows.borrow_mut().take_batch()?)?;
+    }
+    let mut files: Vec<FileInfo> = vec![trajectories.finish()?, joints.finish()?];
     files.push(write_file(
         ctx.dir,
         &runs_name(chunk),
@@ -139,7 +153,7 @@ pub fn run_chunk(
 fn simulate_run(
     ctx: &Context<'_>,
     params: &RunParams,
-    rows: &Rc<RefCell<TrajectoryColumns>>,
+    (rows, joint_rows): (&Rc<RefCell<TrajectoryColumns>>, &Rc<RefCell<JointColumns>>),
     recordings: &mut Vec<String>,
 ) -> anyhow::Result<RunRow> {
     let spec = ctx.spec;
@@ -159,6 +173,13 @@ fn simulate_run(
         name_ids,
         rows: rows.clone(),
     })];
+    if !layout.joints.is_empty() {
+        sinks.push(Box::new(JointRowsSink {
+            run: params.run,
+            ids: joint_rows.borrow_mut().intern_layout(layout),
+            rows: joint_rows.clone(),
+        }));
+    }
     let mut outputs: Vec<PathBuf> = Vec::new();
     if params.run < spec.record_runs {
         let mut rec_layout = (**layout).clone();

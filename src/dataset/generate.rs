@@ -40,6 +40,7 @@ pub const OUTPUTS: &[&str] = &[
     MANIFEST,
     "bodies.parquet",
     "trajectories",
+    "joints",
     "runs",
     "recordings",
 ];
@@ -431,7 +432,7 @@ fn prepare(
 
 /// Deletes the hidden `.part` files an abrupt end (second signal, kill -9, power loss) left.
 fn remove_unfinished(dir: &Path) -> anyhow::Result<()> {
-    for sub in ["", "trajectories", "runs", "recordings"] {
+    for sub in ["", "trajectories", "joints", "runs", "recordings"] {
         let folder = dir.join(sub);
         let Ok(entries) = std::fs::read_dir(&folder) else {
             continue;

@@ -15,6 +15,7 @@
 //! DIR/manifest.json                      spec, tool version, seed, per-file size and SHA-256
 //! DIR/bodies.parquet                     mass properties of each model choice's bodies
 //! DIR/trajectories/part-NNNNN.parquet    one row per recorded step and body
+//! DIR/joints/part-NNNNN.parquet         one row per recorded step and joint (articulated models)
 //! DIR/runs/part-NNNNN.parquet            one row per run: drawn parameters and outcome
 //! DIR/recordings/run-NNNNNN.{mcap,rrd}   optional, the first `record_runs` runs
 //! ```

@@ -1,11 +1,12 @@
-//! The joints table of `simulate --format parquet` (`STEM.joints.parquet`): one row per
+//! The joints table of `simulate --format parquet` (`STEM.joints.parquet`) and of a dataset
+//! (`joints/part-NNNNN.parquet`): one row per
 //! recorded step and joint of the articulated models, long form like the trajectories table
 //! (no rows for a run without articulated models; the file is written all the same, so a
 //! format always writes the same files).
 //!
 //! | column | type | meaning |
 //! |---|---|---|
-//! | `run` | int64 | run index, 0 |
+//! | `run` | int64 | run index (0 for `simulate`; a dataset's run) |
 //! | `step` | int64 | integrator step (0 = initial state) |
 //! | `time` | int64 | simulation time, ns |
 //! | `time_secs` | float64 | the same in s |
@@ -29,8 +30,11 @@ use anyhow::Context;
 use arrow_array::{ArrayRef, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray};
 use arrow_schema::{DataType, Schema, SchemaRef};
 use parquet::arrow::ArrowWriter;
+use std::cell::RefCell;
+use std::collections::HashMap;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 use std::sync::{Arc, OnceLock};
 
 /// Schema of the joints table (module doc).
@@ -61,12 +65,17 @@ pub fn joints_schema() -> SchemaRef {
         .clone()
 }
 
-/// Buffered rows of the joints table.
+/// Rows of the joints table, filled by [`JointsSink`] (one run) or [`JointRowsSink`] (a
+/// dataset chunk's runs) and drained into record batches.
 #[derive(Debug, Default)]
-struct JointColumns {
+pub struct JointColumns {
+    /// Joint names seen so far (with their drives); `joint` holds indices into them.
+    names: Vec<String>,
+    drives: Vec<Option<&'static str>>,
+    ids: HashMap<String, u32>,
+    run: Vec<i64>,
     step: Vec<i64>,
     time_ns: Vec<i64>,
-    /// Index into the sink's joint names.
     joint: Vec<u32>,
     position: Vec<f64>,
     velocity: Vec<f64>,
@@ -76,13 +85,124 @@ struct JointColumns {
     at_limit: Vec<bool>,
 }
 
+impl JointColumns {
+    pub fn len(&self) -> usize {
+        self.step.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.step.is_empty()
+    }
+
+    /// The index of the joint `name` driven by `drive` in this buffer's name table. A name is
+    /// interned with its drive: the same name with another drive (another model choice of a
+    /// dataset) is another entry.
+    pub fn intern(&mut self, name: &str, drive: Option<&'static str>) -> u32 {
+        let key = format!("{name}\0{}", drive.unwrap_or(""));
+        if let Some(&id) = self.ids.get(&key) {
+            return id;
+        }
+        let id = self.names.len() as u32;
+        self.names.push(name.to_string());
+        self.drives.push(drive);
+        self.ids.insert(key, id);
+        id
+    }
+
+    /// The ids ([`JointColumns::intern`]) of `layout`'s joints, in layout order.
+    pub fn intern_layout(&mut self, layout: &RecordingLayout) -> Vec<u32> {
+        (0..layout.joints.len())
+            .map(|j| {
+                let drive = layout.drive_of(j).map(|d| d.kind_name());
+                self.intern(&layout.joints[j].name, drive)
+            })
+            .collect()
+    }
+
+    /// Appends the rows of `frame` (one per joint, `ids` from [`JointColumns::intern_layout`]).
+    pub fn push(&mut self, run: u64, frame: &Frame<'_>, ids: &[u32]) -> anyhow::Result<()> {
+        if frame.joints.len() != ids.len() {
+            anyhow::bail!(
+                "frame has {} joint states, the layout {}",
+                frame.joints.len(),
+                ids.len()
+            );
+        }
+        for (s, &id) in frame.joints.iter().zip(ids) {
+            self.run.push(run as i64);
+            self.step.push(frame.step as i64);
+            self.time_ns.push(frame.time_ns);
+            self.joint.push(id);
+            self.position.push(s.position);
+            self.velocity.push(s.velocity);
+            self.effort.push(s.effort);
+            self.target.push(s.target);
+            self.saturated.push(s.saturated);
+            self.at_limit.push(s.at_limit);
+        }
+        Ok(())
+    }
+
+    /// The buffered rows as a batch; the buffers are emptied (the name table is kept).
+    pub fn take_batch(&mut self) -> anyhow::Result<RecordBatch> {
+        let time_secs: Float64Array = self
+            .time_ns
+            .iter()
+            .map(|&t| Some(t as f64 * 1e-9))
+            .collect();
+        let joint: StringArray = self
+            .joint
+            .iter()
+            .map(|&j| Some(self.names[j as usize].as_str()))
+            .collect();
+        let drive: StringArray = self
+            .joint
+            .iter()
+            .map(|&j| self.drives[j as usize])
+            .collect();
+        self.joint.clear();
+        let columns: Vec<ArrayRef> = vec![
+            Arc::new(Int64Array::from(std::mem::take(&mut self.run))),
+            Arc::new(Int64Array::from(std::mem::take(&mut self.step))),
+            Arc::new(Int64Array::from(std::mem::take(&mut self.time_ns))),
+            Arc::new(time_secs),
+            Arc::new(joint),
+            Arc::new(Float64Array::from(std::mem::take(&mut self.position))),
+            Arc::new(Float64Array::from(std::mem::take(&mut self.velocity))),
+            Arc::new(Float64Array::from(std::mem::take(&mut self.effort))),
+            Arc::new(Float64Array::from(std::mem::take(&mut self.target))),
+            Arc::new(BooleanArray::from(std::mem::take(&mut self.saturated))),
+            Arc::new(drive),
+            Arc::new(BooleanArray::from(std::mem::take(&mut self.at_limit))),
+        ];
+        Ok(RecordBatch::try_new(joints_schema(), columns)?)
+    }
+}
+
+/// A [`Sink`] turning frames into joint rows of a shared buffer: a dataset chunk's
+/// `joints/part-NNNNN.parquet`, filled run after run.
+pub struct JointRowsSink {
+    pub run: u64,
+    /// Per joint of the layout: its id in `rows` ([`JointColumns::intern_layout`]).
+    pub ids: Vec<u32>,
+    pub rows: Rc<RefCell<JointColumns>>,
+}
+
+impl Sink for JointRowsSink {
+    fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
+        self.rows.borrow_mut().push(self.run, frame, &self.ids)
+    }
+
+    fn finish(self: Box<Self>) -> anyhow::Result<()> {
+        Ok(())
+    }
+}
+
 /// Writes `STEM.joints.parquet` (module doc), with the trajectories table's writer settings.
 pub struct JointsSink {
     writer: Option<ArrowWriter<BufWriter<WritebackFile>>>,
     path: PathBuf,
-    names: Vec<String>,
-    /// Per joint: its drive's name, if it is driven.
-    drives: Vec<Option<&'static str>>,
+    ids: Vec<u32>,
     rows: JointColumns,
 }
 
@@ -97,53 +217,20 @@ impl JointsSink {
             Some(writer_properties(true)?),
         )
         .with_context(|| format!("cannot start {}", part.display()))?;
+        let mut rows = JointColumns::default();
         Ok(Self {
             writer: Some(writer),
             path: path.to_path_buf(),
-            names: layout.joints.iter().map(|j| j.name.clone()).collect(),
-            drives: (0..layout.joints.len())
-                .map(|j| layout.drive_of(j).map(|d| d.kind_name()))
-                .collect(),
-            rows: JointColumns::default(),
+            ids: rows.intern_layout(layout),
+            rows,
         })
     }
 
     fn flush(&mut self) -> anyhow::Result<()> {
-        if self.rows.step.is_empty() {
+        if self.rows.is_empty() {
             return Ok(());
         }
-        let rows = std::mem::take(&mut self.rows);
-        let n = rows.step.len();
-        let time_secs: Float64Array = rows
-            .time_ns
-            .iter()
-            .map(|&t| Some(t as f64 * 1e-9))
-            .collect();
-        let joint: StringArray = rows
-            .joint
-            .iter()
-            .map(|&j| Some(self.names[j as usize].as_str()))
-            .collect();
-        let drive: StringArray = rows
-            .joint
-            .iter()
-            .map(|&j| self.drives[j as usize])
-            .collect();
-        let columns: Vec<ArrayRef> = vec![
-            Arc::new(Int64Array::from(vec![0; n])),
-            Arc::new(Int64Array::from(rows.step)),
-            Arc::new(Int64Array::from(rows.time_ns)),
-            Arc::new(time_secs),
-            Arc::new(joint),
-            Arc::new(Float64Array::from(rows.position)),
-            Arc::new(Float64Array::from(rows.velocity)),
-            Arc::new(Float64Array::from(rows.effort)),
-            Arc::new(Float64Array::from(rows.target)),
-            Arc::new(BooleanArray::from(rows.saturated)),
-            Arc::new(drive),
-            Arc::new(BooleanArray::from(rows.at_limit)),
-        ];
-        let batch = RecordBatch::try_new(joints_schema(), columns)?;
+        let batch = self.rows.take_batch()?;
         let writer = self.writer.as_mut().context("the file is closed")?;
         writer
             .write(&batch)
@@ -153,26 +240,8 @@ impl JointsSink {
 
 impl Sink for JointsSink {
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
-        if frame.joints.len() != self.names.len() {
-            anyhow::bail!(
-                "frame has {} joint states, the layout {}",
-                frame.joints.len(),
-                self.names.len()
-            );
-        }
-        let rows = &mut self.rows;
-        for (j, s) in frame.joints.iter().enumerate() {
-            rows.step.push(frame.step as i64);
-            rows.time_ns.push(frame.time_ns);
-            rows.joint.push(j as u32);
-            rows.position.push(s.position);
-            rows.velocity.push(s.velocity);
-            rows.effort.push(s.effort);
-            rows.target.push(s.target);
-            rows.saturated.push(s.saturated);
-            rows.at_limit.push(s.at_limit);
-        }
-        if rows.step.len() >= ROW_GROUP_ROWS {
+        self.rows.push(0, frame, &self.ids)?;
+        if self.rows.len() >= ROW_GROUP_ROWS {
             self.flush()?;
         }
         Ok(())
