@@ -22,6 +22,7 @@
 
 pub mod chunk;
 pub mod generate;
+pub mod joint_vary;
 pub mod manifest;
 pub mod merge;
 pub mod runs;

@@ -131,7 +131,10 @@ impl SmoothParams {
             &["amplitude", "cutoff_hz", "offset"]
         };
         if let Some(other) = fields.keys().find(|k| !keys.contains(&k.as_str())) {
-            bail!("{key}.{other}: unknown key (expected one of: {})", keys.join(", "));
+            bail!(
+                "{key}.{other}: unknown key (expected one of: {})",
+                keys.join(", ")
+            );
         }
         let number = |name: &str, required: bool| -> anyhow::Result<f64> {
             let x = match fields.get(name) {
@@ -442,7 +445,10 @@ mod tests {
         assert_eq!(terms.len(), SMOOTH_TERMS);
         for (k, [amp, f, phase]) in terms.iter().enumerate() {
             let band = 2.0 / SMOOTH_TERMS as f64;
-            assert!(*f >= band * k as f64 && *f < band * (k + 1) as f64, "{k}: {f}");
+            assert!(
+                *f >= band * k as f64 && *f < band * (k + 1) as f64,
+                "{k}: {f}"
+            );
             assert!((0.0..std::f64::consts::TAU).contains(phase));
             assert_eq!(*amp, 0.5 / SMOOTH_TERMS as f64);
         }

@@ -8,6 +8,7 @@ mod common;
 
 mod contacts;
 mod dataset;
+mod dataset_robots;
 mod drives;
 mod joint_diff;
 mod partial_step;

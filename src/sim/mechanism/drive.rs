@@ -40,6 +40,19 @@ pub struct Actuator {
     pub effort_limit: Option<f64>,
 }
 
+impl Actuator {
+    /// Replaces the actuator's signal: a servo's target, a motor's effort (a dataset's drawn
+    /// input, `crate::dataset::joint_vary`).
+    pub fn set_signal(&mut self, signal: Signal) {
+        match &mut self.kind {
+            ActuatorKind::Motor { effort } => *effort = signal,
+            ActuatorKind::Position { target, .. } | ActuatorKind::Velocity { target, .. } => {
+                *target = signal
+            }
+        }
+    }
+}
+
 /// What acts on one joint coordinate: an actuator, damping, or both.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointDrive {
