@@ -53,12 +53,7 @@ impl<T> PerJoint<T> {
 
     /// Checks that every named joint is in `known` (what `what` lists); `key` names the
     /// `[vary]` key in the message.
-    pub fn check_names<'a>(
-        &self,
-        key: &str,
-        known: &'a [String],
-        what: &str,
-    ) -> anyhow::Result<()> {
+    pub fn check_names(&self, key: &str, known: &[String], what: &str) -> anyhow::Result<()> {
         if let PerJoint::Each(m) = self {
             for name in m.keys() {
                 if !known.iter().any(|k| k == name) {
