@@ -222,14 +222,18 @@ fn a_dataset_run_is_the_scene_of_its_drawn_values() {
     assert_eq!(strip(rows(&single)), dataset_rows);
 
     // U[-4, 4) clamped into the ranges: shoulder [-3.14, 3.14], elbow [-2.5, 2.5]; over 8 runs
-    // some elbow draws fall outside (measured: 4 of 8, one read back as 2.4999999999999996) and start exactly at a bound.
+    // some elbow draws fall outside (measured: 4 of 8; one read back as 2.4999999999999996)
+    // and start at the bound.
     let elbow = at_step(&out, "arm/elbow", 0);
     assert!(elbow.iter().all(|(q, _)| q.abs() <= 2.5));
     assert!(elbow.iter().any(|(q, _)| q.abs() == 2.5), "{elbow:?}");
+    // The shoulder's URDF range, `<limit lower="-3.14" upper="3.14">` (not π).
+    #[allow(clippy::approx_constant)]
+    let shoulder_bound = 3.14;
     assert!(
         at_step(&out, "arm/shoulder", 0)
             .iter()
-            .all(|(q, _)| q.abs() <= 3.14)
+            .all(|(q, _)| q.abs() <= shoulder_bound)
     );
 }
 
