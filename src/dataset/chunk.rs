@@ -260,7 +260,12 @@ fn simulate_run(
         steps_done: summary.steps,
         energy_initial: summary.energy_initial,
         energy_final: ok.then_some(summary.energy_final),
-        angmom_drift_rel: ok.then_some(summary.angmom_rel_change_max),
+        angmom_drift_rel: (ok && summary.angmom_checked[0] > 0)
+            .then_some(summary.angmom_rel_change_max),
+        angmom_change_abs: (ok && summary.angmom_checked[1] > 0)
+            .then_some(summary.angmom_abs_change_max),
+        energy_flow: summary.energy_flow,
+        constraint_residual: summary.constraint_residual,
         newton_iters_max: summary.stats.newton_iters_max,
         substepped: u64::from(summary.stats.substepped),
         diverged,
