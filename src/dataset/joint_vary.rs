@@ -7,7 +7,7 @@
 //! joints = { shoulder = { uniform = [-1, 1] }, elbow = { normal = { mean = 0, std = 0.2 } } }
 //! joint_velocities = { normal = { mean = 0, std = 0.5 } }    # rad/s or m/s, same two forms
 //! actuators = { uniform = [-0.5, 0.5] }              # every actuator of the template: a constant signal
-//! actuators = { smooth = { amplitude = 0.8, cutoff_hz = 1.5, offset = 0.0 } }   # random smooth, per run and joint
+//! actuators = { smooth = { amplitude = 0.8, cutoff_hz = 1.5 } }   # random smooth, per run and joint
 //! actuators = { shoulder = { smooth = { amplitude = 1, cutoff_hz = 2 } }, elbow = { choice = [0, 0.5] } }
 //! ```
 //!
@@ -17,7 +17,9 @@
 //! moves in the articulated model (not fixed, not locked, not merged, not a mimic follower);
 //! "every actuator" every `[[scene.model.actuator]]` of the template. A drawn value replaces the
 //! template's: `joints` the `[[scene.model]] joints` entry, `actuators` the actuator's signal
-//! (a position or velocity servo's `target`, a motor's `effort`), in the target's units.
+//! (a position or velocity servo's `target`, a motor's `effort`), in the target's units. A
+//! `smooth` draw without `offset` varies about the template's signal when it is a constant (a
+//! servo's standing pose), about 0 otherwise.
 //!
 //! Each joint draws from its own stream, `Rng::for_key(run seed, "<key>.<joint>")`, so adding a
 //! joint or a key leaves the other values alone. A smooth signal is seeded by that stream's first
@@ -78,8 +80,12 @@ impl<T> PerJoint<T> {
 pub enum SignalDraw {
     /// A constant drawn from the distribution.
     Constant(Dist),
-    /// A random smooth signal ([`smooth`]) seeded per run and joint.
-    Smooth(SmoothParams),
+    /// A random smooth signal ([`smooth`]) seeded per run and joint; `offset_given` is false
+    /// when the spec left `offset` out: the template's constant signal is then the offset.
+    Smooth {
+        params: SmoothParams,
+        offset_given: bool,
+    },
 }
 
 impl SignalDraw {
@@ -89,19 +95,29 @@ impl SignalDraw {
             let Some(fields) = fields.as_table().filter(|_| single) else {
                 bail!("{key}: expected {{ smooth = {{ amplitude, cutoff_hz, offset }} }}");
             };
-            return Ok(SignalDraw::Smooth(SmoothParams::parse(
-                &format!("{key}.smooth"),
-                fields,
-                false,
-            )?));
+            return Ok(SignalDraw::Smooth {
+                params: SmoothParams::parse(&format!("{key}.smooth"), fields, false)?,
+                offset_given: fields.contains_key("offset"),
+            });
         }
         Ok(SignalDraw::Constant(Dist::parse(key, value, 1)?))
     }
 
-    fn draw(&self, rng: &mut Rng) -> Signal {
+    /// One run's signal; `template` is the template's signal on the joint when it is a
+    /// constant (the offset of a smooth signal that gives none).
+    fn draw(&self, rng: &mut Rng, template: Option<f64>) -> Signal {
         match self {
             SignalDraw::Constant(d) => Signal::Constant(d.sample(rng)[0]),
-            SignalDraw::Smooth(p) => smooth(p, rng.next_u64()),
+            SignalDraw::Smooth {
+                params,
+                offset_given,
+            } => {
+                let mut p = *params;
+                if !offset_given {
+                    p.offset = template.unwrap_or(0.0);
+                }
+                smooth(&p, rng.next_u64())
+            }
         }
     }
 }
@@ -190,8 +206,9 @@ pub struct ChoiceJoints {
     /// The moving joints (URDF names), in the model's order, with the range their position is
     /// clamped into (`None`: no limit or limits off).
     pub moving: Vec<(String, Option<[f64; 2]>)>,
-    /// The joints the template's actuators drive, in actuator order.
-    pub actuated: Vec<String>,
+    /// The joints the template's actuators drive, in actuator order, with the template's
+    /// signal when it is a constant.
+    pub actuated: Vec<(String, Option<f64>)>,
 }
 
 impl JointVary {
@@ -213,10 +230,11 @@ impl JointVary {
             }
         }
         if let Some(actuators) = &self.actuators {
-            for name in &joints.actuated {
+            for (name, template) in &joints.actuated {
                 if let Some(d) = actuators.for_joint(name) {
                     let mut rng = Rng::for_key(run_seed, &format!("actuators.{name}"));
-                    out.signals.insert(name.clone(), d.draw(&mut rng));
+                    out.signals
+                        .insert(name.clone(), d.draw(&mut rng, *template));
                 }
             }
         }
@@ -237,7 +255,8 @@ impl JointVary {
             )?;
         }
         if let Some(a) = &self.actuators {
-            if joints.actuated.is_empty() {
+            let actuated: Vec<String> = joints.actuated.iter().map(|(n, _)| n.clone()).collect();
+            if actuated.is_empty() {
                 bail!(
                     "{prefix}.actuators: the template has no [[scene.model.actuator]]: there is no \
                      signal to vary"
@@ -245,7 +264,7 @@ impl JointVary {
             }
             a.check_names(
                 &format!("{prefix}.actuators"),
-                &joints.actuated,
+                &actuated,
                 "a joint with an actuator in the template",
             )?;
         }
@@ -267,7 +286,7 @@ mod tests {
                 ("shoulder".into(), Some([-1.0, 1.0])),
                 ("elbow".into(), None),
             ],
-            actuated: vec!["elbow".into()],
+            actuated: vec![("elbow".into(), Some(0.7))],
         }
     }
 
@@ -310,7 +329,20 @@ mod tests {
         .unwrap();
         let s = act.draw(7, &arm());
         assert_eq!(s.signals.len(), 1);
-        assert!(matches!(s.signals["elbow"], Signal::Sines { .. }));
+        // Without `offset`, about the template's constant target 0.7.
+        assert!(matches!(
+            s.signals["elbow"],
+            Signal::Sines { offset: 0.7, .. }
+        ));
+        let given = JointVary::parse(
+            "s: vary",
+            &table("actuators = { smooth = { amplitude = 0.5, cutoff_hz = 1, offset = -0.2 } }"),
+        )
+        .unwrap();
+        assert!(matches!(
+            given.draw(7, &arm()).signals["elbow"],
+            Signal::Sines { offset: -0.2, .. }
+        ));
         assert_ne!(s.signals["elbow"], act.draw(8, &arm()).signals["elbow"]);
         let constant = JointVary::parse(
             "s: vary",

@@ -278,7 +278,7 @@ fn choice_joints(template: &Scene, models: &LoadedModels, world: &World) -> Choi
         actuated: models.tables[0]
             .actuators
             .iter()
-            .map(|a| a.joint.clone())
+            .map(|a| (a.joint.clone(), a.actuator.constant_signal()))
             .collect(),
     }
 }
