@@ -101,9 +101,13 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub ros2: bool,
     /// Leave the inertia ellipsoids out of both files (the .rrd's ellipsoid entities and the
-    /// MCAP's /inertia topic).
-    #[arg(long)]
+    /// MCAP's /inertia topic). The default for a recording with mesh geometry.
+    #[arg(long, conflicts_with = "ellipsoids")]
     pub no_ellipsoids: bool,
+    /// Write the inertia ellipsoids even though a model has meshes (by default they are
+    /// written only when no model has mesh geometry: they would hide the meshes).
+    #[arg(long)]
+    pub ellipsoids: bool,
     /// Replace STEM.mcap and STEM.rrd (and STEM.ros2.mcap) if they exist (without it, an existing output is an error).
     #[arg(long)]
     pub force: bool,
@@ -177,6 +181,17 @@ fn parse_potential(s: &str) -> Result<Potential, String> {
         "symmetric" => Ok(Potential::Symmetric),
         "end-point" => Ok(Potential::EndPoint),
         _ => Err(format!("expected symmetric or end-point, got {s:?}")),
+    }
+}
+
+/// The user's choice of inertia ellipsoids: `--ellipsoids` on, `--no-ellipsoids` off, neither
+/// `None` (then [`crate::record::RecordingLayout::default_ellipsoids`]: off when a model has
+/// meshes).
+pub fn ellipsoids_choice(on: bool, off: bool) -> Option<bool> {
+    match (on, off) {
+        (true, _) => Some(true),
+        (false, true) => Some(false),
+        (false, false) => None,
     }
 }
 
@@ -504,6 +519,8 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         eprintln!("{warning}");
     }
     crate::interrupt::install()?;
+    let ellipsoids = ellipsoids_choice(args.ellipsoids, args.no_ellipsoids)
+        .unwrap_or_else(|| world.layout.default_ellipsoids());
     let started = std::time::Instant::now();
     let out = simulate_world(
         &scene,
@@ -511,7 +528,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         &stem,
         &SimulateOptions {
             rerun: RerunOptions {
-                ellipsoids: !args.no_ellipsoids,
+                ellipsoids,
             },
             formats,
             threads,

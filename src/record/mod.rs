@@ -216,6 +216,49 @@ pub struct TopicGroup {
 }
 
 impl RecordingLayout {
+    /// Whether any recorded link frame has mesh geometry among its visuals: the inertia
+    /// ellipsoids are then left out by default (they would hide the meshes; `--ellipsoids`
+    /// brings them back).
+    pub fn has_meshes(&self) -> bool {
+        self.frames.iter().any(|f| {
+            f.visuals
+                .iter()
+                .any(|v| matches!(v.geometry, crate::model::Geometry::Mesh { .. }))
+        })
+    }
+
+    /// Whether the inertia ellipsoids are recorded when the user chose neither way: yes, unless
+    /// a model has meshes ([`Self::has_meshes`]). A model without visual geometry keeps them
+    /// (they are all a viewer would show of it).
+    pub fn default_ellipsoids(&self) -> bool {
+        !self.has_meshes()
+    }
+
+    /// The robot the viewers open on, as the index of the frame they follow: the first
+    /// articulated model's (the frame of its first body, the base, when the base floats; else
+    /// its first link frame, the fixed base), or without an articulated model the first link
+    /// frame of the first model with meshes. `None` for a recording of neither (free bodies of
+    /// primitive shapes): the viewers then frame the whole run.
+    pub fn robot_root(&self) -> Option<usize> {
+        if let Some(m) = self.mechanisms.first() {
+            if m.floating
+                && let Some(body) = self.bodies.get(m.bodies.start)
+                && body.frame < self.frames.len()
+            {
+                return Some(body.frame);
+            }
+            if let Some(i) = self.frames.iter().position(|f| f.model == m.name) {
+                return Some(i);
+            }
+        }
+        let meshed = self.frames.iter().find(|f| {
+            f.visuals
+                .iter()
+                .any(|v| matches!(v.geometry, crate::model::Geometry::Mesh { .. }))
+        })?;
+        self.frames.iter().position(|f| f.model == meshed.model)
+    }
+
     /// The drive of joint `joint`, if it is driven.
     pub fn drive_of(&self, joint: usize) -> Option<&DriveLayout> {
         self.drives

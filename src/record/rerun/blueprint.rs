@@ -162,9 +162,13 @@ fn blueprint_chunk(entity: impl Into<EntityPath>, archetype: &dyn AsComponents) 
 
 /// Everything the blueprint store holds, in logging order (the caller wraps the chunks in
 /// `ArrowMsg`s of the blueprint store).
+/// `tracked`: the entity the 3D view's eye follows (a robot's root link visual), if any; the
+/// eye then starts where `bounds` (the robot at its start) put it and keeps its offset from the
+/// entity as the entity moves.
 pub fn blueprint_chunks(
     recording_seed: u64,
     bounds: &SceneBounds,
+    tracked: Option<&EntityPath>,
     plots: &[PlotView],
 ) -> Result<Vec<Chunk>> {
     let mut ids = Ids {
@@ -191,13 +195,17 @@ pub fn blueprint_chunks(
             .with_space_origin("/"),
     )?);
     let (position, target) = bounds.eye();
+    let mut eye = EyeControls3D::new()
+        .with_kind(Eye3DKind::Orbital)
+        .with_position(position)
+        .with_look_target(target)
+        .with_eye_up([0.0, 0.0, 1.0]);
+    if let Some(tracked) = tracked {
+        eye = eye.with_tracking_entity(tracked.to_string());
+    }
     chunks.push(blueprint_chunk(
         format!("{view3d_path}/EyeControls3D"),
-        &EyeControls3D::new()
-            .with_kind(Eye3DKind::Orbital)
-            .with_position(position)
-            .with_look_target(target)
-            .with_eye_up([0.0, 0.0, 1.0]),
+        &eye,
     )?);
 
     // The plots.
