@@ -195,6 +195,33 @@ pub fn ellipsoids_choice(on: bool, off: bool) -> Option<bool> {
     }
 }
 
+/// Extension of a robot's Foxglove layout, written beside the MCAP (`STEM.foxglove.json`).
+pub const FOXGLOVE_LAYOUT_EXTENSION: &str = "foxglove.json";
+
+/// The shipped Foxglove layout with its 3D panel following the robot of `world`
+/// ([`crate::record::foxglove_layout`]); `None` without a robot, or when the shipped layout
+/// cannot be read (then a warning).
+pub fn robot_foxglove_layout(world: &crate::world::World) -> Option<serde_json::Value> {
+    use crate::record::foxglove_layout::{robot_camera, robot_layout};
+    let camera = robot_camera(&world.layout, &world.initial_world_from_link())?;
+    let path = foxglove_layout_path();
+    let base = std::fs::read_to_string(&path)
+        .map_err(|e| e.to_string())
+        .and_then(|text| {
+            serde_json::from_str::<serde_json::Value>(&text).map_err(|e| e.to_string())
+        });
+    match base {
+        Ok(base) => robot_layout(&base, &camera),
+        Err(e) => {
+            eprintln!(
+                "warning: cannot read the Foxglove layout {}: {e}; no robot layout written",
+                path.display()
+            );
+            None
+        }
+    }
+}
+
 /// The Foxglove layout shipped with tumble, relative to the repository root.
 pub const FOXGLOVE_LAYOUT: &str = "docs/foxglove/tumble-layout.json";
 
@@ -495,6 +522,16 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     for path in formats.paths_of(&stem, &world.layout) {
         check_not_overwriting(&path, args.force)?;
     }
+    // A robot's Foxglove layout (STEM.foxglove.json), beside the MCAP.
+    let robot_layout = if formats.contains(Format::Mcap) {
+        robot_foxglove_layout(&world)
+    } else {
+        None
+    };
+    let robot_layout_path = with_extension(&stem, FOXGLOVE_LAYOUT_EXTENSION);
+    if robot_layout.is_some() {
+        check_not_overwriting(&robot_layout_path, args.force)?;
+    }
     for warning in &world.warnings {
         eprintln!("warning: {warning}");
     }
@@ -630,6 +667,12 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             human_bytes(estimate.memory_bytes)
         );
     }
+    if let Some(layout) = &robot_layout {
+        crate::fsutil::write_atomic(
+            &robot_layout_path,
+            format!("{}\n", serde_json::to_string_pretty(layout)?).as_bytes(),
+        )?;
+    }
     println!("wrote {} frames to", s.frames_recorded);
     for path in &out.written {
         println!("  {}", path.display());
@@ -642,11 +685,19 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         );
     }
     if formats.contains(Format::Mcap) {
-        println!(
-            "  Foxglove: open {}, then import the layout {} (Layouts > Import): a 3D panel on \"world\" showing /scene, energy and momentum plots",
-            out.mcap.display(),
-            foxglove_layout_path().display()
-        );
+        if robot_layout.is_some() {
+            println!(
+                "  Foxglove: open {}, then import the layout {} (Layouts > Import): a 3D panel following the robot, energy and momentum plots",
+                out.mcap.display(),
+                robot_layout_path.display()
+            );
+        } else {
+            println!(
+                "  Foxglove: open {}, then import the layout {} (Layouts > Import): a 3D panel on \"world\" showing /scene, energy and momentum plots",
+                out.mcap.display(),
+                foxglove_layout_path().display()
+            );
+        }
     }
     if formats.contains(Format::Parquet) {
         println!(

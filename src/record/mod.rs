@@ -14,6 +14,7 @@
 
 pub mod contacts;
 pub mod format;
+pub mod foxglove_layout;
 pub mod layout_json;
 pub mod mcap;
 pub mod names;
@@ -297,6 +298,28 @@ pub struct FrameLayout {
     /// Visual geometry in the link frame (shared with the model's link: copies of a model do
     /// not copy it).
     pub visuals: std::sync::Arc<[Visual]>,
+}
+
+impl FrameLayout {
+    /// How far the frame's visual geometry reaches from its origin, m: the largest distance of
+    /// a visual origin plus the shape's bounding radius (a mesh counts 0.1 m per unit of
+    /// scale). What the viewers' framing grows a frame's position by.
+    pub fn reach(&self) -> f64 {
+        use crate::model::Geometry;
+        self.visuals
+            .iter()
+            .map(|v| {
+                let shape = match &v.geometry {
+                    Geometry::Box { size } => size.norm() / 2.0,
+                    Geometry::Sphere { radius } => *radius,
+                    Geometry::Cylinder { radius, length } => radius.hypot(length / 2.0),
+                    Geometry::Capsule { radius, length } => radius + length / 2.0,
+                    Geometry::Mesh { scale, .. } => 0.1 * scale.amax(),
+                };
+                v.link_from_visual.translation.vector.norm() + shape
+            })
+            .fold(0.0, f64::max)
+    }
 }
 
 /// A simulated body (a link with mass, or a whole model locked rigid).

@@ -66,23 +66,10 @@ fn mesh3d(mesh: &TriangleMesh) -> rerun::Mesh3D {
         )
 }
 
-/// How far a link frame's visual geometry reaches from its origin, m: the largest distance of
-/// a visual origin plus the shape's bounding radius (a mesh counts 0.1 m per unit of scale).
+/// How far a link frame's visual geometry reaches from its origin, m
+/// ([`FrameLayout::reach`]).
 pub(super) fn frame_reach(frame: &FrameLayout) -> f64 {
-    frame
-        .visuals
-        .iter()
-        .map(|v| {
-            let shape = match &v.geometry {
-                Geometry::Box { size } => size.norm() / 2.0,
-                Geometry::Sphere { radius } => *radius,
-                Geometry::Cylinder { radius, length } => radius.hypot(length / 2.0),
-                Geometry::Capsule { radius, length } => radius + length / 2.0,
-                Geometry::Mesh { scale, .. } => 0.1 * scale.amax(),
-            };
-            v.link_from_visual.translation.vector.norm() + shape
-        })
-        .fold(0.0, f64::max)
+    frame.reach()
 }
 
 impl RerunSink {
