@@ -10,9 +10,13 @@
 //!   position (`followMode = "follow-position"`: the camera moves with the root link and keeps
 //!   its orientation in `world`, so the robot stays in view however far it falls or walks);
 //! - the camera looks at the centre of the robot's link frames at its start (`targetOffset`,
-//!   from the root frame's origin, m), from `2.2 ×` the half diagonal of their box (grown by the
-//!   frames' geometry, [`FrameLayout::reach`]), at least 0.5 m: the robot fills the view;
-//! - the grid stays in `world` (`frameId`), the ground's plane, rather than riding on the root.
+//!   from the root frame's origin, m), from `3 ×` the half diagonal of their box (grown by the
+//!   frames' geometry, [`FrameLayout::reach`]), at least 0.5 m, from the robot's front side
+//!   (`thetaOffset` 220°: the camera on +x, where a URDF's robot faces): the robot fills the
+//!   view;
+//! - the grid stays in `world` (`frameId`), the ground's plane, rather than riding on the root;
+//! - the link frames' names and the lines from `world` to each of them are not drawn (a robot has
+//!   dozens of links: the names would cover it), their axes are drawn small.
 //!
 //! Everything else (topics, plots) is the shipped layout's.
 
@@ -64,7 +68,7 @@ pub fn robot_camera(
     Some(RobotCamera {
         frame_id: layout.frames[root].frame_id.clone(),
         target_offset: center - root_pos,
-        distance: (2.2 * half_diagonal).max(0.5),
+        distance: (3.0 * half_diagonal).max(0.5),
     })
 }
 
@@ -82,8 +86,17 @@ pub fn robot_layout(base: &Value, camera: &RobotCamera) -> Option<Value> {
         .as_object_mut()?;
     let t = camera.target_offset;
     state.insert("distance".into(), json!(camera.distance));
+    state.insert("thetaOffset".into(), json!(220.0));
     state.insert("target".into(), json!([0.0, 0.0, 0.0]));
     state.insert("targetOffset".into(), json!([t.x, t.y, t.z]));
+    let scene = panel
+        .entry("scene")
+        .or_insert_with(|| json!({}))
+        .as_object_mut()?;
+    scene.insert(
+        "transforms".into(),
+        json!({"showLabel": false, "axisScale": 0.05, "lineWidth": 0.0, "lineColor": "#00000000"}),
+    );
     if let Some(grid) = panel
         .get_mut("layers")
         .and_then(|l| l.get_mut("grid"))
@@ -116,6 +129,7 @@ mod tests {
         assert_eq!(panel["cameraState"]["distance"], 3.5);
         assert_eq!(panel["cameraState"]["targetOffset"], json!([0.0, 0.0, -0.2]));
         assert_eq!(panel["layers"]["grid"]["frameId"], "world");
+        assert_eq!(panel["scene"]["transforms"]["showLabel"], false);
         assert!(robot_layout(&json!({}), &camera).is_none());
     }
 }
