@@ -14,5 +14,6 @@ mod partial_step;
 mod recordings;
 mod replay;
 mod rerun_sink;
+mod robot_viewers;
 mod ros2;
 mod viewers;
