@@ -677,6 +677,9 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     for path in &out.written {
         println!("  {}", path.display());
     }
+    if robot_layout.is_some() {
+        println!("  {}", robot_layout_path.display());
+    }
     println!("view them with:");
     if formats.contains(Format::Rrd) {
         println!(
