@@ -76,7 +76,9 @@ impl World {
         self.attachments
             .iter()
             .map(|a| match self.bodies.get(a.body) {
-                Some(body) if a.body != Attachment::WORLD => body.world_from_body * a.body_from_link,
+                Some(body) if a.body != Attachment::WORLD => {
+                    body.world_from_body * a.body_from_link
+                }
                 _ => a.body_from_link,
             })
             .collect()

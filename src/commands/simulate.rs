@@ -564,9 +564,7 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         &mut world,
         &stem,
         &SimulateOptions {
-            rerun: RerunOptions {
-                ellipsoids,
-            },
+            rerun: RerunOptions { ellipsoids },
             formats,
             threads,
             mcap_compression: args.mcap_compression,

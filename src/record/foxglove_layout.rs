@@ -127,7 +127,10 @@ mod tests {
         assert_eq!(panel["followTf"], "talos/base_link");
         assert_eq!(panel["followMode"], "follow-position");
         assert_eq!(panel["cameraState"]["distance"], 3.5);
-        assert_eq!(panel["cameraState"]["targetOffset"], json!([0.0, 0.0, -0.2]));
+        assert_eq!(
+            panel["cameraState"]["targetOffset"],
+            json!([0.0, 0.0, -0.2])
+        );
         assert_eq!(panel["layers"]["grid"]["frameId"], "world");
         assert_eq!(panel["scene"]["transforms"]["showLabel"], false);
         assert!(robot_layout(&json!({}), &camera).is_none());

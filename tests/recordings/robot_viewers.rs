@@ -88,7 +88,10 @@ fn meshed_robot_has_ellipsoids_only_with_the_flag() {
     assert!(!has_inertia_entity(&py), "{}", py["rrd"]["entities"]);
 
     simulate_robot(d, "with", "0.5", &["--ellipsoids"]);
-    let py = run_py("count_meshes.py", &[&d.join("with.mcap"), &d.join("with.rrd")]);
+    let py = run_py(
+        "count_meshes.py",
+        &[&d.join("with.mcap"), &d.join("with.rrd")],
+    );
     let topics = py["mcap"]["topics"].as_array().unwrap();
     assert!(topics.contains(&"/inertia".into()), "{topics:?}");
     assert_eq!(py["mcap"]["messages"]["/inertia"], 1);
@@ -198,6 +201,14 @@ fn viewers_open_on_the_robot_and_follow_it() {
     .unwrap();
     assert_eq!(layout["layout"], shipped["layout"]);
 
+    // `tumble convert` makes the same choices from the MCAP's layout: the run's own .rrd.
+    let o = tumble(&["convert", "run.mcap", "--rrd", "conv.rrd"], d);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        std::fs::read(d.join("conv.rrd")).unwrap() == std::fs::read(d.join("run.rrd")).unwrap(),
+        "convert gave another .rrd"
+    );
+
     // Free boxes (the bundled default scene): no tracking, no robot layout.
     let o = tumble(
         &[
@@ -219,9 +230,6 @@ fn viewers_open_on_the_robot_and_follow_it() {
         .find(|(k, _)| k.ends_with("/EyeControls3D"))
         .map(|(_, v)| v.clone())
         .unwrap();
-    assert!(
-        eye.get("EyeControls3D:tracking_entity").is_none(),
-        "{eye}"
-    );
+    assert!(eye.get("EyeControls3D:tracking_entity").is_none(), "{eye}");
     assert!(!d.join("free.foxglove.json").exists());
 }

@@ -12,7 +12,9 @@
 //!
 //! The 3D view shows everything but the plots, its eye placed so that every link frame's
 //! positions over the whole run (the box [`SceneBounds`] collects), grown by the size of its
-//! geometry, fit in view. The plots show the relative change of the conserved quantities (what
+//! geometry, fit in view; in a recording with a robot, the robot's link frames at its first
+//! recorded step, with the eye tracking its root link's visual (`tracking_entity`, set by the
+//! sink: [`super::sink`]). The plots show the relative change of the conserved quantities (what
 //! the integrators are judged by; a raw |L| plot only shows round-off noise at full scale) and
 //! the scene's energies, each over the whole run (time axis from −∞ to +∞) on `sim_time`.
 //! A recording of fixed-base models only has no conserved angular momentum (the weld exchanges

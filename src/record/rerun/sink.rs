@@ -367,9 +367,10 @@ impl Sink for RerunSink {
             && robot.start.is_empty()
         {
             for &i in &robot.frames {
-                robot
-                    .start
-                    .add(&frame.world_from_link[i].translation.vector, self.frame_reach[i]);
+                robot.start.add(
+                    &frame.world_from_link[i].translation.vector,
+                    self.frame_reach[i],
+                );
             }
         }
         let angmom_change = if self.joint_plots.is_empty() {
