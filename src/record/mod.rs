@@ -260,6 +260,13 @@ impl RecordingLayout {
         self.frames.iter().position(|f| f.model == meshed.model)
     }
 
+    /// Whether the robot of [`Self::robot_root`] is welded to the world (a fixed-base articulated
+    /// model): it cannot leave its workspace, so the viewers frame all of it over the run and
+    /// need not follow it.
+    pub fn robot_is_fixed(&self) -> bool {
+        self.mechanisms.first().is_some_and(|m| !m.floating)
+    }
+
     /// The drive of joint `joint`, if it is driven.
     pub fn drive_of(&self, joint: usize) -> Option<&DriveLayout> {
         self.drives

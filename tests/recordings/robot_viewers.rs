@@ -201,6 +201,33 @@ fn viewers_open_on_the_robot_and_follow_it() {
     .unwrap();
     assert_eq!(layout["layout"], shipped["layout"]);
 
+    // Welded to the world, the robot is framed over the run and not tracked.
+    let o = tumble(
+        &[
+            "simulate",
+            "meshbot.urdf",
+            "--articulated",
+            "--base",
+            "fixed",
+            "--duration",
+            "0.5",
+            "--out",
+            "fixed",
+            "--force",
+        ],
+        d,
+    );
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let bp = run_py("read_blueprint.py", &[&d.join("fixed.rrd")]);
+    let eye = bp["entities"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .find(|(k, _)| k.ends_with("/EyeControls3D"))
+        .map(|(_, v)| v.clone())
+        .unwrap();
+    assert!(eye.get("EyeControls3D:tracking_entity").is_none(), "{eye}");
+
     // `tumble convert` makes the same choices from the MCAP's layout: the run's own .rrd.
     let o = tumble(&["convert", "run.mcap", "--rrd", "conv.rrd"], d);
     assert!(o.status.success(), "{}", text(&o.stderr));

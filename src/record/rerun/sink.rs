@@ -84,14 +84,19 @@ pub struct RerunSink {
 }
 
 /// What the blueprint's 3D view frames and follows when the recording holds a robot: the
-/// robot's link frames at its first recorded step, and an entity drawn in its root frame.
+/// robot's link frames at its first recorded step, and an entity drawn in its root frame; for a
+/// fixed-base robot ([`RecordingLayout::robot_is_fixed`]) its link frames over the whole run
+/// and no tracking.
 pub(super) struct RobotView {
     /// The root frame ([`RecordingLayout::robot_root`]).
     pub root: usize,
     /// Indices of the robot's link frames (those of the root frame's model).
     pub frames: Vec<usize>,
-    /// The box around those frames at the first recorded step (empty until then).
+    /// The box around those frames at the first recorded step (empty until then); for a
+    /// fixed-base robot, over every recorded step.
     pub start: SceneBounds,
+    /// Whether the robot is welded to the world.
+    pub fixed: bool,
     /// The entity the eye tracks: the root frame's first visual, else the first visual of
     /// another of the robot's frames (set by the layout writer).
     pub tracked: Option<EntityPath>,
@@ -178,6 +183,7 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
                     .filter(|&i| layout.frames[i].model == layout.frames[root].model)
                     .collect(),
                 start: SceneBounds::default(),
+                fixed: layout.robot_is_fixed(),
                 tracked: None,
                 root_tracked: false,
             })
@@ -273,7 +279,10 @@ impl RerunSink {
         drop(rec);
         // The blueprint store, after the recording (so its bytes do not depend on thread timing).
         let (bounds, tracked) = match &self.robot {
-            Some(robot) if !robot.start.is_empty() => (&robot.start, robot.tracked.as_ref()),
+            Some(robot) if !robot.start.is_empty() => (
+                &robot.start,
+                robot.tracked.as_ref().filter(|_| !robot.fixed),
+            ),
             _ => (&self.bounds, None),
         };
         let chunks = blueprint_chunks(
@@ -364,7 +373,7 @@ impl Sink for RerunSink {
                 .add(&pose.translation.vector, self.frame_reach[i]);
         }
         if let Some(robot) = &mut self.robot
-            && robot.start.is_empty()
+            && (robot.fixed || robot.start.is_empty())
         {
             for &i in &robot.frames {
                 robot.start.add(
