@@ -15,5 +15,6 @@ mod partial_step;
 mod recordings;
 mod replay;
 mod rerun_sink;
+mod robot_viewers;
 mod ros2;
 mod viewers;
