@@ -192,8 +192,9 @@ fn rigid_composite(
     if parts.is_empty() {
         bail!(
             "bodies = \"rigid\": model `{label}` ({}) has no link with positive mass: \
-             nothing to simulate",
-            model.path.display()
+             nothing to simulate ({})",
+            model.path.display(),
+            crate::model::urdf::MASSLESS_REMEDY
         );
     }
     let invalid = |rules: &str| {
