@@ -49,11 +49,17 @@ fn every_corpus_urdf_runs_or_is_refused_with_its_reason() {
         let (corpus, file, base, kind, text, pinocchio, error) =
             (f[0], f[1], f[2], f[3], f[4], f[5] == "1", f[6]);
         files += 1;
-        assert!(kind == "runs" || kind == "refused", "{corpus} {file} {base}: {kind} {text}");
+        assert!(
+            kind == "runs" || kind == "refused",
+            "{corpus} {file} {base}: {kind} {text}"
+        );
         if kind == "refused" {
             // One line, naming the file.
             let name = file.rsplit('/').next().unwrap();
-            assert!(error.starts_with("error: ") && error.contains(name), "{file}: {error}");
+            assert!(
+                error.starts_with("error: ") && error.contains(name),
+                "{file}: {error}"
+            );
             if pinocchio {
                 // The files Pinocchio loads are refused for a defect a key accepts (the
                 // others are malformed: a 4-number rpy, `$(optenv ...)`, no link at all).
