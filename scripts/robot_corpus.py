@@ -28,6 +28,7 @@ file's absolute path, its --package-path: what tests/mechanism/corpus.rs checks.
 """
 
 import concurrent.futures
+import json
 import os
 import re
 import subprocess
@@ -117,6 +118,93 @@ def energy(out):
     return f"dE/E0 {r:.1e}", abs(r) <= REL_TOL
 
 
+def keys_offered(err):
+    """The keys a refusal names as what runs the file anyway, as (kind, value), in the order
+    tried: the file's own values kept first (the opt-in), then a link's geometry, the base, the
+    whole model's geometry, a lock."""
+    keys = []
+    if "allow_non_physical_inertia = true" in err and ("triangle" in err or "semi-definite" in err):
+        keys.append(("allow", "true"))
+    keys += [("link", m) for m in re.findall(r"`links = \{ ([^ ]+) = \{ inertia = \"geometry\" \} \}`", err)]
+    keys += [("link", m) for m in re.findall(r"Give `([^`]+)` mass \(an <inertial>, or links\.", err)]
+    if '(`--base floating`)' in err:
+        keys.append(("base", "floating"))
+    if 'use base = "fixed"' in err:
+        keys.append(("base", "fixed"))
+    if "(`--inertia geometry`)" in err:
+        keys.append(("inertia", "geometry"))
+    keys += [("lock", m) for m in re.findall(r"or lock `([^`]+)`", err)]
+    return keys
+
+
+def scene_text(path, pkg, base, keys):
+    model = {"base": base, "inertia": None, "allow": None}
+    links, locks = [], []
+    for kind, value in keys:
+        if kind == "link":
+            links.append(value)
+        elif kind == "lock":
+            locks.append(value)
+        else:
+            model[kind] = value
+    text = (f"[sim]\ndt = 0.001\nduration = 1.0\n[[model]]\nurdf = {json.dumps(path)}\n"
+            f"package_paths = [{json.dumps(pkg)}]\nallow_mesh_paths = [\"/\"]\nbodies = \"articulated\"\n"
+            f"base = \"{model['base']}\"\n")
+    if model["inertia"]:
+        text += "inertia = \"geometry\"\n"
+    if model["allow"]:
+        text += "allow_non_physical_inertia = true\n"
+    if links:
+        text += "links = { " + ", ".join(f'{json.dumps(l)} = {{ inertia = "geometry" }}' for l in links) + " }\n"
+    if locks:
+        text += f"locked_joints = {json.dumps(locks)}\n"
+    return text
+
+
+def key_text(keys):
+    names = {"allow": lambda v: "allow_non_physical_inertia = true", "base": lambda v: f'base = "{v}"',
+             "inertia": lambda v: 'inertia = "geometry"', "link": lambda v: f'links.{v}.inertia = "geometry"',
+             "lock": lambda v: f'locked_joints = ["{v}"]'}
+    return ", ".join(f"`{names[k](v)}`" for k, v in keys)
+
+
+def follow(job, err):
+    """Follows a refusal's keys (a depth-first search over the keys each refusal names, at most
+    24 runs): (the keys that run the file, None) or (None, the last refusal: one that names no
+    key left to try)."""
+    corpus, folder, pkg, rel, base, tmp = job
+    path = os.path.join(folder, rel)
+    stem = os.path.join(tmp, f"follow-{corpus}-{rel.replace('/', '_')}-{base}")
+    budget = [24]
+    last = [err]
+
+    def search(keys, err):
+        for key in keys_offered(err):
+            if key in keys or budget[0] == 0:
+                continue
+            budget[0] -= 1
+            tried = keys + [key]
+            with open(stem + ".toml", "w") as f:
+                f.write(scene_text(path, pkg, base, tried))
+            p = subprocess.run([tumble, "simulate", stem + ".toml", "--threads", "1", "--format", "parquet",
+                                "--out", stem, "--force"], capture_output=True, text=True, timeout=300)
+            out = p.stdout + p.stderr
+            if p.returncode == 0 and " 0 non-converged" in out and energy(out)[1]:
+                return tried
+            e = next((l for l in out.splitlines() if l.startswith("error")), out.strip()[-200:])
+            last[0] = e.replace(stem + ".toml", "").replace(path, "").replace(folder + "/", "")
+            found = search(tried, e)
+            if found:
+                return found
+        return None
+
+    found = search([], err)
+    for suffix in (".toml", ".trajectories.parquet", ".bodies.parquet", ".joints.parquet"):
+        if os.path.exists(stem + suffix):
+            os.remove(stem + suffix)
+    return (found, None) if found else (None, last[0])
+
+
 def run(job):
     corpus, folder, pkg, rel, base, tmp = job
     path = os.path.join(folder, rel)
@@ -141,7 +229,13 @@ def run(job):
         # The message without the paths (the file is the row's), its first 260 characters.
         reason = (err or out.strip()[:200]).replace(path, "").replace(folder + "/", "")
         reason = reason.removeprefix("error: ").removeprefix(": ")[:260].replace("|", "/")
-        return "refused", reason, err
+        if (corpus, rel) in not_pinocchio:
+            return "refused", reason, err
+        keys, last = follow(job, err)
+        if keys:
+            return "refused", f"{reason}. **With** {key_text(keys)}: runs", err
+        last = last.removeprefix("error: ").removeprefix(": ").lstrip(": ")[:200].replace("|", "/")
+        return "refused", f"{reason}. **Its keys end at**: {last}", err
     if code == 0 and " 0 non-converged" in newton:
         return "fails", f"energy: {figure}", err
     last = (newton or (out.strip().splitlines()[-1] if out.strip() else ""))[:160]
