@@ -13,7 +13,8 @@ A run "runs" when it exits 0, no Newton solve failed, and its energy behaves as 
 scheme promises (docs/forces.md, "What is conserved"; docs/mechanisms.md, "Energy" of the limits):
 - nothing did work (no damping, friction or limit stop acted; no `energy balance` line): the
   energy error is bounded, no drift (O(h^2)): |E(1 s) - E(0)| / |E(0)| <= REL_TOL = 1e-3 (`dE/E0`
-  in the table; measured at most 9.7e-5, ur3_robot fixed).
+  in the table; measured at most 9.7e-5, ur3_robot fixed); a model starting at E = 0 (its centre
+  of mass at z = 0) has its change judged against its weight times 1 m (`dE/(m g 1 m)`).
 - something did work (URDF damping or friction, a limit stop: the `energy balance` line): the
   balance `change = input work - dissipated` closes, what it leaves open at most BAL_TOL = 1e-2 of
   the energy's scale (|E(0)|, |E(1 s)| and the balance's terms; `open` in the table), and the
@@ -21,6 +22,11 @@ scheme promises (docs/forces.md, "What is conserved"; docs/mechanisms.md, "Energ
   (its impulse acts at the start of the step): measured at most 1.0e-3 (pybullet's vision60, fixed
   base, its legs' stops; 4.4e-4 at dt = 0.5 ms, 2.0e-4 at 0.25 ms: first order, as documented).
   The scale, not the balance's largest term: a stop touched at rest makes every term round-off.
+
+A refusal (of a file Pinocchio loads) is followed: the keys its message names (a link's or the
+model's geometry, allow_non_physical_inertia, the other base, a lock) are set in a scene and the
+file run again, a depth-first search over the keys each new refusal names, until it runs (the
+cell says with which keys) or a refusal names no key left (the cell quotes it: "its keys end at").
 
 `--raw FILE` also writes one tab-separated line per run: corpus, file, base, runs|refused|fails,
 the table's text, 1|0 (Pinocchio loads the file), tumble's first error line (refusals), the
@@ -95,7 +101,16 @@ def pinocchio_refusal(path):
 NUM = r"([-+0-9.eE]+|NaN|inf|-inf)"
 
 
-def energy(out):
+def total_mass(stem):
+    """The bodies' total mass, kg, from the run's Parquet bodies table (0 without one)."""
+    try:
+        import pyarrow.parquet as pq
+        return float(sum(pq.read_table(stem + ".bodies.parquet", columns=["mass"]).column("mass").to_pylist()))
+    except Exception:  # noqa: BLE001 (no table: no mass)
+        return 0.0
+
+
+def energy(out, mass):
     """(figure text, behaves) from the summary lines: the energy's relative change without work
     done, else what the energy balance leaves open, both relative to the energy's scale (its
     start and end values and the balance's terms: a balance whose terms are all round-off, as
@@ -113,7 +128,11 @@ def energy(out):
         # Dissipation is >= 0 up to round-off: a negative one would be energy made.
         return f"open {frac:.1e}", frac <= BAL_TOL and dissipated >= -BAL_TOL * scale
     if e0 == 0.0:
-        return f"dE {e1 - e0:.1e} J", abs(e1 - e0) <= 1e-9
+        # Starting at zero energy (the centre of mass at z = 0, at rest) there is no relative
+        # change: the change is judged against the model's weight times 1 m.
+        scale = mass * 9.81
+        r = (e1 - e0) / scale if scale > 0 else float("inf")
+        return f"dE/(m g 1 m) {r:.1e}", abs(r) <= REL_TOL
     r = (e1 - e0) / abs(e0)
     return f"dE/E0 {r:.1e}", abs(r) <= REL_TOL
 
@@ -123,9 +142,16 @@ def keys_offered(err):
     tried: the file's own values kept first (the opt-in), then a link's geometry, the base, the
     whole model's geometry, a lock."""
     keys = []
-    if "allow_non_physical_inertia = true" in err and ("triangle" in err or "semi-definite" in err):
+    # The opt-in accepts a body's moments that break the triangle inequality, not zero or
+    # negative ones ("not positive definite"), and a part's negative ones ("semi-definite").
+    opt_in = "triangle" in err or "semi-definite" in err
+    if "allow_non_physical_inertia = true" in err and opt_in and "not positive definite" not in err:
         keys.append(("allow", "true"))
-    keys += [("link", m) for m in re.findall(r"`links = \{ ([^ ]+) = \{ inertia = \"geometry\" \} \}`", err)]
+    # `links = { a = { inertia = "geometry" }, b = { ... } }`: all its links at once.
+    for table in re.findall(r"`links = \{ (.*?) \}`", err):
+        names = re.findall(r"([^ ,]+) = \{ inertia = \"geometry\" \}", table)
+        if names:
+            keys.append(("link", ",".join(names)))
     keys += [("link", m) for m in re.findall(r"Give `([^`]+)` mass \(an <inertial>, or links\.", err)]
     if '(`--base floating`)' in err:
         keys.append(("base", "floating"))
@@ -142,7 +168,7 @@ def scene_text(path, pkg, base, keys):
     links, locks = [], []
     for kind, value in keys:
         if kind == "link":
-            links.append(value)
+            links += value.split(",")
         elif kind == "lock":
             locks.append(value)
         else:
@@ -163,20 +189,21 @@ def scene_text(path, pkg, base, keys):
 
 def key_text(keys):
     names = {"allow": lambda v: "allow_non_physical_inertia = true", "base": lambda v: f'base = "{v}"',
-             "inertia": lambda v: 'inertia = "geometry"', "link": lambda v: f'links.{v}.inertia = "geometry"',
+             "inertia": lambda v: 'inertia = "geometry"', "link": lambda v: ", ".join(f'links.{l}.inertia = "geometry"' for l in v.split(",")),
              "lock": lambda v: f'locked_joints = ["{v}"]'}
     return ", ".join(f"`{names[k](v)}`" for k, v in keys)
 
 
 def follow(job, err):
     """Follows a refusal's keys (a depth-first search over the keys each refusal names, at most
-    24 runs): (the keys that run the file, None) or (None, the last refusal: one that names no
-    key left to try)."""
+    40 runs): (the keys that run the file, None) or (None, the refusal at the end of the
+    longest chain of keys: one that names no key left to try)."""
     corpus, folder, pkg, rel, base, tmp = job
     path = os.path.join(folder, rel)
     stem = os.path.join(tmp, f"follow-{corpus}-{rel.replace('/', '_')}-{base}")
-    budget = [24]
+    budget = [40]
     last = [err]
+    deepest = [0]
 
     def search(keys, err):
         for key in keys_offered(err):
@@ -189,10 +216,20 @@ def follow(job, err):
             p = subprocess.run([tumble, "simulate", stem + ".toml", "--threads", "1", "--format", "parquet",
                                 "--out", stem, "--force"], capture_output=True, text=True, timeout=300)
             out = p.stdout + p.stderr
-            if p.returncode == 0 and " 0 non-converged" in out and energy(out)[1]:
+            figure, behaves = energy(out, total_mass(stem))
+            if p.returncode == 0 and " 0 non-converged" in out and behaves:
                 return tried
+            if p.returncode == 0:
+                newton = next((l for l in out.splitlines() if l.startswith("Newton:")), "")
+                if len(tried) > deepest[0]:
+                    deepest[0] = len(tried)
+                    last[0] = f"with {key_text(tried)} it exits 0 but fails: {figure}; {newton}"
+                continue
             e = next((l for l in out.splitlines() if l.startswith("error")), out.strip()[-200:])
-            last[0] = e.replace(stem + ".toml", "").replace(path, "").replace(folder + "/", "")
+            if len(tried) > deepest[0]:
+                deepest[0] = len(tried)
+                e = e.replace(stem + ".toml", "").replace(path, "").replace(folder + "/", "")
+                last[0] = f"with {key_text(tried)}: {e}"
             found = search(tried, e)
             if found:
                 return found
@@ -217,11 +254,11 @@ def run(job):
         out, code = p.stdout + p.stderr, p.returncode
     except subprocess.TimeoutExpired:
         out, code = "timeout after 300 s", -1
+    newton = next((l for l in out.splitlines() if l.startswith("Newton:")), "")
+    figure, behaves = energy(out, total_mass(stem))
     for suffix in (".trajectories.parquet", ".bodies.parquet", ".joints.parquet"):
         if os.path.exists(stem + suffix):
             os.remove(stem + suffix)
-    newton = next((l for l in out.splitlines() if l.startswith("Newton:")), "")
-    figure, behaves = energy(out)
     err = next((l for l in out.splitlines() if l.startswith("error")), "")
     if code == 0 and " 0 non-converged" in newton and behaves:
         return "runs", figure, ""
@@ -234,7 +271,7 @@ def run(job):
         keys, last = follow(job, err)
         if keys:
             return "refused", f"{reason}. **With** {key_text(keys)}: runs", err
-        last = last.removeprefix("error: ").removeprefix(": ").lstrip(": ")[:200].replace("|", "/")
+        last = last.replace("error: : ", "").replace("error: ", "").replace("model[0]: : ", "").replace("model[0]: ", "")[:400].replace("|", "/")
         return "refused", f"{reason}. **Its keys end at**: {last}", err
     if code == 0 and " 0 non-converged" in newton:
         return "fails", f"energy: {figure}", err
@@ -285,17 +322,22 @@ print("**runs**: exit 0, no Newton failure, and the energy behaves as the variat
       "(`change = input work - dissipated`, docs/forces.md) must close: `open` is what it leaves open as a "
       f"fraction of the energy's scale (|E(0)|, |E(1 s)|, the balance's terms), at most {BAL_TOL:g}, with no "
       "negative dissipation beyond it (damping closes to O(h^2), a limit stop's ledger to O(h), "
-      "docs/mechanisms.md). **refused**: exit 2 with tumble's message, which names the file, the link or joint and "
-      "the defect, and the key that runs it anyway (paths cut here: the row names the file). "
-      "**fails**: anything else.\n")
+      "docs/mechanisms.md); starting at E = 0 (the centre of mass at z = 0) the change is judged against the "
+      "model's weight times 1 m (`dE/(m g 1 m)`). **refused**: exit 2 with tumble's message, which names the file, "
+      "the link or joint and the defect, and the key that runs it anyway (paths cut here: the row names the file). "
+      "Each refusal of a file Pinocchio loads is then followed: the keys it names are set in a scene and the file "
+      "run again, over the keys each new refusal names, until it runs (\"**With** keys: runs\", the same checks) "
+      "or a refusal names no key left (\"**Its keys end at**\": that refusal). **fails**: anything else.\n")
 print("Totals (file x base):\n")
-print("| corpus | files | base | runs | refused | fails |\n|---|---|---|---|---|---|")
+print("| corpus | files | base | runs | refused | of them run with their keys | fails |\n|---|---|---|---|---|---|---|")
 for c, _, _ in CORPORA:
     n = sum(1 for f in files if f[0] == c and (c, f[3]) not in not_pinocchio)
     for base in ("fixed", "floating"):
         k = [kind for (cc, rel, b), (kind, _, _) in results.items()
              if cc == c and b == base and (c, rel) not in not_pinocchio]
-        print(f"| {c} | {n} | {base} | {k.count('runs')} | {k.count('refused')} | {k.count('fails')} |")
+        keyed = sum(1 for (cc, rel, b), (kind, text, _) in results.items()
+                    if cc == c and b == base and (c, rel) not in not_pinocchio and "**With**" in text)
+        print(f"| {c} | {n} | {base} | {k.count('runs')} | {k.count('refused')} | {keyed} | {k.count('fails')} |")
 print("\nThe files Pinocchio does not load are left out of the totals (listed below, with their rows).\n")
 for c, _, _ in CORPORA:
     print(f"## {c}\n")
