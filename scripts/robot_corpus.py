@@ -358,6 +358,35 @@ for c, _, _ in CORPORA:
     for cells, rels in groups.items():
         print(f"| `random_urdfs/NNN/NNN.urdf`, {len(rels)} files (`{rels[0]}` to `{rels[-1]}`) | {cells} |")
     print()
+print("""## What the corpus found (issue 32)
+
+No run fails (Newton, panic, timeout, energy). What it found, and what changed:
+
+- **Refusals without a way out.** A model with no moving joint at `base = "fixed"` (pybullet's cubes, spheres,
+  mugs, the xarm's single links) said "nothing would move" and stopped there; it now names `base = "floating"`
+  (it falls as one rigid body). A model whose every link has mass 0 (pybullet's static objects: planes, tables,
+  trays) said "nothing to simulate"; it now names `inertia = "geometry"`. A part's negative principal moment
+  named only `allow_non_physical_inertia`, which runs the file only when the body the part is merged into comes
+  out positive definite (tiago's antennas on its base: yes; romeo_laas_small's `body`, -0.021 kg m^2: no); it
+  now also names `links.X.inertia = "geometry"`. Test: `robot::pybullet_static_objects_are_refused_with_the_key_that_runs_them`.
+- **Meshes refused as non-manifold after welding.** An OBJ or DAE whose surface touches itself, each sheet with
+  its own vertices (pybullet's V-HACD laikago chassis: hulls sharing an edge and a face; 28 of the 1000
+  `random_urdfs` objects), became non-manifold once welding by position joined the sheets, so
+  `inertia = "geometry"`, the key their zero inertias name, ended there. The file's own indexing closes them and is
+  kept now (`mesh_io::weld_indexed`; stacked copies of a solid still refused). Tests:
+  `mesh::an_obj_touching_itself_keeps_its_own_indexing_stacked_copies_do_not`,
+  `robot::laikago_runs_with_its_mass_from_its_vhacd_meshes`.
+- **Energy.** The tightest balance is vision60's at a fixed base (its legs fold into their stops: 5.04 J
+  dissipated, 5.5e-3 J open, 1.0e-3 of the energy, halving with the step: the stops' O(h) ledger). Test:
+  `robot::vision60_closes_its_energy_balance_through_its_stops`.
+
+Open (refused, each refusal naming its defect, but no key runs them without new data): iCub and iCub reduced
+(zero inertias, and `r_upper_leg`'s collision mesh, which would give one, is open), romeo_laas_small (`body`'s
+negative moment; its meshes are absolute paths of another machine, `file:///usr/Romeo/...`), pybullet's
+plane_implicit and samurai (open meshes: scenery, not solids) and random_urdfs/168 (an empty mesh). Outside the
+totals: husky.urdf's parse error (Pinocchio refuses it too) quotes urdf-rs's detail, which names the `xyz` or the
+`rpy` attribute from one run to the next (urdf-rs's order), after tumble's own, stable, location.
+""")
 print("## Not loaded by Pinocchio\n")
 print("`pinocchio.buildModelFromUrdf` refuses these (urdfdom's first error); tumble still runs them (rows above), "
       "outside the totals.\n")
