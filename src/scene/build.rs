@@ -317,9 +317,11 @@ impl Scene {
                 }
                 if world.layout.frames.len() == before {
                     bail!(
-                        "{}: model[{i}] ({}) has no link with positive mass: nothing to simulate",
+                        "{}: model[{i}] ({}) has no link with positive mass: nothing to \
+                         simulate ({})",
                         self.source.display(),
-                        urdf_path.display()
+                        urdf_path.display(),
+                        urdf::MASSLESS_REMEDY
                     );
                 }
                 for f in &world.layout.frames[before..] {
