@@ -279,6 +279,69 @@ def run(job):
     return "fails", f"({code}): {last}".replace("|", "/"), err
 
 
+MOVING_RATE = 0.5  # rad/s (a prismatic joint: m/s / 10), alternating in sign joint by joint
+
+
+def moving_rates(path, pkg):
+    """The initial rates of the "moving" run: every revolute, continuous and prismatic joint that
+    is not a mimic follower, +-MOVING_RATE alternating (prismatic joints a tenth of it, m/s), as
+    a TOML inline table; None when the model has no such joint."""
+    p = subprocess.run([tumble, "inspect", path, "--json", "--package-path", pkg, "--allow-mesh-path", "/"],
+                       capture_output=True, text=True, timeout=300)
+    try:
+        joints = json.loads(p.stdout)["joints"]
+    except (ValueError, KeyError):
+        return None
+    rates = {}
+    for j in joints:
+        if j["type"] in ("revolute", "continuous", "prismatic") and not j.get("mimic"):
+            v = MOVING_RATE * (1 if len(rates) % 2 == 0 else -1)
+            rates[j["name"]] = v / 10 if j["type"] == "prismatic" else v
+    return rates or None
+
+
+def toml_rates(rates):
+    return "{ " + ", ".join(f"{json.dumps(k)} = {v!r}" for k, v in rates.items()) + " }"
+
+
+def run_moving(job):
+    """The floating base set moving: every joint at +-MOVING_RATE (`moving_rates`), in gravity,
+    1 s at 1 ms: the joints' dynamics in free flight, where energy is conserved and the floating
+    base's momenta too. A joint the articulated model merges or that does not move is dropped
+    (its refusal names it) and the run repeated. Returns (kind, text, err, rates)."""
+    corpus, folder, pkg, rel, _, tmp = job
+    path = os.path.join(folder, rel)
+    stem = os.path.join(tmp, f"{corpus}-{rel.replace('/', '_')}-moving")
+    rates = moving_rates(path, pkg)
+    if not rates:
+        return None
+    for _ in range(20):
+        with open(stem + ".toml", "w") as f:
+            f.write(f"[sim]\ndt = 0.001\nduration = 1.0\ngravity = [0.0, 0.0, -9.81]\n[[model]]\n"
+                    f"urdf = {json.dumps(path)}\npackage_paths = [{json.dumps(pkg)}]\nallow_mesh_paths = [\"/\"]\n"
+                    f"bodies = \"articulated\"\nbase = \"floating\"\njoint_velocities = {toml_rates(rates)}\n")
+        p = subprocess.run([tumble, "simulate", stem + ".toml", "--threads", "1", "--format", "parquet",
+                            "--out", stem, "--force"], capture_output=True, text=True, timeout=300)
+        out = p.stdout + p.stderr
+        err = next((l for l in out.splitlines() if l.startswith("error")), "")
+        dropped = re.search(r"joint_velocities\.([^:]+): joint `", err)
+        if p.returncode == 2 and dropped and dropped.group(1) in rates:
+            del rates[dropped.group(1)]
+            if not rates:
+                return None
+            continue
+        break
+    newton = next((l for l in out.splitlines() if l.startswith("Newton:")), "")
+    figure, behaves = energy(out, total_mass(stem))
+    for suffix in (".toml", ".trajectories.parquet", ".bodies.parquet", ".joints.parquet"):
+        if os.path.exists(stem + suffix):
+            os.remove(stem + suffix)
+    if p.returncode == 0 and " 0 non-converged" in newton and behaves:
+        return "runs", figure, "", rates
+    last = (err or newton or (out.strip().splitlines()[-1] if out.strip() else ""))[:200]
+    return "fails", f"({p.returncode}) {figure}: {last}".replace("|", "/"), err, rates
+
+
 files = [(c, folder, pkg, rel) for c, folder, pkg in CORPORA for rel in urdfs(folder)]
 not_pinocchio = {(c, rel): why for c, folder, _, rel in files
                  if (why := pinocchio_refusal(os.path.join(folder, rel))) is not None}
@@ -286,6 +349,12 @@ with tempfile.TemporaryDirectory() as tmp:
     work = [(c, folder, pkg, rel, base, tmp) for c, folder, pkg, rel in files for base in ("fixed", "floating")]
     with concurrent.futures.ThreadPoolExecutor(max_workers=jobs) as pool:
         results = dict(zip(((w[0], w[3], w[4]) for w in work), pool.map(run, work)))
+        moving_work = [w for w in work if w[4] == "floating" and results[(w[0], w[3], "floating")][0] == "runs"]
+        rates_of = {}
+        for w, r in zip(moving_work, pool.map(run_moving, moving_work)):
+            if r is not None:
+                results[(w[0], w[3], "moving")] = r[:3]
+                rates_of[(w[0], w[3])] = r[3]
 
 if raw:
     with open(raw, "w") as f:
@@ -293,7 +362,8 @@ if raw:
         for (c, rel, base), (kind, text, err) in sorted(results.items()):
             pin = 0 if (c, rel) in not_pinocchio else 1
             path, pkg = where[(c, rel)]
-            f.write(f"{c}\t{rel}\t{base}\t{kind}\t{text}\t{pin}\t{err}\t{path}\t{pkg}\n")
+            rates = toml_rates(rates_of[(c, rel)]) if base == "moving" else ""
+            f.write(f"{c}\t{rel}\t{base}\t{kind}\t{text}\t{pin}\t{err}\t{path}\t{pkg}\t{rates}\n")
 
 
 def cell(kind, text, _err):
@@ -332,7 +402,7 @@ print("Totals (file x base):\n")
 print("| corpus | files | base | runs | refused | of them run with their keys | fails |\n|---|---|---|---|---|---|---|")
 for c, _, _ in CORPORA:
     n = sum(1 for f in files if f[0] == c and (c, f[3]) not in not_pinocchio)
-    for base in ("fixed", "floating"):
+    for base in ("fixed", "floating", "moving"):
         k = [kind for (cc, rel, b), (kind, _, _) in results.items()
              if cc == c and b == base and (c, rel) not in not_pinocchio]
         keyed = sum(1 for (cc, rel, b), (kind, text, _) in results.items()
@@ -341,7 +411,7 @@ for c, _, _ in CORPORA:
 print("\nThe files Pinocchio does not load are left out of the totals (listed below, with their rows).\n")
 for c, _, _ in CORPORA:
     print(f"## {c}\n")
-    print("| URDF | fixed base | floating base |\n|---|---|---|")
+    print("| URDF | fixed base | floating base | floating, joints moving |\n|---|---|---|---|")
     # pybullet_data's random_urdfs/NNN/NNN.urdf (1000 generated objects) take one row when their
     # cells are the same but for the file's own number (then checked here, file by file).
     groups = {}
@@ -349,7 +419,9 @@ for c, _, _ in CORPORA:
         if cc != c:
             continue
         note = " (not loaded by Pinocchio)" if (c, rel) in not_pinocchio else ""
-        cells = f"{cell(*results[(c, rel, 'fixed')])} | {cell(*results[(c, rel, 'floating')])}"
+        moving = results.get((c, rel, "moving"))
+        cells = (f"{cell(*results[(c, rel, 'fixed')])} | {cell(*results[(c, rel, 'floating')])} | "
+                 + (cell(*moving) if moving else "-"))
         m = re.fullmatch(r"random_urdfs/(\d+)/(\d+)\.urdf", rel)
         if m and m.group(1) == m.group(2) and not note:
             groups.setdefault(cells.replace(m.group(1), "NNN"), []).append(rel)

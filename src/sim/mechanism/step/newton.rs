@@ -71,7 +71,7 @@ impl Workspace {
         if let Err(f) = self.drive_rows_start(model) {
             return Err((f, 0));
         }
-        if let Err(f) = self.stop_rows_start(model) {
+        if let Err(f) = self.stop_rows_start(model, bodies) {
             return Err((f, 0));
         }
         // Start: warm λ, μ, ξ, or cold (λ = 0, ξ from the momenta).

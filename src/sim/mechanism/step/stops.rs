@@ -19,6 +19,7 @@ use super::super::rows::Row6;
 use super::super::{Mechanism, StopMode};
 use super::assembly::relative;
 use super::{Failure, Workspace};
+use crate::sim::Bodies;
 
 /// Per stop of the mechanism (same order as `MechanismModel::stops`): its row, its mode and
 /// its values at the current iterate.
@@ -66,12 +67,31 @@ impl StopRows {
 }
 
 impl Workspace {
-    /// The stop rows at the start of the step: `θ_k` and `∇θ(q_k)` into `G(q_k)`.
-    pub(super) fn stop_rows_start(&mut self, model: &Mechanism) -> Result<(), Failure> {
+    /// The stop rows at the start of the step: `θ_k` and `∇θ(q_k)` into `G(q_k)`. Before the
+    /// first step, the rate before it is the initial state's, `θ̇ = ∇θ · [ċ; ω]` from the
+    /// bodies' velocities (exact there: the initial state is set from the joint rates), so an
+    /// impact at the first step (a joint starting at its bound, moving into it) is charged its
+    /// kinetic energy like any other ([`Workspace::stop_commit`]).
+    pub(super) fn stop_rows_start(
+        &mut self,
+        model: &Mechanism,
+        bodies: &Bodies,
+    ) -> Result<(), Failure> {
         for (k, s) in model.stops.iter().enumerate() {
             let (j, row) = self.stops.slot[k];
             let (theta, ga, gb) = self.coordinate_gradient(model, &self.pose_k, s.coordinate)?;
             self.stops.theta_k[k] = theta;
+            if self.stops.rate_prev[k].is_nan() {
+                let rate = |i: usize, g: &Row6| {
+                    let gi = model.first_body + i;
+                    let w = bodies.angmom_body[gi].component_mul(&bodies.inv_inertia_body[gi]);
+                    let v = bodies.linvel_world[gi];
+                    g[0] * v.x + g[1] * v.y + g[2] * v.z + g[3] * w.x + g[4] * w.y + g[5] * w.z
+                };
+                let joint = &model.joints[j];
+                self.stops.rate_prev[k] =
+                    rate(joint.child, &gb) + joint.parent.map_or(0.0, |p| rate(p, &ga));
+            }
             let (jp, jc) = &mut self.jac_k[j];
             jp.set_row(row, &ga);
             jc.set_row(row, &gb);
