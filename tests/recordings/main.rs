@@ -10,6 +10,7 @@ mod contacts;
 mod dataset;
 mod drives;
 mod joint_diff;
+mod lerobot;
 mod partial_step;
 mod recordings;
 mod replay;

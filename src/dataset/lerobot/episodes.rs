@@ -51,11 +51,19 @@ fn f64_lists(values: &[f64], dim: usize) -> ArrayRef {
 pub fn batch(rows: &[EpisodeRow], features: &[Feature], task: &str) -> anyhow::Result<RecordBatch> {
     let mut fields = Vec::new();
     let mut columns: Vec<ArrayRef> = Vec::new();
-    let int = |name: &str, f: &dyn Fn(&EpisodeRow) -> i64, fields: &mut Vec<Field>, columns: &mut Vec<ArrayRef>| {
+    let int = |name: &str,
+               f: &dyn Fn(&EpisodeRow) -> i64,
+               fields: &mut Vec<Field>,
+               columns: &mut Vec<ArrayRef>| {
         fields.push(Field::new(name, DataType::Int64, false));
         columns.push(Arc::new(Int64Array::from_iter_values(rows.iter().map(f))));
     };
-    int("episode_index", &|r| r.episode_index, &mut fields, &mut columns);
+    int(
+        "episode_index",
+        &|r| r.episode_index,
+        &mut fields,
+        &mut columns,
+    );
     fields.push(list_field("tasks", DataType::Utf8));
     let mut tasks = ListBuilder::new(StringBuilder::new());
     for _ in rows {
@@ -79,14 +87,30 @@ pub fn batch(rows: &[EpisodeRow], features: &[Feature], task: &str) -> anyhow::R
                 .iter()
                 .flat_map(|r| r.stats[k].named()[s].1.to_vec())
                 .collect();
-            fields.push(list_field(&format!("stats/{}/{name}", feature.key), DataType::Float64));
+            fields.push(list_field(
+                &format!("stats/{}/{name}", feature.key),
+                DataType::Float64,
+            ));
             columns.push(f64_lists(&values, feature.dim));
         }
     }
-    int("meta/episodes/chunk_index", &|_| 0, &mut fields, &mut columns);
-    int("meta/episodes/file_index", &|_| 0, &mut fields, &mut columns);
+    int(
+        "meta/episodes/chunk_index",
+        &|_| 0,
+        &mut fields,
+        &mut columns,
+    );
+    int(
+        "meta/episodes/file_index",
+        &|_| 0,
+        &mut fields,
+        &mut columns,
+    );
     int("tumble/run", &|r| r.run, &mut fields, &mut columns);
-    Ok(RecordBatch::try_new(Arc::new(Schema::new(fields)), columns)?)
+    Ok(RecordBatch::try_new(
+        Arc::new(Schema::new(fields)),
+        columns,
+    )?)
 }
 
 fn list_field(name: &str, item: DataType) -> Field {
@@ -104,7 +128,10 @@ fn count_column(
     fields: &mut Vec<Field>,
     columns: &mut Vec<ArrayRef>,
 ) -> anyhow::Result<()> {
-    fields.push(list_field(&format!("stats/{}/count", feature.key), DataType::Int64));
+    fields.push(list_field(
+        &format!("stats/{}/count", feature.key),
+        DataType::Int64,
+    ));
     let mut b = ListBuilder::new(Int64Builder::new());
     for r in rows {
         b.values().append_value(r.stats[k].count as i64);

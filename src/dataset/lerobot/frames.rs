@@ -7,11 +7,11 @@
 //! Parquet compression: zstd level 1 (the dataset's other tables' writer settings,
 //! [`crate::record::parquet::files::writer_properties`]).
 
+use super::Summary;
 use super::episodes::{self, EpisodeRow};
 use super::info::{self, Action, Feature};
 use super::source::{Episode, Source};
 use super::stats::{Aggregate, episode_stats};
-use super::Summary;
 use crate::record::parquet::files::writer_properties;
 use anyhow::{Context, bail};
 use arrow_array::{ArrayRef, FixedSizeListArray, Float32Array, Int64Array, RecordBatch};
@@ -249,7 +249,10 @@ pub fn write_all(src: &Source, dir: &Path) -> anyhow::Result<Summary> {
         meta.join("info.json"),
         info::info_json(&src.robot_type, episodes, index as u64, src.fps, &features)?,
     )?;
-    std::fs::write(meta.join("stats.json"), info::stats_json(&features, &stats)?)?;
+    std::fs::write(
+        meta.join("stats.json"),
+        info::stats_json(&features, &stats)?,
+    )?;
     write_parquet(&meta.join("tasks.parquet"), &info::tasks_batch(&src.task)?)?;
     write_parquet(
         &dir.join(episodes::PATH),
@@ -266,8 +269,11 @@ pub fn write_all(src: &Source, dir: &Path) -> anyhow::Result<Summary> {
 
 fn write_parquet(path: &Path, batch: &RecordBatch) -> anyhow::Result<()> {
     let out = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-    let mut writer =
-        ArrowWriter::try_new(BufWriter::new(out), batch.schema(), Some(writer_properties(false)?))?;
+    let mut writer = ArrowWriter::try_new(
+        BufWriter::new(out),
+        batch.schema(),
+        Some(writer_properties(false)?),
+    )?;
     writer.write(batch)?;
     writer
         .close()

@@ -88,7 +88,8 @@ fn part_files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
 
 /// The record batches of a Parquet file.
 pub fn read_batches(path: &Path) -> anyhow::Result<Vec<RecordBatch>> {
-    let file = std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+    let file =
+        std::fs::File::open(path).with_context(|| format!("cannot open {}", path.display()))?;
     let reader = ParquetRecordBatchReaderBuilder::try_new(file)
         .and_then(|b| b.with_batch_size(64 * 1024).build())
         .with_context(|| format!("{}: not a Parquet file", path.display()))?;

@@ -169,7 +169,11 @@ mod tests {
         let mut agg = Aggregate::default();
         agg.add(&sa);
         agg.add(&sb);
-        let all = episode_stats(&[1.0, 10.0, 2.0, 20.0, 4.0, 40.0, 8.0, 80.0, 16.0, 160.0], 2, 5);
+        let all = episode_stats(
+            &[1.0, 10.0, 2.0, 20.0, 4.0, 40.0, 8.0, 80.0, 16.0, 160.0],
+            2,
+            5,
+        );
         let g = agg.finish();
         assert_eq!(g.count, 5);
         assert_eq!((g.min.clone(), g.max.clone()), (all.min, all.max));
