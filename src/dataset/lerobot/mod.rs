@@ -43,7 +43,7 @@ pub mod source;
 pub mod stats;
 
 use anyhow::{Context, bail};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// The folders a LeRobot dataset adds to its folder (what `--force` removes).
 pub const OUTPUTS: &[&str] = &["meta", "data"];
@@ -120,16 +120,4 @@ pub fn write(opts: &Options) -> anyhow::Result<Summary> {
     }
     let _ = std::fs::remove_dir_all(&staging);
     Ok(summary)
-}
-
-/// Removes a LeRobot dataset's folders ([`OUTPUTS`]) and staging folder from `dir`.
-pub fn remove_outputs(dir: &Path) -> anyhow::Result<()> {
-    for name in OUTPUTS.iter().chain(&[STAGING]) {
-        let path = dir.join(name);
-        if path.is_dir() {
-            std::fs::remove_dir_all(&path)
-                .with_context(|| format!("--force: cannot remove {}", path.display()))?;
-        }
-    }
-    Ok(())
 }
