@@ -21,6 +21,55 @@ import pandas as pd
 import polars as pl
 
 
+def qmul(a, b):
+    """Hamilton product of xyzw quaternions (rows)."""
+    ax, ay, az, aw = a.T
+    bx, by, bz, bw = b.T
+    return np.stack([aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw,
+                     aw * bw - ax * bx - ay * by - az * bz], axis=1)
+
+
+def qrot(q, v):
+    """Rotates vectors v (rows) by xyzw quaternions q (rows)."""
+    qv = np.hstack([v, np.zeros((len(v), 1))])
+    conj = q * np.array([-1, -1, -1, 1])
+    return qmul(qmul(q, qv), conj)[:, :3]
+
+
+def base_errors(root, data, arrays, episodes, runs):
+    traj = pd.read_parquet(root / "trajectories")
+    bodies = pd.read_parquet(root / "bodies.parquet")
+    rootb = bodies[bodies["body_index"] == 0].set_index("model")
+    traj = traj.merge(runs[["run", "model", "log_every"]], on="run")
+    traj = traj[traj["step"] % traj["log_every"] == 0]
+    traj = traj[traj["body"].to_numpy() == rootb.loc[traj["model"], "body"].to_numpy()]
+    run_of = episodes.set_index("episode_index")["tumble/run"]
+    pose_err = vel_err = 0.0
+    for ep, g in data.groupby("episode_index", sort=True):
+        t = traj[traj["run"] == run_of[ep]].sort_values("step")
+        b = rootb.loc[t["model"].iloc[0]]
+        p = t[["position_x", "position_y", "position_z"]].to_numpy()
+        q = t[["orientation_x", "orientation_y", "orientation_z", "orientation_w"]].to_numpy()
+        v = t[["linear_velocity_x", "linear_velocity_y", "linear_velocity_z"]].to_numpy()
+        w = t[["angular_velocity_x", "angular_velocity_y", "angular_velocity_z"]].to_numpy()
+        tlb = np.tile([b["link_from_body_position_x"], b["link_from_body_position_y"],
+                       b["link_from_body_position_z"]], (len(t), 1))
+        qlb = np.tile([b["link_from_body_orientation_x"], b["link_from_body_orientation_y"],
+                       b["link_from_body_orientation_z"], b["link_from_body_orientation_w"]], (len(t), 1))
+        qbl = qlb * np.array([-1, -1, -1, 1])
+        ql = qmul(q, qbl)
+        pl = p + qrot(q, -qrot(qbl, tlb))
+        vl = v + np.cross(w, pl - p)
+        want_pose = np.hstack([pl, ql]).astype(np.float32)
+        want_vel = np.hstack([vl, w]).astype(np.float32)
+        rows = g.index.to_numpy()
+        pose_err = max(pose_err, float(np.max(np.abs(arrays["observation.base_pose"][rows] - want_pose))))
+        vel_err = max(vel_err, float(np.max(np.abs(arrays["observation.base_velocity"][rows] - want_vel))))
+    return pose_err, vel_err
+
+
 def main() -> None:
     root = Path(sys.argv[1])
     info = json.loads((root / "meta/info.json").read_text())
@@ -86,6 +135,12 @@ def main() -> None:
     out["state_err_max"] = state_err
     out["effort_err_max"] = effort_err
     out["action_err_max"] = action_err
+
+    # Floating base: the root link frame's pose and velocity from the root body's trajectory rows
+    # and its link_from_body (bodies.parquet, body_index 0).
+    if "observation.base_pose" in info["features"]:
+        out["base_pose_err_max"], out["base_velocity_err_max"] = base_errors(
+            root, data, arrays, episodes, runs)
 
     # polars gives the same values (fixed-size lists as Array(Float32, n)).
     same = True

@@ -346,3 +346,48 @@ fn lerobot_refusals_name_the_spec_and_key() {
         text(&out.stderr)
     );
 }
+
+/// A floating base adds `observation.base_pose` and `observation.base_velocity`: the root link
+/// frame's pose and velocity, from its body's trajectory rows and `link_from_body`.
+#[test]
+fn a_floating_base_gives_its_pose_and_velocity() {
+    let tmp = tempfile::tempdir().unwrap();
+    let spec = arm_spec(tmp.path(), "float.toml", 3, SIM, GRAVITY);
+    let path = tmp.path().join(&spec);
+    let text_spec = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(
+        &path,
+        text_spec.replace("base = \"fixed\"", "base = \"floating\""),
+    )
+    .unwrap();
+    let out = tumble(
+        &["dataset", &spec, "--out", "d", "-q", "--format", "lerobot"],
+        tmp.path(),
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let r = run_py("read_lerobot.py", &[&tmp.path().join("d")]);
+    let f = &r["info"]["features"];
+    assert_eq!(
+        f["observation.base_pose"]["names"],
+        serde_json::json!([
+            "arm/base.x",
+            "arm/base.y",
+            "arm/base.z",
+            "arm/base.qx",
+            "arm/base.qy",
+            "arm/base.qz",
+            "arm/base.qw"
+        ])
+    );
+    assert_eq!(
+        f["observation.base_velocity"]["shape"],
+        serde_json::json!([6])
+    );
+    // numpy's quaternion products vs nalgebra's, both rounded to float32: measured 0.
+    assert!(r["base_pose_err_max"].as_f64().unwrap() <= 1e-6, "{r}");
+    assert!(r["base_velocity_err_max"].as_f64().unwrap() <= 1e-5, "{r}");
+    assert_eq!(r["state_err_max"], 0.0);
+    assert_eq!(r["stats_min_max_equal"], true);
+    assert_eq!(r["episode_stats_ok"], true);
+    assert_eq!(r["polars_equals_pandas"], true);
+}

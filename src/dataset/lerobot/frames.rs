@@ -10,7 +10,7 @@
 use super::Summary;
 use super::episodes::{self, EpisodeRow};
 use super::info::{self, Action, Feature};
-use super::source::{Episode, Source};
+use super::source::{BASE_VALUES, Episode, Source};
 use super::stats::{Aggregate, episode_stats};
 use crate::record::parquet::files::writer_properties;
 use anyhow::{Context, bail};
@@ -56,6 +56,7 @@ struct Columns {
 
 fn columns(
     ep: &Episode,
+    features: &[Feature],
     n: usize,
     actions: &[Action],
     fps: u32,
@@ -80,22 +81,32 @@ fn columns(
             });
         }
     }
-    let timestamp = (0..frames)
+    let timestamp: Vec<f64> = (0..frames)
         .map(|t| (t as f64 / fps as f64) as f32 as f64)
         .collect();
-    let ints = |g: &dyn Fn(usize) -> i64| (0..frames).map(|t| g(t) as f64).collect();
-    Columns {
-        values: vec![
-            state,
-            effort,
-            action,
-            timestamp,
-            ints(&|t| t as i64),
-            ints(&|_| episode_index),
-            ints(&|t| first_index + t as i64),
-            ints(&|_| 0),
-        ],
-    }
+    let ints = |g: &dyn Fn(usize) -> i64| (0..frames).map(|t| g(t) as f64).collect::<Vec<_>>();
+    let base = |range: std::ops::Range<usize>| -> Vec<f64> {
+        (0..frames)
+            .flat_map(|t| ep.base[t * BASE_VALUES..(t + 1) * BASE_VALUES][range.clone()].to_vec())
+            .map(f)
+            .collect()
+    };
+    let values = features
+        .iter()
+        .map(|feature| match feature.key {
+            "observation.state" => state.clone(),
+            "observation.effort" => effort.clone(),
+            "observation.base_pose" => base(0..7),
+            "observation.base_velocity" => base(7..13),
+            "action" => action.clone(),
+            "timestamp" => timestamp.clone(),
+            "frame_index" => ints(&|t| t as i64),
+            "episode_index" => ints(&|_| episode_index),
+            "index" => ints(&|t| first_index + t as i64),
+            _ => ints(&|_| 0), // task_index
+        })
+        .collect();
+    Columns { values }
 }
 
 fn batch(schema: &SchemaRef, features: &[Feature], cols: &Columns) -> anyhow::Result<RecordBatch> {
@@ -163,7 +174,7 @@ fn close_data(data: DataFile, dir: &Path) -> anyhow::Result<()> {
 
 /// Writes the whole LeRobot dataset of `src` into `dir` (the staging folder).
 pub fn write_all(src: &Source, dir: &Path) -> anyhow::Result<Summary> {
-    let features = info::features(&src.joints);
+    let features = info::features(&src.joints, src.base.as_ref().map(|b| b.link.as_str()));
     let actions = info::actions(&src.joints);
     let schema = schema(&features);
     let n = src.joints.len();
@@ -177,7 +188,7 @@ pub fn write_all(src: &Source, dir: &Path) -> anyhow::Result<Summary> {
     for part in &src.parts {
         for ep in src.episodes(part)? {
             let episode_index = rows.len() as i64;
-            let cols = columns(&ep, n, &actions, src.fps, episode_index, index);
+            let cols = columns(&ep, &features, n, &actions, src.fps, episode_index, index);
             let bytes = ep.frames * frame_bytes;
             let next = match &data {
                 None => Some((0, 0)),

@@ -8,6 +8,8 @@
 //! |---|---|---|
 //! | `observation.state` | float32 [2n] | `<joint>.pos` ×n then `<joint>.vel` ×n (rad, m; rad/s, m/s) |
 //! | `observation.effort` | float32 [n] | `<joint>.effort`: the effort applied (N m, N) |
+//! | `observation.base_pose` | float32 [7] | floating base only: the root link frame's pose, world: `<link>.x/.y/.z` (m), `<link>.qx/.qy/.qz/.qw` (unit quaternion, scalar last) |
+//! | `observation.base_velocity` | float32 [6] | floating base only: the root link frame origin's velocity `<link>.vx/.vy/.vz` (m/s) and its angular velocity `<link>.wx/.wy/.wz` (rad/s), world |
 //! | `action` | float32 [m] | `<joint>.target` (position / velocity servo) or `<joint>.effort` (motor); with no actuated joint, every joint's applied effort |
 //! | `timestamp` | float32 [1] | `frame_index / fps`, s |
 //! | `frame_index`, `episode_index`, `index`, `task_index` | int64 [1] | LeRobot's `DEFAULT_FEATURES` |
@@ -68,8 +70,9 @@ pub fn actions(joints: &[Joint]) -> Vec<Action> {
     }
 }
 
-/// The features, in the order of `info.json` and of the data files' columns.
-pub fn features(joints: &[Joint]) -> Vec<Feature> {
+/// The features, in the order of `info.json` and of the data files' columns; `base_link`: a
+/// floating base's root link (its pose and velocity features).
+pub fn features(joints: &[Joint], base_link: Option<&str>) -> Vec<Feature> {
     let named = |suffix: &str| -> Vec<String> {
         joints
             .iter()
@@ -91,7 +94,7 @@ pub fn features(joints: &[Joint]) -> Vec<Feature> {
         dim: 1,
         names: None,
     };
-    vec![
+    let mut features = vec![
         Feature {
             key: "observation.state",
             dtype: "float32",
@@ -104,6 +107,23 @@ pub fn features(joints: &[Joint]) -> Vec<Feature> {
             dim: joints.len(),
             names: Some(named("effort")),
         },
+    ];
+    if let Some(link) = base_link {
+        let names = |s: &[&str]| Some(s.iter().map(|c| format!("{link}.{c}")).collect());
+        features.push(Feature {
+            key: "observation.base_pose",
+            dtype: "float32",
+            dim: 7,
+            names: names(&["x", "y", "z", "qx", "qy", "qz", "qw"]),
+        });
+        features.push(Feature {
+            key: "observation.base_velocity",
+            dtype: "float32",
+            dim: 6,
+            names: names(&["vx", "vy", "vz", "wx", "wy", "wz"]),
+        });
+    }
+    features.extend([
         Feature {
             key: "action",
             dtype: "float32",
@@ -115,7 +135,8 @@ pub fn features(joints: &[Joint]) -> Vec<Feature> {
         scalar("episode_index", "int64"),
         scalar("index", "int64"),
         scalar("task_index", "int64"),
-    ]
+    ]);
+    features
 }
 
 /// `features` as a JSON object in order.

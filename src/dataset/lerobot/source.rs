@@ -14,8 +14,9 @@ use anyhow::{Context, bail};
 use arrow_array::cast::AsArray;
 use arrow_array::types::{Float64Type, Int64Type};
 use arrow_array::{Array, RecordBatch};
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 /// One run of the runs table.
@@ -56,6 +57,23 @@ pub struct Episode {
     pub effort: Vec<f64>,
     /// NaN where the joints table has null.
     pub target: Vec<f64>,
+    /// Floating base only: per frame the root link frame's pose (x y z, qx qy qz qw) and the
+    /// velocity of its origin (vx vy vz, wx wy wz), world ([`BASE_VALUES`] values).
+    pub base: Vec<f64>,
+}
+
+/// Values per frame in [`Episode::base`].
+pub const BASE_VALUES: usize = 13;
+
+/// A floating base: the root link, whose trajectory rows give the base features.
+#[derive(Debug, Clone)]
+pub struct Base {
+    /// The root link's name (`bodies.parquet` `link`) of the first run's model: the features'
+    /// names.
+    pub link: String,
+    /// For each model (URDF path as in the runs table): its root body's name in the
+    /// trajectories table and its `link_from_body`.
+    pub roots: BTreeMap<String, (String, Isometry3<f64>)>,
 }
 
 /// The native dataset, checked.
@@ -70,6 +88,8 @@ pub struct Source {
     pub robot_type: String,
     pub task: String,
     pub spec_name: String,
+    /// `Some` for a floating-base model: `observation.base_pose` and `observation.base_velocity`.
+    pub base: Option<Base>,
 }
 
 fn part_files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
@@ -253,7 +273,13 @@ impl Source {
             manifest.runs,
             &manifest.spec_sha256[..manifest.spec_sha256.len().min(12)]
         );
+        let base = if floating_base(&manifest.spec) {
+            Some(read_base(&dir, &first.model)?)
+        } else {
+            None
+        };
         Ok(Self {
+            base,
             dir,
             joints,
             fps: rounded as u32,
@@ -274,6 +300,10 @@ impl Source {
         let mut current: Option<(i64, i64, usize)> = None;
         let mut skip_run: Option<i64> = None;
         let spec = &self.spec_name;
+        let base_rows = match &self.base {
+            Some(base) => self.base_rows(base, path)?,
+            None => HashMap::new(),
+        };
         for batch in read_batches(path)? {
             let run = i64s(&batch, path, "run")?;
             let step = i64s(&batch, path, "step")?;
@@ -344,6 +374,16 @@ impl Source {
                 let ep = out.last_mut().expect("pushed above");
                 if k == 0 {
                     ep.frames += 1;
+                    if self.base.is_some() {
+                        let Some(values) = base_rows.get(&(r, s)) else {
+                            bail!(
+                                "{}: run {r} step {s} has joint rows but no row of its root body \
+                                 in the trajectories table",
+                                path.display()
+                            );
+                        };
+                        ep.base.extend_from_slice(values);
+                    }
                 }
                 ep.position.push(position.value(i));
                 ep.velocity.push(velocity.value(i));
@@ -365,6 +405,145 @@ impl Source {
         }
         Ok(out)
     }
+}
+
+impl Source {
+    /// The root body's rows of the trajectories part file beside joints part `joints_part`, on
+    /// the grid, as base values ([`Episode::base`]) by (run, step).
+    fn base_rows(
+        &self,
+        base: &Base,
+        joints_part: &Path,
+    ) -> anyhow::Result<HashMap<(i64, i64), [f64; BASE_VALUES]>> {
+        let name = joints_part.file_name().unwrap_or_default();
+        let path = self.dir.join("trajectories").join(name);
+        let mut out = HashMap::new();
+        for batch in read_batches(&path)? {
+            let run = i64s(&batch, &path, "run")?;
+            let step = i64s(&batch, &path, "step")?;
+            let body = strings(&batch, &path, "body")?;
+            let col = |n: &str| f64s(&batch, &path, n);
+            let p = [col("position_x")?, col("position_y")?, col("position_z")?];
+            let q = [
+                col("orientation_x")?,
+                col("orientation_y")?,
+                col("orientation_z")?,
+                col("orientation_w")?,
+            ];
+            let v = [
+                col("linear_velocity_x")?,
+                col("linear_velocity_y")?,
+                col("linear_velocity_z")?,
+            ];
+            let w = [
+                col("angular_velocity_x")?,
+                col("angular_velocity_y")?,
+                col("angular_velocity_z")?,
+            ];
+            for i in 0..batch.num_rows() {
+                let r = run.value(i);
+                let Some(info) = self.runs.get(&r) else {
+                    continue;
+                };
+                let Some((root, link_from_body)) = base.roots.get(&info.model) else {
+                    continue;
+                };
+                if body.value(i) != root || step.value(i) % info.log_every != 0 {
+                    continue;
+                }
+                let get = |c: &[&arrow_array::Float64Array]| -> Vec<f64> {
+                    c.iter().map(|a| a.value(i)).collect()
+                };
+                let (p, q, v, w) = (get(&p), get(&q), get(&v), get(&w));
+                let world_from_body = Isometry3::from_parts(
+                    Translation3::new(p[0], p[1], p[2]),
+                    UnitQuaternion::from_quaternion(Quaternion::new(q[3], q[0], q[1], q[2])),
+                );
+                let link = world_from_body * link_from_body.inverse();
+                let omega = Vector3::new(w[0], w[1], w[2]);
+                // Velocity of the link origin: v_com + ω × (p_link − p_com).
+                let v_link = Vector3::new(v[0], v[1], v[2])
+                    + omega.cross(&(link.translation.vector - world_from_body.translation.vector));
+                let t = link.translation.vector;
+                let lq = link.rotation.quaternion();
+                out.insert(
+                    (r, step.value(i)),
+                    [
+                        t.x, t.y, t.z, lq.i, lq.j, lq.k, lq.w, v_link.x, v_link.y, v_link.z,
+                        omega.x, omega.y, omega.z,
+                    ],
+                );
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Whether the spec's model is articulated on a floating base (`base` defaults to floating).
+fn floating_base(spec: &str) -> bool {
+    let Ok(value) = spec.parse::<toml::Table>() else {
+        return false;
+    };
+    let model = value
+        .get("scene")
+        .and_then(|s| s.get("model"))
+        .and_then(|m| m.as_array())
+        .and_then(|m| m.first());
+    model.is_some_and(|m| {
+        m.get("bodies").and_then(|b| b.as_str()) == Some("articulated")
+            && m.get("base").and_then(|b| b.as_str()) != Some("fixed")
+    })
+}
+
+/// Each model's root body (`body_index` 0 in `bodies.parquet`) and the first run's model's
+/// root link name.
+fn read_base(dir: &Path, first_model: &str) -> anyhow::Result<Base> {
+    let path = dir.join("bodies.parquet");
+    let mut roots = BTreeMap::new();
+    let mut link = None;
+    for batch in read_batches(&path)? {
+        let model = strings(&batch, &path, "model")?;
+        let body = strings(&batch, &path, "body")?;
+        let links = strings(&batch, &path, "link")?;
+        let index = i64s(&batch, &path, "body_index")?;
+        let col = |n: &str| f64s(&batch, &path, n);
+        let t = [
+            col("link_from_body_position_x")?,
+            col("link_from_body_position_y")?,
+            col("link_from_body_position_z")?,
+        ];
+        let q = [
+            col("link_from_body_orientation_x")?,
+            col("link_from_body_orientation_y")?,
+            col("link_from_body_orientation_z")?,
+            col("link_from_body_orientation_w")?,
+        ];
+        for i in 0..batch.num_rows() {
+            if index.value(i) != 0 {
+                continue;
+            }
+            let iso = Isometry3::from_parts(
+                Translation3::new(t[0].value(i), t[1].value(i), t[2].value(i)),
+                UnitQuaternion::from_quaternion(Quaternion::new(
+                    q[3].value(i),
+                    q[0].value(i),
+                    q[1].value(i),
+                    q[2].value(i),
+                )),
+            );
+            if model.value(i) == first_model {
+                link = Some(links.value(i).to_string());
+            }
+            roots.insert(model.value(i).to_string(), (body.value(i).to_string(), iso));
+        }
+    }
+    let link = link.with_context(|| {
+        format!(
+            "{}: no body of model {first_model} (the first run's)",
+            path.display()
+        )
+    })?;
+    Ok(Base { link, roots })
 }
 
 /// The joints of the first run in the joints table (its first step's rows).
