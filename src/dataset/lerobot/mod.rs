@@ -1,6 +1,7 @@
 //! A dataset's runs as a LeRobot v3.0 dataset (`tumble dataset --format lerobot`,
 //! `tumble convert DATASET_DIR --lerobot OUT_DIR`), written from the native tables only
-//! (`runs/`, `joints/`), so it does not depend on how the runs were drawn.
+//! (`runs/`, `joints/`; `trajectories/` and `bodies.parquet` for a floating base), so it does not
+//! depend on how the runs were drawn.
 //!
 //! Layout written (v3.0, no video):
 //!
@@ -17,6 +18,8 @@
 //! `fps = 1 / (dt · log_every)`, which must be the same integer for every run. Runs the
 //! divergence guard stopped (`status = "diverged"`) are left out; episodes are numbered
 //! 0.. in run order and the episodes table's `tumble/run` column gives each one's run.
+//! A floating base adds the root link frame's pose and velocity, from its body's rows in
+//! `trajectories/` and `bodies.parquet` ([`info`] lists the features).
 //!
 //! Sources of the format facts (huggingface/lerobot, read at commit 7427f31 and in the PyPI
 //! release 0.4.4, the version `LeRobotDataset` was checked with):

@@ -1,7 +1,8 @@
 //! The native tables read back as episodes: the runs table (`runs/part-*.parquet`: `dt`,
 //! `log_every`, `status`, `model` of each run) and the joints table (`joints/part-*.parquet`,
 //! one row per recorded step and joint, joints in the model's layout order), streamed one part
-//! file at a time.
+//! file at a time; for a floating base, the root body's rows of the trajectories part file of
+//! the same name and its `link_from_body` in `bodies.parquet`.
 //!
 //! Checks, each refused with one message naming the spec and the key to change: every run has
 //! the same joints with the same drives (else `vary.model` draws models LeRobot cannot hold in
