@@ -391,3 +391,45 @@ fn a_floating_base_gives_its_pose_and_velocity() {
     assert_eq!(r["episode_stats_ok"], true);
     assert_eq!(r["polars_equals_pandas"], true);
 }
+
+/// Runs the divergence guard stopped are left out: the episodes are renumbered and `tumble/run`
+/// names each one's run. (No spec here diverges on purpose: the runs table's `status` of run 1 is
+/// rewritten with pyarrow, then the folder converted.)
+#[test]
+fn diverged_runs_are_left_out() {
+    let tmp = tempfile::tempdir().unwrap();
+    let spec = arm_spec(tmp.path(), "arm.toml", 5, SIM, GRAVITY);
+    let out = tumble(&["dataset", &spec, "--out", "d", "-q"], tmp.path());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let runs = tmp.path().join("d/runs/part-00000.parquet");
+    let py = std::process::Command::new(common::python())
+        .args([
+            "-c",
+            "import sys, pyarrow as pa, pyarrow.parquet as pq\n\
+             t = pq.read_table(sys.argv[1])\n\
+             s = t.column('status').to_pylist()\n\
+             s[1] = 'diverged'\n\
+             i = t.schema.get_field_index('status')\n\
+             pq.write_table(t.set_column(i, t.schema.field(i), pa.array(s, pa.string())), sys.argv[1], compression='zstd')\n",
+        ])
+        .arg(&runs)
+        .output()
+        .unwrap();
+    assert!(py.status.success(), "{}", text(&py.stderr));
+    let out = tumble(&["convert", "d", "--lerobot", "d"], tmp.path());
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stdout).contains(
+            "4 episodes, 84 frames at 100 fps, 1 data file(s) (1 diverged runs left out)"
+        ),
+        "{}",
+        text(&out.stdout)
+    );
+    let r = run_py("read_lerobot.py", &[&tmp.path().join("d")]);
+    assert_eq!(r["runs"], serde_json::json!([0, 2, 3, 4]));
+    assert_eq!(r["info"]["total_episodes"], 4);
+    assert_eq!(r["info"]["splits"]["train"], "0:4");
+    assert_eq!(r["state_err_max"], 0.0);
+    assert_eq!(r["index_contiguous"], true);
+    assert_eq!(r["episode_ranges_ok"], true);
+}
