@@ -1,7 +1,8 @@
 //! `tumble dataset --format lerobot` and `tumble convert DIR --lerobot OUT`: a LeRobot v3.0
 //! folder read back by pandas and polars (`tests/py/read_lerobot.py`: the format's columns and
 //! types, totals, index contiguity, timestamps, values against the native joints table, stats),
-//! deterministic bytes, the same bytes from `convert`, `--force`, and the refusals.
+//! deterministic bytes, the same bytes from `convert`, `--force`, a floating base, diverged
+//! runs, the refusals; and Rerun's LeRobot importer (`tests/py/read_lerobot_rerun.py`).
 //!
 //! The `lerobot` package's own `LeRobotDataset` is too heavy for the test venv (torch, about
 //! 8 GB): `scripts/check_lerobot.sh` runs it (docs/datasets.md, "LeRobot v3").
@@ -432,4 +433,42 @@ fn diverged_runs_are_left_out() {
     assert_eq!(r["state_err_max"], 0.0);
     assert_eq!(r["index_contiguous"], true);
     assert_eq!(r["episode_ranges_ok"], true);
+}
+
+/// Rerun's own LeRobot importer (rerun-sdk 0.36.3, `rr.log_file_from_path`, what `rerun DIR`
+/// runs) opens the folder: one recording per episode on the `frame_index` timeline, the series
+/// named by the features' names, `observation.state` equal to the data file's.
+#[test]
+fn rerun_opens_the_lerobot_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let spec = arm_spec(tmp.path(), "arm.toml", 3, SIM, GRAVITY);
+    let out = tumble(
+        &["dataset", &spec, "--out", "d", "-q", "--format", "lerobot"],
+        tmp.path(),
+    );
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let rrd = tmp.path().join("d.rrd");
+    let r = run_py("read_lerobot_rerun.py", &[&tmp.path().join("d"), &rrd]);
+    assert_eq!(r["timelines"], serde_json::json!(["frame_index"]));
+    let episodes = r["episodes"].as_object().unwrap();
+    assert_eq!(
+        episodes.keys().collect::<Vec<_>>(),
+        ["episode_0", "episode_1", "episode_2"]
+    );
+    for (id, e) in episodes {
+        for entity in ["/observation.state", "/observation.effort", "/action"] {
+            assert_eq!(e["rows"][entity], 21, "{id} {entity}");
+        }
+        assert_eq!(
+            e["names"]["/observation.state"],
+            serde_json::json!([
+                "arm/shoulder.pos",
+                "arm/elbow.pos",
+                "arm/shoulder.vel",
+                "arm/elbow.vel"
+            ]),
+            "{id}"
+        );
+    }
+    assert_eq!(r["state_err_max"], 0.0);
 }
