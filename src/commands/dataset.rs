@@ -181,6 +181,7 @@ pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
     if let Some((l, secs)) = &lerobot {
         println!("{}", lerobot_line(l, out, *secs));
     }
+    // With --format lerobot the figures include the LeRobot writing.
     let secs = (s.wall_secs + lerobot.as_ref().map_or(0.0, |(_, t)| *t)).max(1e-9);
     println!(
         "runs={} chunks={} rows={} threads={} wall_secs={:.3} runs_per_sec={:.1} body_steps_per_sec={:.4e}",
@@ -188,7 +189,7 @@ pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
         s.chunks_done,
         s.rows,
         s.threads,
-        s.wall_secs,
+        secs,
         s.runs_done as f64 / secs,
         s.body_steps as f64 / secs
     );

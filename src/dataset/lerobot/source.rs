@@ -354,8 +354,8 @@ impl Source {
                     bail!(
                         "{spec}: run {r} has joint {:?} (drive {:?}) where run {} has {:?} \
                          (drive {:?}); a LeRobot dataset needs the same joints in every \
-                         episode: vary.model must draw models with the same joints, and every run must drive \
-                         them alike (the same actuator kinds)",
+                         episode: vary.model must draw models with the same joints, and every \
+                         run must drive them alike (the same actuator kinds)",
                         joint.value(i),
                         drive_i.unwrap_or("none"),
                         out.first().map_or(r, |e| e.run),
