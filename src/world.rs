@@ -70,6 +70,20 @@ impl Attachment {
 }
 
 impl World {
+    /// Every recorded frame's pose before the first step, in layout order (a frame inside a
+    /// compound joint at its attachment's pose).
+    pub fn initial_world_from_link(&self) -> Vec<Isometry3<f64>> {
+        self.attachments
+            .iter()
+            .map(|a| match self.bodies.get(a.body) {
+                Some(body) if a.body != Attachment::WORLD => {
+                    body.world_from_body * a.body_from_link
+                }
+                _ => a.body_from_link,
+            })
+            .collect()
+    }
+
     /// What the world holds, for the memory estimate ([`crate::budget::Population`]).
     pub fn population(&self) -> crate::budget::Population {
         crate::budget::Population {

@@ -22,9 +22,13 @@ pub struct ConvertArgs {
     /// Replace OUT.rrd (or OUT_DIR's meta/ and data/) if it exists.
     #[arg(long)]
     pub force: bool,
-    /// Leave the inertia ellipsoids out (as `simulate --no-ellipsoids`).
-    #[arg(long)]
+    /// Leave the inertia ellipsoids out (as `simulate --no-ellipsoids`; the default when a model
+    /// has meshes).
+    #[arg(long, conflicts_with = "ellipsoids")]
     pub no_ellipsoids: bool,
+    /// Write the inertia ellipsoids even though a model has meshes (as `simulate --ellipsoids`).
+    #[arg(long)]
+    pub ellipsoids: bool,
     /// Exit 1 when the MCAP was truncated (the readable part is still converted).
     #[arg(long)]
     pub strict: bool,
@@ -39,10 +43,10 @@ pub fn run(args: &ConvertArgs) -> anyhow::Result<bool> {
         anyhow::bail!("usage: tumble convert LOG.mcap --rrd OUT.rrd (see --help)");
     };
     check_not_overwriting(rrd, args.force)?;
-    let options = RerunOptions {
-        ellipsoids: !args.no_ellipsoids,
-    };
-    let report = convert::convert(&args.mcap, rrd, &options)?;
+    let choice = super::simulate::ellipsoids_choice(args.ellipsoids, args.no_ellipsoids);
+    let report = convert::convert_with(&args.mcap, rrd, |layout| RerunOptions {
+        ellipsoids: choice.unwrap_or_else(|| layout.default_ellipsoids()),
+    })?;
     if let Some(t) = &report.truncation {
         eprintln!("warning: {t}");
     }

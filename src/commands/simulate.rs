@@ -101,9 +101,13 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub ros2: bool,
     /// Leave the inertia ellipsoids out of both files (the .rrd's ellipsoid entities and the
-    /// MCAP's /inertia topic).
-    #[arg(long)]
+    /// MCAP's /inertia topic). The default for a recording with mesh geometry.
+    #[arg(long, conflicts_with = "ellipsoids")]
     pub no_ellipsoids: bool,
+    /// Write the inertia ellipsoids even though a model has meshes (by default they are
+    /// written only when no model has mesh geometry: they would hide the meshes).
+    #[arg(long)]
+    pub ellipsoids: bool,
     /// Replace STEM.mcap and STEM.rrd (and STEM.ros2.mcap) if they exist (without it, an existing output is an error).
     #[arg(long)]
     pub force: bool,
@@ -177,6 +181,44 @@ fn parse_potential(s: &str) -> Result<Potential, String> {
         "symmetric" => Ok(Potential::Symmetric),
         "end-point" => Ok(Potential::EndPoint),
         _ => Err(format!("expected symmetric or end-point, got {s:?}")),
+    }
+}
+
+/// The user's choice of inertia ellipsoids: `--ellipsoids` on, `--no-ellipsoids` off, neither
+/// `None` (then [`crate::record::RecordingLayout::default_ellipsoids`]: off when a model has
+/// meshes).
+pub fn ellipsoids_choice(on: bool, off: bool) -> Option<bool> {
+    match (on, off) {
+        (true, _) => Some(true),
+        (false, true) => Some(false),
+        (false, false) => None,
+    }
+}
+
+/// Extension of a robot's Foxglove layout, written beside the MCAP (`STEM.foxglove.json`).
+pub const FOXGLOVE_LAYOUT_EXTENSION: &str = "foxglove.json";
+
+/// The shipped Foxglove layout with its 3D panel following the robot of `world`
+/// ([`crate::record::foxglove_layout`]); `None` without a robot, or when the shipped layout
+/// cannot be read (then a warning).
+pub fn robot_foxglove_layout(world: &crate::world::World) -> Option<serde_json::Value> {
+    use crate::record::foxglove_layout::{robot_camera, robot_layout};
+    let camera = robot_camera(&world.layout, &world.initial_world_from_link())?;
+    let path = foxglove_layout_path();
+    let base = std::fs::read_to_string(&path)
+        .map_err(|e| e.to_string())
+        .and_then(|text| {
+            serde_json::from_str::<serde_json::Value>(&text).map_err(|e| e.to_string())
+        });
+    match base {
+        Ok(base) => robot_layout(&base, &camera),
+        Err(e) => {
+            eprintln!(
+                "warning: cannot read the Foxglove layout {}: {e}; no robot layout written",
+                path.display()
+            );
+            None
+        }
     }
 }
 
@@ -480,6 +522,16 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
     for path in formats.paths_of(&stem, &world.layout) {
         check_not_overwriting(&path, args.force)?;
     }
+    // A robot's Foxglove layout (STEM.foxglove.json), beside the MCAP.
+    let robot_layout = if formats.contains(Format::Mcap) {
+        robot_foxglove_layout(&world)
+    } else {
+        None
+    };
+    let robot_layout_path = with_extension(&stem, FOXGLOVE_LAYOUT_EXTENSION);
+    if robot_layout.is_some() {
+        check_not_overwriting(&robot_layout_path, args.force)?;
+    }
     for warning in &world.warnings {
         eprintln!("warning: {warning}");
     }
@@ -504,15 +556,15 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         eprintln!("{warning}");
     }
     crate::interrupt::install()?;
+    let ellipsoids = ellipsoids_choice(args.ellipsoids, args.no_ellipsoids)
+        .unwrap_or_else(|| world.layout.default_ellipsoids());
     let started = std::time::Instant::now();
     let out = simulate_world(
         &scene,
         &mut world,
         &stem,
         &SimulateOptions {
-            rerun: RerunOptions {
-                ellipsoids: !args.no_ellipsoids,
-            },
+            rerun: RerunOptions { ellipsoids },
             formats,
             threads,
             mcap_compression: args.mcap_compression,
@@ -613,9 +665,18 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             human_bytes(estimate.memory_bytes)
         );
     }
+    if let Some(layout) = &robot_layout {
+        crate::fsutil::write_atomic(
+            &robot_layout_path,
+            format!("{}\n", serde_json::to_string_pretty(layout)?).as_bytes(),
+        )?;
+    }
     println!("wrote {} frames to", s.frames_recorded);
     for path in &out.written {
         println!("  {}", path.display());
+    }
+    if robot_layout.is_some() {
+        println!("  {}", robot_layout_path.display());
     }
     println!("view them with:");
     if formats.contains(Format::Rrd) {
@@ -625,11 +686,19 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         );
     }
     if formats.contains(Format::Mcap) {
-        println!(
-            "  Foxglove: open {}, then import the layout {} (Layouts > Import): a 3D panel on \"world\" showing /scene, energy and momentum plots",
-            out.mcap.display(),
-            foxglove_layout_path().display()
-        );
+        if robot_layout.is_some() {
+            println!(
+                "  Foxglove: open {}, then import the layout {} (Layouts > Import): a 3D panel following the robot, energy and momentum plots",
+                out.mcap.display(),
+                robot_layout_path.display()
+            );
+        } else {
+            println!(
+                "  Foxglove: open {}, then import the layout {} (Layouts > Import): a 3D panel on \"world\" showing /scene, energy and momentum plots",
+                out.mcap.display(),
+                foxglove_layout_path().display()
+            );
+        }
     }
     if formats.contains(Format::Parquet) {
         println!(

@@ -5,7 +5,7 @@
 
 use super::manifest::ChunkRecord;
 use super::runs::{RunRow, runs_batch};
-use super::sample::{ModelCache, RunParams, draw, run_scene};
+use super::sample::{ModelCache, RunParams, run_scene};
 use super::spec::DatasetSpec;
 use crate::record::parquet::files::{FileInfo, PartWriter, recording_info, write_file};
 use crate::record::parquet::joints::{JointColumns, JointRowsSink, joints_schema};
@@ -107,7 +107,7 @@ pub fn run_chunk(
     let mut recordings: Vec<String> = Vec::new();
     let mut stats = ChunkStats::default();
     for run in runs.clone() {
-        let params = draw(spec, run);
+        let params = ctx.cache.draw(spec, run);
         let rows_before = rows.borrow().len() as u64;
         let mut row = simulate_run(ctx, &params, (&rows, &joint_rows), &mut recordings)?;
         row.rows = rows.borrow().len() as u64 - rows_before;
@@ -260,7 +260,12 @@ fn simulate_run(
         steps_done: summary.steps,
         energy_initial: summary.energy_initial,
         energy_final: ok.then_some(summary.energy_final),
-        angmom_drift_rel: ok.then_some(summary.angmom_rel_change_max),
+        angmom_drift_rel: (ok && summary.angmom_checked[0] > 0)
+            .then_some(summary.angmom_rel_change_max),
+        angmom_change_abs: (ok && summary.angmom_checked[1] > 0)
+            .then_some(summary.angmom_abs_change_max),
+        energy_flow: summary.energy_flow,
+        constraint_residual: summary.constraint_residual,
         newton_iters_max: summary.stats.newton_iters_max,
         substepped: u64::from(summary.stats.substepped),
         diverged,

@@ -23,6 +23,7 @@
 
 pub mod chunk;
 pub mod generate;
+pub mod joint_vary;
 pub mod lerobot;
 pub mod manifest;
 pub mod merge;

@@ -3,6 +3,7 @@
 
 use super::sample::RunParams;
 use crate::record::parquet::tables::{XYZ, XYZW, f64s, field};
+use crate::sim::integrators::EnergyFlow;
 use arrow_array::{ArrayRef, Float64Array, Int64Array, RecordBatch, StringArray, UInt64Array};
 use arrow_schema::{DataType, Schema, SchemaRef};
 use std::sync::{Arc, OnceLock};
@@ -22,9 +23,13 @@ use std::sync::{Arc, OnceLock};
 /// | `steps_done` | int64 | steps completed (`steps` when ok) |
 /// | `energy_initial`, `energy_final` | float64, J | total mechanical energy (final: null when diverged) |
 /// | `energy_drift_rel` | float64 | `(E_final − E_initial) / |E_initial|` (null when diverged) |
-/// | `angular_momentum_drift_rel` | float64 | largest `|L(T) − L(0)| / |L(0)|` of any body about its centre of mass (null when diverged) |
+/// | `angular_momentum_drift_rel` | float64 | largest `|L(T) − L(0)| / |L(0)|` of a conserved angular momentum (a free body's about its centre of mass, a floating robot's total); null when diverged or when none has a reference (all start at rest, or the base is fixed) |
 /// | `newton_iters_max`, `substepped` | int64 | Newton iterations of the hardest solve; body-steps substepped |
 /// | `diverged_body`, `diverged_cause` | string | null when ok |
+/// | `angular_momentum_change_abs` | float64, kg m²/s | largest `|L(T) − L(0)|` of a conserved angular momentum that started at rest (`crate::simulation::summary::AT_REST`); null when none did, or diverged |
+/// | `input_work`, `dissipated`, `contact_work` | float64, J | work of the actuators and loads, energy joint damping and friction removed, kinetic energy contact changed |
+/// | `energy_balance_residual` | float64, J | `E_final − E_initial − (input_work − dissipated + contact_work)`: the scheme's own energy error (null when diverged) |
+/// | `constraint_residual_m`, `constraint_residual_rad` | float64 | largest joint anchor gap and axis misalignment over the recorded frames; null without joints |
 pub fn runs_schema() -> SchemaRef {
     static SCHEMA: OnceLock<SchemaRef> = OnceLock::new();
     SCHEMA
@@ -57,6 +62,18 @@ pub fn runs_schema() -> SchemaRef {
                 field("substepped", DataType::Int64, false, ""),
                 field("diverged_body", DataType::Utf8, true, ""),
                 field("diverged_cause", DataType::Utf8, true, ""),
+                field(
+                    "angular_momentum_change_abs",
+                    DataType::Float64,
+                    true,
+                    "kg m^2/s",
+                ),
+                field("input_work", DataType::Float64, false, "J"),
+                field("dissipated", DataType::Float64, false, "J"),
+                field("contact_work", DataType::Float64, false, "J"),
+                field("energy_balance_residual", DataType::Float64, true, "J"),
+                field("constraint_residual_m", DataType::Float64, true, "m"),
+                field("constraint_residual_rad", DataType::Float64, true, "rad"),
             ]);
             Arc::new(Schema::new(fields))
         })
@@ -76,7 +93,12 @@ pub struct RunRow {
     pub energy_initial: f64,
     /// `None` when diverged.
     pub energy_final: Option<f64>,
+    /// `None` when diverged or no conserved momentum had a reference.
     pub angmom_drift_rel: Option<f64>,
+    /// `None` when diverged or no conserved momentum started at rest.
+    pub angmom_change_abs: Option<f64>,
+    pub energy_flow: EnergyFlow,
+    pub constraint_residual: Option<[f64; 2]>,
     pub newton_iters_max: u32,
     pub substepped: u64,
     /// `(body name, cause)` when the guard stopped the run.
@@ -146,6 +168,18 @@ pub fn runs_batch(rows: &[RunRow]) -> anyhow::Result<RecordBatch> {
         i64s(&|r| r.substepped as i64),
         strs(&|r| r.diverged.as_ref().map(|d| d.0.clone())),
         strs(&|r| r.diverged.as_ref().map(|d| d.1.clone())),
+        f64s(&|r| r.angmom_change_abs),
+        f64s(&|r| Some(r.energy_flow.input_work)),
+        f64s(&|r| Some(r.energy_flow.dissipated)),
+        f64s(&|r| Some(r.energy_flow.contact_work)),
+        f64s(&|r| {
+            let flow = &r.energy_flow;
+            r.energy_final.map(|e| {
+                e - r.energy_initial - (flow.input_work - flow.dissipated + flow.contact_work)
+            })
+        }),
+        f64s(&|r| r.constraint_residual.map(|c| c[0])),
+        f64s(&|r| r.constraint_residual.map(|c| c[1])),
     ]);
     Ok(RecordBatch::try_new(runs_schema(), columns)?)
 }

@@ -1,7 +1,9 @@
 //! What run `i` is: its drawn parameters ([`draw`]), its scene ([`run_scene`]) and its world
 //! ([`ModelCache::world`], the scene's own build path).
 
+use super::joint_vary::{ChoiceJoints, JointDraws};
 use super::spec::DatasetSpec;
+use crate::scene::FirstTable;
 use crate::scene::LoadedModels;
 use crate::scene::Scene;
 use crate::scene::placement::{Dist, Placement, Rng, draw_vec3, run_seed};
@@ -31,6 +33,9 @@ pub struct RunParams {
     pub linvel_world: [f64; 3],
     /// Initial angular velocity of every body, world, rad/s.
     pub angvel_world: [f64; 3],
+    /// The joint draws (`vary.joints`, `joint_velocities`, `actuators`): empty from [`draw`],
+    /// filled by [`ModelCache::draw`], which knows the chosen model's joints.
+    pub joints: JointDraws,
 }
 
 impl RunParams {
@@ -85,6 +90,7 @@ pub fn draw(spec: &DatasetSpec, run: u64) -> RunParams {
         root_orientation_xyzw: [q.x, q.y, q.z, q.w],
         linvel_world: vec3("linvel", &v.linvel, entry.linvel),
         angvel_world: vec3("angvel", &v.angvel, entry.angvel),
+        joints: JointDraws::default(),
     }
 }
 
@@ -104,6 +110,13 @@ pub fn run_scene(spec: &DatasetSpec, params: &RunParams) -> Scene {
     entry.rpy = [r, p, y];
     entry.linvel = params.linvel_world;
     entry.angvel = params.angvel_world;
+    let drawn = &params.joints;
+    entry
+        .joints
+        .extend(drawn.positions.iter().map(|(k, v)| (k.clone(), *v)));
+    entry
+        .joint_velocities
+        .extend(drawn.velocities.iter().map(|(k, v)| (k.clone(), *v)));
     scene
 }
 
@@ -119,6 +132,8 @@ pub struct ModelCache {
     /// Per model choice: the template with that choice placed at the origin, at rest (its
     /// recording layout and body count serve every run of the choice).
     pub worlds: Vec<Arc<World>>,
+    /// Per model choice: its moving and actuated joints ([`super::joint_vary`]).
+    pub joints: Vec<ChoiceJoints>,
 }
 
 impl ModelCache {
@@ -128,6 +143,7 @@ impl ModelCache {
     pub fn load(spec: &DatasetSpec) -> anyhow::Result<Self> {
         let mut loaded = Vec::new();
         let mut worlds = Vec::new();
+        let mut joints = Vec::new();
         for (i, urdf) in spec.model_choices().iter().enumerate() {
             let context = || format!("{}: model choice {i} ({urdf})", spec.path.display());
             let mut scene = spec.template.clone();
@@ -161,10 +177,33 @@ impl ModelCache {
                     .with_context(context)?;
                 }
             }
+            let choice = choice_joints(&spec.template, &models, &world);
+            spec.vary
+                .joints
+                .check(&format!("{}: vary", spec.path.display()), &choice)
+                .with_context(context)?;
+            joints.push(choice);
             loaded.push(models);
             worlds.push(Arc::new(world));
         }
-        Ok(Self { loaded, worlds })
+        Ok(Self {
+            loaded,
+            worlds,
+            joints,
+        })
+    }
+
+    /// Run `run` of `spec`: [`draw`], and the joint draws for the chosen model.
+    pub fn draw(&self, spec: &DatasetSpec, run: u64) -> RunParams {
+        let mut params = draw(spec, run);
+
+        if !spec.vary.joints.is_empty() {
+            params.joints = spec
+                .vary
+                .joints
+                .draw(params.seed, &self.joints[params.model]);
+        }
+        params
     }
 
     /// The world of run `params`: [`run_scene`] (the template with the drawn values) placed
@@ -177,9 +216,70 @@ impl ModelCache {
             linvel_world: Vector3::from(params.linvel_world),
             angvel_world: Vector3::from(params.angvel_world),
         };
+        let loaded = &self.loaded[params.model];
+        let context = || format!("{}: run {}", spec.path.display(), params.run);
+        let drawn = &params.joints;
+        if drawn.positions.is_empty() && drawn.signals.is_empty() {
+            return scene.assemble(loaded, &|_, _| place).with_context(context);
+        }
+        let table = &loaded.tables[0];
+        // The model placed at the run's joint positions (the template's and the drawn ones).
+        let positions: std::collections::HashMap<String, f64> = scene.models[0]
+            .joints
+            .iter()
+            .map(|(k, v)| (k.clone(), *v))
+            .collect();
+        let model = table
+            .model
+            .at_joint_positions(&positions)
+            .map_err(|e| anyhow::anyhow!("{e}"))
+            .with_context(context)?;
+        // The drawn signals replace the template's on their joints.
+        let mut actuators = table.actuators.clone();
+        for a in &mut actuators {
+            if let Some(signal) = drawn.signals.get(&a.joint) {
+                a.actuator.set_signal(signal.clone());
+            }
+        }
+        let first = FirstTable {
+            model: &model,
+            actuators: &actuators,
+        };
         scene
-            .assemble(&self.loaded[params.model], &|_, _| place)
-            .with_context(|| format!("{}: run {}", spec.path.display(), params.run))
+            .assemble_with(loaded, &|_, _| place, Some(&first))
+            .with_context(context)
+    }
+}
+
+/// The joints of a model choice as the joint draws see them: its moving joints (the recorded
+/// ones, URDF names) with the range a drawn position is clamped into (revolute and prismatic
+/// joints with a URDF range, limits on), and the joints of the template's actuators.
+fn choice_joints(template: &Scene, models: &LoadedModels, world: &World) -> ChoiceJoints {
+    let entry = &template.models[0];
+    let prefix = entry.name.as_ref().map(|n| format!("{n}/"));
+    let limits_on = entry.joint_limits != Some(false);
+    let moving = world
+        .layout
+        .joints
+        .iter()
+        .map(|j| {
+            let name = match &prefix {
+                Some(p) => j.name.strip_prefix(p.as_str()).unwrap_or(&j.name),
+                None => &j.name,
+            };
+            let range = j
+                .limits
+                .filter(|[lo, hi]| limits_on && j.kind != "continuous" && lo < hi);
+            (name.to_string(), range)
+        })
+        .collect();
+    ChoiceJoints {
+        moving,
+        actuated: models.tables[0]
+            .actuators
+            .iter()
+            .map(|a| (a.joint.clone(), a.actuator.constant_signal()))
+            .collect(),
     }
 }
 

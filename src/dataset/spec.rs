@@ -24,11 +24,17 @@
 //! rpy = { uniform = [[0, 0, 0], [0, 0, 6.283]] }            # or: roll, pitch, yaw (rad), R = Rz Ry Rx
 //! linvel = { uniform = [[-1, -1, 0], [1, 1, 3]] }           # m/s, world, every body's centre of mass
 //! angvel = { normal = { mean = [0, 0, 0], std = [5, 5, 5] } }   # rad/s, world, every body
+//! joints = { uniform = [-0.5, 0.5] }                        # articulated: every moving joint (or per joint)
+//! joint_velocities = { shoulder = { uniform = [-1, 1] } }   # rad/s or m/s
+//! actuators = { smooth = { amplitude = 0.5, cutoff_hz = 1 } }   # the template's actuators' signals
 //! ```
+//!
+//! The joint keys are [`super::joint_vary`]'s.
 //!
 //! Distributions: [`super::distribution`]. Unknown keys and bad values are errors naming the
 //! spec file and the key.
 
+use super::joint_vary::JointVary;
 use crate::record::Format;
 use crate::scene::Scene;
 use crate::scene::placement::Orientation;
@@ -91,6 +97,8 @@ pub struct Vary {
     pub orientation: Orientation,
     pub linvel: Option<Dist>,
     pub angvel: Option<Dist>,
+    /// `joints`, `joint_velocities`, `actuators` ([`super::joint_vary`]).
+    pub joints: JointVary,
 }
 
 /// The keys `[vary]` accepts.
@@ -105,6 +113,9 @@ pub const VARY_KEYS: &[&str] = &[
     "rpy",
     "linvel",
     "angvel",
+    "joints",
+    "joint_velocities",
+    "actuators",
 ];
 
 /// A parsed, validated dataset spec.
@@ -313,5 +324,6 @@ fn parse_vary(prefix: &str, table: &toml::Table) -> anyhow::Result<Vary> {
         orientation,
         linvel: dist("linvel", 3)?,
         angvel: dist("angvel", 3)?,
+        joints: JointVary::parse(prefix, table)?,
     })
 }

@@ -45,7 +45,7 @@ mod locate;
 mod prescan;
 mod simulable;
 
-pub use error::ModelError;
+pub use error::{MASSLESS_REMEDY, ModelError};
 pub use lenient::{LoadWarning, Oddity, Strictness};
 pub use links::mass_properties_from_urdf;
 

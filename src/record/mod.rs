@@ -14,6 +14,7 @@
 
 pub mod contacts;
 pub mod format;
+pub mod foxglove_layout;
 pub mod layout_json;
 pub mod mcap;
 pub mod names;
@@ -216,6 +217,56 @@ pub struct TopicGroup {
 }
 
 impl RecordingLayout {
+    /// Whether any recorded link frame has mesh geometry among its visuals: the inertia
+    /// ellipsoids are then left out by default (they would hide the meshes; `--ellipsoids`
+    /// brings them back).
+    pub fn has_meshes(&self) -> bool {
+        self.frames.iter().any(|f| {
+            f.visuals
+                .iter()
+                .any(|v| matches!(v.geometry, crate::model::Geometry::Mesh { .. }))
+        })
+    }
+
+    /// Whether the inertia ellipsoids are recorded when the user chose neither way: yes, unless
+    /// a model has meshes ([`Self::has_meshes`]). A model without visual geometry keeps them
+    /// (they are all a viewer would show of it).
+    pub fn default_ellipsoids(&self) -> bool {
+        !self.has_meshes()
+    }
+
+    /// The robot the viewers open on, as the index of the frame they follow: the first
+    /// articulated model's (the frame of its first body, the base, when the base floats; else
+    /// its first link frame, the fixed base), or without an articulated model the first link
+    /// frame of the first model with meshes. `None` for a recording of neither (free bodies of
+    /// primitive shapes): the viewers then frame the whole run.
+    pub fn robot_root(&self) -> Option<usize> {
+        if let Some(m) = self.mechanisms.first() {
+            if m.floating
+                && let Some(body) = self.bodies.get(m.bodies.start)
+                && body.frame < self.frames.len()
+            {
+                return Some(body.frame);
+            }
+            if let Some(i) = self.frames.iter().position(|f| f.model == m.name) {
+                return Some(i);
+            }
+        }
+        let meshed = self.frames.iter().find(|f| {
+            f.visuals
+                .iter()
+                .any(|v| matches!(v.geometry, crate::model::Geometry::Mesh { .. }))
+        })?;
+        self.frames.iter().position(|f| f.model == meshed.model)
+    }
+
+    /// Whether the robot of [`Self::robot_root`] is welded to the world (a fixed-base articulated
+    /// model): it cannot leave its workspace, so the viewers frame all of it over the run and
+    /// need not follow it.
+    pub fn robot_is_fixed(&self) -> bool {
+        self.mechanisms.first().is_some_and(|m| !m.floating)
+    }
+
     /// The drive of joint `joint`, if it is driven.
     pub fn drive_of(&self, joint: usize) -> Option<&DriveLayout> {
         self.drives
@@ -254,6 +305,28 @@ pub struct FrameLayout {
     /// Visual geometry in the link frame (shared with the model's link: copies of a model do
     /// not copy it).
     pub visuals: std::sync::Arc<[Visual]>,
+}
+
+impl FrameLayout {
+    /// How far the frame's visual geometry reaches from its origin, m: the largest distance of
+    /// a visual origin plus the shape's bounding radius (a mesh counts 0.1 m per unit of
+    /// scale). What the viewers' framing grows a frame's position by.
+    pub fn reach(&self) -> f64 {
+        use crate::model::Geometry;
+        self.visuals
+            .iter()
+            .map(|v| {
+                let shape = match &v.geometry {
+                    Geometry::Box { size } => size.norm() / 2.0,
+                    Geometry::Sphere { radius } => *radius,
+                    Geometry::Cylinder { radius, length } => radius.hypot(length / 2.0),
+                    Geometry::Capsule { radius, length } => radius + length / 2.0,
+                    Geometry::Mesh { scale, .. } => 0.1 * scale.amax(),
+                };
+                v.link_from_visual.translation.vector.norm() + shape
+            })
+            .fold(0.0, f64::max)
+    }
 }
 
 /// A simulated body (a link with mass, or a whole model locked rigid).

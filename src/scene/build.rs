@@ -33,6 +33,14 @@ pub struct LoadedTable {
     pub(crate) colliders: Option<contact::TableColliders>,
 }
 
+/// What replaces the first table's loaded model and actuators in [`Scene::assemble_with`]: the
+/// same model placed at other joint positions ([`Model::at_joint_positions`], the scene entry's
+/// `joints`), and the same actuators with other signals.
+pub(crate) struct FirstTable<'a> {
+    pub model: &'a Model,
+    pub actuators: &'a [actuator::ResolvedActuator],
+}
+
 /// Every table's model ([`Scene::load_models`]).
 #[derive(Debug, Clone)]
 pub struct LoadedModels {
@@ -188,6 +196,17 @@ impl Scene {
         loaded: &LoadedModels,
         place: &dyn Fn(usize, u64) -> Placement,
     ) -> anyhow::Result<World> {
+        self.assemble_with(loaded, place, None)
+    }
+
+    /// [`Scene::assemble`] with the first table's model and actuators replaced (a dataset
+    /// run's drawn joint positions and signals, [`FirstTable`]).
+    pub(crate) fn assemble_with(
+        &self,
+        loaded: &LoadedModels,
+        place: &dyn Fn(usize, u64) -> Placement,
+        first: Option<&FirstTable<'_>>,
+    ) -> anyhow::Result<World> {
         let mut world = World {
             warnings: loaded.warnings.clone(),
             ..Default::default()
@@ -202,7 +221,10 @@ impl Scene {
         // One collision group per model copy, whatever its table.
         let mut group: u32 = 0;
         for (i, (entry, table)) in self.models.iter().zip(&loaded.tables).enumerate() {
-            let model = &table.model;
+            let (model, actuators): (&Model, _) = match first {
+                Some(f) if i == 0 => (f.model, f.actuators),
+                _ => (&table.model, &table.actuators[..]),
+            };
             let urdf_path = &table.urdf_path;
             let context = || format!("{}: model[{i}]", self.source.display());
             let copies = entry.copy_count();
@@ -244,7 +266,7 @@ impl Scene {
                             label: &label,
                             place: &place,
                         },
-                        &table.actuators,
+                        actuators,
                         &mut body_names,
                         &mut template,
                     )
@@ -295,9 +317,11 @@ impl Scene {
                 }
                 if world.layout.frames.len() == before {
                     bail!(
-                        "{}: model[{i}] ({}) has no link with positive mass: nothing to simulate",
+                        "{}: model[{i}] ({}) has no link with positive mass: nothing to \
+                         simulate ({})",
                         self.source.display(),
-                        urdf_path.display()
+                        urdf_path.display(),
+                        urdf::MASSLESS_REMEDY
                     );
                 }
                 for f in &world.layout.frames[before..] {

@@ -93,6 +93,7 @@ mod rigid;
 pub mod signal;
 pub mod signal_log;
 
+pub(crate) use build::FirstTable;
 pub use build::{LoadedModels, LoadedTable};
 pub use contact::{DEFAULT_FRICTION, DEFAULT_RESTITUTION, GroundEntry};
 pub use entry::{BaseMode, BodiesMode, Collisions, ModelEntry, SimSettings};

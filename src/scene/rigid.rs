@@ -51,14 +51,20 @@ pub(super) fn check_rigid_parts(
         } else {
             let moments = mp.principal_moments();
             let tolerance = (1e-9 * mp.inertia.amax()).max(PART_ROUND_OFF * model_scale);
+            // Issue 32: the opt-in alone runs the file only when the body the link is merged
+            // into (fixed joints) comes out positive definite, as tiago's antennas do on its
+            // base; romeo_laas_small's `body` (-0.021 kg m^2) stays negative and is refused
+            // again as a body, so the message names the key that always replaces the values.
             (!allow_non_physical_inertia && moments.min() < -tolerance).then(|| {
                 format!(
                     "inertia is not positive semi-definite: principal moments {}, {}, {} kg m^2 \
                      (a moment below -{tolerance:e} kg m^2, {PART_ROUND_OFF:e} of the model's \
                      largest principal moment, is not round-off); to simulate it anyway set \
                      allow_non_physical_inertia = true on its [[model]] (or pass \
-                     --allow-non-physical-inertia)",
-                    moments.x, moments.y, moments.z
+                     --allow-non-physical-inertia), which runs it if the body it is part of \
+                     comes out positive definite, or take its mass properties from its \
+                     geometry: `links = {{ {} = {{ inertia = \"geometry\" }} }}`",
+                    moments.x, moments.y, moments.z, link.name
                 )
             })
         };
@@ -192,8 +198,9 @@ fn rigid_composite(
     if parts.is_empty() {
         bail!(
             "bodies = \"rigid\": model `{label}` ({}) has no link with positive mass: \
-             nothing to simulate",
-            model.path.display()
+             nothing to simulate ({})",
+            model.path.display(),
+            crate::model::urdf::MASSLESS_REMEDY
         );
     }
     let invalid = |rules: &str| {

@@ -3,12 +3,15 @@
 //! ```toml
 //! effort = 0.5                                                   # a number
 //! target = { sine = { amplitude = 0.5, frequency_hz = 0.5, phase = 0.0, offset = 0.2 } }
+//! target = { smooth = { amplitude = 0.5, cutoff_hz = 1.0, offset = 0.0, seed = 7 } }   # random, smooth
 //! target = { table = "trajectory.csv" }                          # columns `time` (s) and the joint's name
 //! target = { log = "run.mcap", topic = "/joint_states" }         # a recorded log (actuators only)
 //! target = { log = "run.mcap", topic = "/joints", joint = "arm/elbow" }   # the joint's name in the log
 //! ```
 //!
-//! `phase` and `offset` default to 0. A table's or a log's path is relative to the scene file;
+//! `phase` and `offset` default to 0 (`seed` too). A `smooth` signal is a seeded random smooth
+//! input for exploring a robot's dynamics ([`smooth`]): `|s − offset| ≤ amplitude`, no
+//! frequency above `cutoff_hz`. A table's or a log's path is relative to the scene file;
 //! a table's `time` column must increase strictly, every value must be finite. A log is read by
 //! [`super::signal_log`] (`joint` defaults to the actuator's joint). Every error names the key.
 
@@ -51,8 +54,8 @@ pub fn parse(
     let mut kinds = table.iter();
     let (Some((kind, body)), None) = (kinds.next(), kinds.next()) else {
         bail!(
-            "{key}: expected a number, {{ sine = {{ ... }} }}, {{ table = \"file.csv\" }} or \
-             {{ log = \"file.mcap\", topic = \"...\" }}"
+            "{key}: expected a number, {{ sine = {{ ... }} }}, {{ smooth = {{ ... }} }}, \
+             {{ table = \"file.csv\" }} or {{ log = \"file.mcap\", topic = \"...\" }}"
         );
     };
     match kind.as_str() {
@@ -81,6 +84,13 @@ pub fn parse(
                 offset: field("offset", false)?,
             })
         }
+        "smooth" => {
+            let toml::Value::Table(fields) = body else {
+                bail!("{key}.smooth: expected {{ amplitude, cutoff_hz, offset, seed }}");
+            };
+            let params = SmoothParams::parse(&format!("{key}.smooth"), fields, true)?;
+            Ok(smooth(&params, params.seed))
+        }
         "table" => {
             let toml::Value::String(file) = body else {
                 bail!("{key}.table: expected a file name (got {body})");
@@ -90,7 +100,103 @@ pub fn parse(
                 .with_context(|| format!("{key}.table: cannot read {}", path.display()))?;
             read_table(&text, column).with_context(|| format!("{key}.table: {}", path.display()))
         }
-        other => bail!("{key}.{other}: unknown signal (expected a number, sine, table or log)"),
+        other => {
+            bail!("{key}.{other}: unknown signal (expected a number, sine, smooth, table or log)")
+        }
+    }
+}
+
+/// Sines in a [`smooth`] signal.
+pub const SMOOTH_TERMS: usize = 6;
+
+/// The settings of a random smooth signal (`{ smooth = { ... } }`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SmoothParams {
+    /// Bound of `|s − offset|` (the target's unit: rad or m, rad/s or m/s, N m or N).
+    pub amplitude: f64,
+    /// Highest frequency in the signal, Hz (> 0).
+    pub cutoff_hz: f64,
+    pub offset: f64,
+    /// The scene's `seed` (a dataset draws its own per run and joint).
+    pub seed: u64,
+}
+
+impl SmoothParams {
+    /// Reads `{ amplitude, cutoff_hz, offset = 0, seed = 0 }`; `seed` is refused unless
+    /// `seeded` (a dataset seeds each run's signals itself). Errors name `key`.
+    pub fn parse(key: &str, fields: &toml::Table, seeded: bool) -> anyhow::Result<Self> {
+        let keys: &[&str] = if seeded {
+            &["amplitude", "cutoff_hz", "offset", "seed"]
+        } else {
+            &["amplitude", "cutoff_hz", "offset"]
+        };
+        if let Some(other) = fields.keys().find(|k| !keys.contains(&k.as_str())) {
+            bail!(
+                "{key}.{other}: unknown key (expected one of: {})",
+                keys.join(", ")
+            );
+        }
+        let number = |name: &str, required: bool| -> anyhow::Result<f64> {
+            let x = match fields.get(name) {
+                None if required => bail!("{key}.{name}: missing"),
+                None => return Ok(0.0),
+                Some(toml::Value::Float(x)) => *x,
+                Some(toml::Value::Integer(i)) => *i as f64,
+                Some(v) => bail!("{key}.{name}: expected a number (got {v})"),
+            };
+            if !x.is_finite() {
+                bail!("{key}.{name}: must be finite (got {x})");
+            }
+            Ok(x)
+        };
+        let amplitude = number("amplitude", true)?;
+        if amplitude < 0.0 {
+            bail!("{key}.amplitude: must be >= 0 (got {amplitude})");
+        }
+        let cutoff_hz = number("cutoff_hz", true)?;
+        if cutoff_hz <= 0.0 {
+            bail!("{key}.cutoff_hz: must be positive (got {cutoff_hz})");
+        }
+        let seed = match fields.get("seed") {
+            None => 0,
+            Some(toml::Value::Integer(i)) if *i >= 0 => *i as u64,
+            Some(v) => bail!("{key}.seed: expected an integer >= 0 (got {v})"),
+        };
+        Ok(Self {
+            amplitude,
+            cutoff_hz,
+            offset: number("offset", false)?,
+            seed,
+        })
+    }
+}
+
+/// A random smooth signal seeded by `seed`: [`SMOOTH_TERMS`] sines
+///
+/// ```text
+/// s(t) = offset + (amplitude / K) Σ_k sin(2π f_k t + φ_k),   K = SMOOTH_TERMS
+/// f_k = cutoff · (k + u_k) / K,  u_k ~ U[0, 1)  (one frequency in each K-th of the band)
+/// φ_k ~ U[0, 2π)
+/// ```
+///
+/// so `|s − offset| ≤ amplitude` at every time, the signal is infinitely differentiable, no
+/// frequency exceeds the cutoff, and its time average tends to `offset`; its RMS about the offset
+/// is `amplitude / √(2K)` ≈ 0.29 · amplitude (the sines are incommensurate). Drawn from the
+/// generator of `crate::scene::placement::rng`, so the same seed gives the same signal on every
+/// machine.
+pub fn smooth(params: &SmoothParams, seed: u64) -> Signal {
+    let mut rng = crate::scene::placement::Rng::new(seed);
+    let k_total = SMOOTH_TERMS as f64;
+    let terms = (0..SMOOTH_TERMS)
+        .map(|k| {
+            let f = params.cutoff_hz * (k as f64 + rng.uniform01()) / k_total;
+            let phase = std::f64::consts::TAU * rng.uniform01();
+            [params.amplitude / k_total, f, phase]
+        })
+        .collect();
+    Signal::Sines {
+        offset: params.offset,
+        terms,
     }
 }
 
@@ -274,6 +380,26 @@ mod tests {
             ("{ table = \"back.csv\" }", "line 4: `time` must increase"),
             ("{ table = \"nan.csv\" }", "line 3: `j` must be finite"),
             ("{ table = \"empty.csv\" }", "no rows after the header"),
+            (
+                "{ smooth = { amplitude = 1 } }",
+                "k.smooth.cutoff_hz: missing",
+            ),
+            (
+                "{ smooth = { amplitude = -1, cutoff_hz = 1 } }",
+                "k.smooth.amplitude: must be >= 0",
+            ),
+            (
+                "{ smooth = { amplitude = 1, cutoff_hz = 0 } }",
+                "k.smooth.cutoff_hz: must be positive",
+            ),
+            (
+                "{ smooth = { amplitude = 1, cutoff_hz = 1, seed = -3 } }",
+                "k.smooth.seed: expected an integer >= 0",
+            ),
+            (
+                "{ smooth = { amplitude = 1, cutoff_hz = 1, std = 2 } }",
+                "k.smooth.std: unknown key",
+            ),
         ] {
             let e = format!("{:#}", parse("k", &value(text), d, "j", None).unwrap_err());
             assert!(e.contains(needle), "{text}: {e}");
@@ -297,5 +423,62 @@ mod tests {
             e.contains("no column `wirst` (the header has: time, wrist): did you mean `wrist`?"),
             "{e}"
         );
+    }
+
+    /// A smooth signal keeps its promises: |s − offset| ≤ amplitude at every sample, every
+    /// frequency in (0, cutoff] with one per K-th of the band, the same seed the same signal and
+    /// another seed another, its time average tends to the offset, and the scene's `seed` key is
+    /// the one used.
+    #[test]
+    fn a_smooth_signal_is_bounded_band_limited_and_seeded() {
+        let params = SmoothParams {
+            amplitude: 0.5,
+            cutoff_hz: 2.0,
+            offset: 0.3,
+            seed: 0,
+        };
+        let a = smooth(&params, 11);
+        let Signal::Sines { offset, terms } = &a else {
+            panic!("{a:?}")
+        };
+        assert_eq!(*offset, 0.3);
+        assert_eq!(terms.len(), SMOOTH_TERMS);
+        for (k, [amp, f, phase]) in terms.iter().enumerate() {
+            let band = 2.0 / SMOOTH_TERMS as f64;
+            assert!(
+                *f >= band * k as f64 && *f < band * (k + 1) as f64,
+                "{k}: {f}"
+            );
+            assert!((0.0..std::f64::consts::TAU).contains(phase));
+            assert_eq!(*amp, 0.5 / SMOOTH_TERMS as f64);
+        }
+        // 200 s sampled every 1 ms: the largest excursion is within the bound (measured 0.44 of
+        // 0.5), the RMS about the offset is amplitude/√(2K) = 0.1443 to sampling error (measured
+        // 0.1440), and the mean is the offset to Σ a_k/(π f_k T) (< 2e-3 here; measured -1.7e-4).
+        let n = 200_000;
+        let (mut max, mut sum, mut sq) = (0.0f64, 0.0, 0.0);
+        for i in 0..n {
+            let d = a.at(i as f64 * 1e-3) - 0.3;
+            max = max.max(d.abs());
+            sum += d;
+            sq += d * d;
+        }
+        assert!(max <= 0.5 && max > 0.25, "{max}");
+        let rms = (sq / n as f64).sqrt();
+        let expected = 0.5 / (2.0 * SMOOTH_TERMS as f64).sqrt();
+        assert!((rms / expected - 1.0).abs() < 0.1, "{rms} vs {expected}");
+        assert!((sum / n as f64).abs() < 2e-3, "{}", sum / n as f64);
+        assert_eq!(smooth(&params, 11), a);
+        assert_ne!(smooth(&params, 12), a);
+        // The scene's seed key.
+        let parsed = parse(
+            "k",
+            &value("{ smooth = { amplitude = 0.5, cutoff_hz = 2, offset = 0.3, seed = 11 } }"),
+            Path::new("."),
+            "j",
+            None,
+        )
+        .unwrap();
+        assert_eq!(parsed, a);
     }
 }

@@ -1,10 +1,12 @@
 //! Time signals that drive inputs (issue 30: actuator efforts and targets, applied loads): a
-//! constant, a sine, or a table linear between its rows. Evaluated inside the step, so plain
-//! numbers only; the scene parses them (`crate::scene::signal`).
+//! constant, a sine, a sum of sines (the seeded random smooth inputs of issue 32, drawn by
+//! `crate::scene::signal::smooth`), or a table linear between its rows. Evaluated inside the
+//! step, so plain numbers only; the scene parses them (`crate::scene::signal`).
 //!
 //! ```text
 //! constant:  s(t) = c
 //! sine:      s(t) = offset + amplitude · sin(2π f t + phase)
+//! sines:     s(t) = offset + Σ_k a_k sin(2π f_k t + φ_k)
 //! table:     s(t) = v_k + (v_{k+1} − v_k) (t − t_k) / (t_{k+1} − t_k)   for t_k ≤ t ≤ t_{k+1}
 //!            s(t) = v_0 for t < t_0, v_{n−1} for t > t_{n−1}  (held beyond the ends)
 //! ```
@@ -19,6 +21,11 @@ pub enum Signal {
         /// rad
         phase: f64,
         offset: f64,
+    },
+    /// `offset + Σ_k a_k sin(2π f_k t + φ_k)`, terms `[a_k, f_k (Hz), φ_k (rad)]`.
+    Sines {
+        offset: f64,
+        terms: Vec<[f64; 3]>,
     },
     /// Rows `(t_k, v_k)`, `t_k` strictly increasing (checked where the table is read), at
     /// least one row.
@@ -39,6 +46,13 @@ impl Signal {
                 phase,
                 offset,
             } => offset + amplitude * (std::f64::consts::TAU * frequency_hz * t_secs + phase).sin(),
+            Signal::Sines { offset, terms } => {
+                offset
+                    + terms
+                        .iter()
+                        .map(|[a, f, p]| a * (std::f64::consts::TAU * f * t_secs + p).sin())
+                        .sum::<f64>()
+            }
             Signal::Table { times_secs, values } => {
                 let last = times_secs.len() - 1;
                 if t_secs <= times_secs[0] {
@@ -70,6 +84,13 @@ impl Signal {
                 let w = std::f64::consts::TAU * frequency_hz;
                 amplitude * w * (w * t_secs + phase).cos()
             }
+            Signal::Sines { terms, .. } => terms
+                .iter()
+                .map(|[a, f, p]| {
+                    let w = std::f64::consts::TAU * f;
+                    a * w * (w * t_secs + p).cos()
+                })
+                .sum(),
             Signal::Table { times_secs, values } => {
                 let last = times_secs.len() - 1;
                 if t_secs < times_secs[0] || t_secs >= times_secs[last] {
@@ -120,6 +141,22 @@ mod tests {
             offset: 0.0,
         };
         assert!((c.at(0.0) - 1.0).abs() < 1e-15 && c.at(1.0).abs() < 1e-15);
+    }
+
+    /// A sum of sines is the sum of its terms' closed forms, its rate the sum of their
+    /// derivatives.
+    #[test]
+    fn a_sum_of_sines_is_the_sum_of_its_terms() {
+        let s = Signal::Sines {
+            offset: 0.1,
+            terms: vec![[0.5, 0.25, 0.0], [0.2, 0.5, std::f64::consts::FRAC_PI_2]],
+        };
+        // t = 1 s: 0.5 sin(π/2) + 0.2 sin(π + π/2) = 0.5 − 0.2; rate 0.5·(π/2)·cos(π/2)
+        // + 0.2·π·cos(3π/2) = 0 to round-off. t = 0: 0.2; rate 0.5·π/2.
+        assert!((s.at(1.0) - 0.4).abs() < 1e-15);
+        assert!(s.rate(1.0).abs() < 1e-15);
+        assert!((s.at(0.0) - 0.3).abs() < 1e-15);
+        assert!((s.rate(0.0) - 0.25 * std::f64::consts::PI).abs() < 1e-15);
     }
 
     /// Linear between rows (exact at the rows and at a midpoint), held beyond the ends, the

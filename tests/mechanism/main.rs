@@ -10,6 +10,7 @@ mod arm_servo;
 mod contact_hostile;
 mod contact_robots;
 mod copies;
+mod corpus;
 mod driven;
 mod driven_hostile;
 mod forces;

@@ -567,11 +567,12 @@ fn rejected_mesh_content_is_never_embedded() {
         "{stderr}"
     );
     let written = files_under(&out_dir);
-    // mcap, rrd, ros2.mcap and the three Parquet tables (trajectories, bodies, joints: the last
-    // written with no rows for a run without joints).
+    // mcap, rrd, ros2.mcap, the three Parquet tables (trajectories, bodies, joints: the last
+    // written with no rows for a run without joints) and run.foxglove.json (the model has a
+    // mesh: the Foxglove layout following it).
     assert_eq!(
         written.len(),
-        6,
+        7,
         "{:?}",
         written.iter().map(|w| &w.0).collect::<Vec<_>>()
     );

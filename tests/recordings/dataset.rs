@@ -6,7 +6,9 @@
 
 use crate::common;
 
-use arrow_array::{Array, Float64Array, Int64Array, RecordBatch, StringArray, UInt64Array};
+use arrow_array::{
+    Array, BooleanArray, Float64Array, Int64Array, RecordBatch, StringArray, UInt64Array,
+};
 use common::{root, run_py, text, tumble};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use std::collections::BTreeMap;
@@ -86,7 +88,7 @@ fn assert_same_files(a: &Path, b: &Path) {
 }
 
 /// The batches of one Parquet file, or of every `*.parquet` in a folder (in name order).
-fn read(path: &Path) -> Vec<RecordBatch> {
+pub(crate) fn read(path: &Path) -> Vec<RecordBatch> {
     let paths: Vec<PathBuf> = if path.is_dir() {
         let mut v: Vec<_> = std::fs::read_dir(path)
             .unwrap()
@@ -111,7 +113,7 @@ fn read(path: &Path) -> Vec<RecordBatch> {
         .collect()
 }
 
-fn f64s(batches: &[RecordBatch], name: &str) -> Vec<f64> {
+pub(crate) fn f64s(batches: &[RecordBatch], name: &str) -> Vec<f64> {
     batches
         .iter()
         .flat_map(|b| {
@@ -122,7 +124,7 @@ fn f64s(batches: &[RecordBatch], name: &str) -> Vec<f64> {
         .collect()
 }
 
-fn i64s(batches: &[RecordBatch], name: &str) -> Vec<i64> {
+pub(crate) fn i64s(batches: &[RecordBatch], name: &str) -> Vec<i64> {
     batches
         .iter()
         .flat_map(|b| {
@@ -136,7 +138,7 @@ fn i64s(batches: &[RecordBatch], name: &str) -> Vec<i64> {
         .collect()
 }
 
-fn strs(batches: &[RecordBatch], name: &str) -> Vec<String> {
+pub(crate) fn strs(batches: &[RecordBatch], name: &str) -> Vec<String> {
     batches
         .iter()
         .flat_map(|b| {
@@ -150,7 +152,7 @@ fn strs(batches: &[RecordBatch], name: &str) -> Vec<String> {
 }
 
 /// Every row as text (floats by their bits), for exact comparisons of whole tables.
-fn rows(batches: &[RecordBatch]) -> Vec<String> {
+pub(crate) fn rows(batches: &[RecordBatch]) -> Vec<String> {
     let mut out = Vec::new();
     for b in batches {
         for r in 0..b.num_rows() {
@@ -167,6 +169,8 @@ fn rows(batches: &[RecordBatch]) -> Vec<String> {
                     } else if let Some(a) = c.as_any().downcast_ref::<UInt64Array>() {
                         a.value(r).to_string()
                     } else if let Some(a) = c.as_any().downcast_ref::<StringArray>() {
+                        a.value(r).to_string()
+                    } else if let Some(a) = c.as_any().downcast_ref::<BooleanArray>() {
                         a.value(r).to_string()
                     } else {
                         panic!("unexpected column type {:?}", c.data_type())

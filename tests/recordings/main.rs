@@ -8,6 +8,7 @@ mod common;
 
 mod contacts;
 mod dataset;
+mod dataset_robots;
 mod drives;
 mod joint_diff;
 mod lerobot;
@@ -15,5 +16,6 @@ mod partial_step;
 mod recordings;
 mod replay;
 mod rerun_sink;
+mod robot_viewers;
 mod ros2;
 mod viewers;

@@ -19,6 +19,8 @@
 //! - **Open, non-manifold and inconsistently oriented meshes are errors** ([`MeshError::Open`],
 //!   [`MeshError::NonManifold`], [`MeshError::InconsistentOrientation`]): the divergence theorem
 //!   needs a closed, consistently oriented surface, and without it the numbers are silently wrong.
+//!   (An OBJ or DAE that welding by position makes non-manifold only where its surface touches
+//!   itself keeps its own indexing: `mesh_io::weld_indexed`.)
 //! - **An inside-out mesh is an error too** ([`MeshError::InsideOut`]): a closed, consistently
 //!   oriented mesh whose signed volume is negative has every triangle wound clockwise seen from
 //!   outside. Flipping it silently would hide a broken export (or a mirroring scale applied

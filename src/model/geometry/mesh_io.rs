@@ -360,6 +360,69 @@ pub fn weld(vertices: &[Vector3<f64>], triangles: &[[u32; 3]]) -> TriangleMesh {
     }
 }
 
+/// [`weld`] for the formats that index their vertices (OBJ, DAE): the welded mesh, unless
+/// welding is what breaks it. A surface that touches itself (two sheets of one solid meeting
+/// along an edge, or the hulls of a convex decomposition sharing a corner edge) is written
+/// with distinct vertices on each sheet; welding by position joins them, and the joined edge
+/// is used by four triangles: "non-manifold". The file's own indices, though, close each
+/// sheet, and the divergence theorem needs only that (a closed, consistently oriented surface
+/// as a cycle of triangles; where it touches itself in space does not enter the integrals).
+/// So when the welded mesh is not a closed 2-manifold but the file's indexing is, the file's
+/// indexing is kept (unused vertices dropped).
+///
+/// Not when welding makes two triangles coincide with the same winding: solids written on top
+/// of each other (the same box exported three times) share whole faces, and their volumes
+/// would be counted once per copy; the welded mesh keeps reporting them as non-manifold. Two
+/// solids touching along a face (hulls of a decomposition) wind it oppositely: kept.
+///
+/// Issue 32: pybullet_data's laikago chassis (a V-HACD decomposition, 5 such edges, one face
+/// shared by two hulls) and 28 of its 1000 `random_urdfs` objects (1 to 7 edges) were refused
+/// as non-manifold although every triangle of theirs has its neighbours by index.
+pub fn weld_indexed(vertices: &[Vector3<f64>], triangles: &[[u32; 3]]) -> TriangleMesh {
+    let welded = weld(vertices, triangles);
+    let report = welded.check();
+    if report.is_closed_manifold() || report.non_manifold_edges == 0 {
+        return welded;
+    }
+    // Coincident triangles wound the same way after welding: stacked solids, not a surface
+    // touching itself (two solids touching along a face wind it oppositely). Each triangle is
+    // rotated to start at its smallest index, which keeps its winding.
+    let mut faces: Vec<[u32; 3]> = welded
+        .triangles
+        .iter()
+        .map(|t| {
+            let k = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+            [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
+        })
+        .collect();
+    faces.sort_unstable();
+    if faces.windows(2).any(|w| w[0] == w[1]) {
+        return welded;
+    }
+    // The file's indexing, its used vertices renumbered in order of first use.
+    let mut renumber: Vec<Option<u32>> = vec![None; vertices.len()];
+    let mut kept: Vec<Vector3<f64>> = Vec::new();
+    let mut out = Vec::with_capacity(triangles.len());
+    for t in triangles {
+        out.push(t.map(|i| match vertices.get(i as usize) {
+            Some(v) => *renumber[i as usize].get_or_insert_with(|| {
+                kept.push(*v);
+                (kept.len() - 1) as u32
+            }),
+            None => u32::MAX,
+        }));
+    }
+    let as_indexed = TriangleMesh {
+        vertices: kept,
+        triangles: out,
+    };
+    if as_indexed.check().is_closed_manifold() {
+        as_indexed
+    } else {
+        welded
+    }
+}
+
 /// The 27 grid cells around and including `cell`.
 fn neighbour_cells(cell: Vector3<i64>) -> impl Iterator<Item = [i64; 3]> {
     (0..27).map(move |n| {

@@ -84,6 +84,18 @@ pub enum ModelError {
         link: String,
         rule: String,
     },
-    #[error("{}: no link has a positive mass: nothing to simulate", .path.display())]
+    #[error(
+        "{}: no link has a positive mass: nothing to simulate ({})",
+        .path.display(),
+        MASSLESS_REMEDY
+    )]
     NothingToSimulate { path: PathBuf },
 }
+
+/// What a refusal of a model without mass says (issue 32: the defect in the file and the key
+/// that runs it anyway). Every link's `<mass>` being 0 (or no `<inertial>` at all) is how
+/// pybullet_data marks a static object (`plane.urdf`, the tables, the trays): there is no
+/// dynamics to integrate, but the links' shapes give a mass at a density.
+pub const MASSLESS_REMEDY: &str = "every link's <inertial> has mass 0 or is missing, as pybullet \
+     marks a static object; to run it anyway take the links' mass properties from their \
+     geometry: `inertia = \"geometry\"` on the model (`--inertia geometry`), at its `density`";

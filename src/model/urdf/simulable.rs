@@ -7,6 +7,25 @@ use super::links::{NON_FINITE_POSE, pose_is_finite};
 use crate::model::{Link, MassProperties, Model};
 
 impl Model {
+    /// The model with its links placed at `joint_positions` instead of the configuration it was
+    /// loaded at (joints not named at 0): each `model_from_link` by forward kinematics
+    /// ([`crate::model::kinematics::forward_kinematics`], the same as loading with
+    /// `joint_positions`); everything else (mass properties, geometry) is the same. A dataset
+    /// run's drawn joints place a model loaded once.
+    pub fn at_joint_positions(
+        &self,
+        joint_positions: &std::collections::HashMap<String, f64>,
+    ) -> Result<Model, crate::model::kinematics::KinematicsError> {
+        let names: Vec<String> = self.links.iter().map(|l| l.name.clone()).collect();
+        let poses =
+            crate::model::kinematics::forward_kinematics(&names, &self.joints, joint_positions)?;
+        let mut model = self.clone();
+        for (link, pose) in model.links.iter_mut().zip(poses) {
+            link.model_from_link = pose;
+        }
+        Ok(model)
+    }
+
     /// Index of the link named `name`.
     pub fn link_index(&self, name: &str) -> Option<usize> {
         self.links.iter().position(|l| l.name == name)

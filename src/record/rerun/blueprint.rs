@@ -12,7 +12,9 @@
 //!
 //! The 3D view shows everything but the plots, its eye placed so that every link frame's
 //! positions over the whole run (the box [`SceneBounds`] collects), grown by the size of its
-//! geometry, fit in view. The plots show the relative change of the conserved quantities (what
+//! geometry, fit in view; in a recording with a robot, the robot's link frames at its first
+//! recorded step, with the eye tracking its root link's visual (`tracking_entity`, set by the
+//! sink: [`super::sink`]). The plots show the relative change of the conserved quantities (what
 //! the integrators are judged by; a raw |L| plot only shows round-off noise at full scale) and
 //! the scene's energies, each over the whole run (time axis from −∞ to +∞) on `sim_time`.
 //! A recording of fixed-base models only has no conserved angular momentum (the weld exchanges
@@ -162,9 +164,13 @@ fn blueprint_chunk(entity: impl Into<EntityPath>, archetype: &dyn AsComponents) 
 
 /// Everything the blueprint store holds, in logging order (the caller wraps the chunks in
 /// `ArrowMsg`s of the blueprint store).
+/// `tracked`: the entity the 3D view's eye follows (a robot's root link visual), if any; the
+/// eye then starts where `bounds` (the robot at its start) put it and keeps its offset from the
+/// entity as the entity moves.
 pub fn blueprint_chunks(
     recording_seed: u64,
     bounds: &SceneBounds,
+    tracked: Option<&EntityPath>,
     plots: &[PlotView],
 ) -> Result<Vec<Chunk>> {
     let mut ids = Ids {
@@ -191,13 +197,17 @@ pub fn blueprint_chunks(
             .with_space_origin("/"),
     )?);
     let (position, target) = bounds.eye();
+    let mut eye = EyeControls3D::new()
+        .with_kind(Eye3DKind::Orbital)
+        .with_position(position)
+        .with_look_target(target)
+        .with_eye_up([0.0, 0.0, 1.0]);
+    if let Some(tracked) = tracked {
+        eye = eye.with_tracking_entity(tracked.to_string());
+    }
     chunks.push(blueprint_chunk(
         format!("{view3d_path}/EyeControls3D"),
-        &EyeControls3D::new()
-            .with_kind(Eye3DKind::Orbital)
-            .with_position(position)
-            .with_look_target(target)
-            .with_eye_up([0.0, 0.0, 1.0]),
+        &eye,
     )?);
 
     // The plots.

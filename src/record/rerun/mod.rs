@@ -42,7 +42,11 @@
 //! # Blueprint
 //!
 //! The file also holds a blueprint store ([`blueprint`]): the 3D view framed on
-//! the run, beside the two change plots and the energies, activated when the file opens.
+//! the run, beside the two change plots and the energies, activated when the file opens. With a
+//! robot ([`crate::record::RecordingLayout::robot_root`]: an articulated model, or a model with
+//! meshes) the 3D view is framed on the robot at its first recorded step instead, and its eye
+//! tracks (`EyeControls3D::tracking_entity`) the first visual entity of the robot's root frame, so
+//! the robot stays in view wherever it goes (not in the batched layout of big scenes).
 //!
 //! `<visual>` is the URDF `<visual name=...>`, else `visual_<i>` with `i` the index among the
 //! link's visuals: the same paths and frame attachment (a `CoordinateFrame` naming the link frame
@@ -59,7 +63,9 @@
 //! Colours come from the URDF material (linear RGBA), white when there is none, as in the importer.
 //!
 //! Inertia ellipsoids ([`crate::record::BodyLayout::inertia_ellipsoid_radii`]) are on their own entities so they
-//! can be toggled in the viewer; [`RerunOptions::ellipsoids`] `= false` leaves them out.
+//! can be toggled in the viewer; [`RerunOptions::ellipsoids`] `= false` leaves them out (what
+//! `simulate` and `convert` choose by default when a model has meshes,
+//! [`crate::record::RecordingLayout::default_ellipsoids`]).
 //!
 //! # Writing
 //!

@@ -78,7 +78,30 @@ pub struct RerunSink {
     pub(super) body_count: usize,
     /// The big-scene layout ([`super::batched`]), when the layout is big.
     pub(super) batched: Option<Batches>,
+    /// The robot the 3D view opens on ([`RecordingLayout::robot_root`]), if any.
+    pub(super) robot: Option<RobotView>,
     pub(super) done: bool,
+}
+
+/// What the blueprint's 3D view frames and follows when the recording holds a robot: the
+/// robot's link frames at its first recorded step, and an entity drawn in its root frame; for a
+/// fixed-base robot ([`RecordingLayout::robot_is_fixed`]) its link frames over the whole run
+/// and no tracking.
+pub(super) struct RobotView {
+    /// The root frame ([`RecordingLayout::robot_root`]).
+    pub root: usize,
+    /// Indices of the robot's link frames (those of the root frame's model).
+    pub frames: Vec<usize>,
+    /// The box around those frames at the first recorded step (empty until then); for a
+    /// fixed-base robot, over every recorded step.
+    pub start: SceneBounds,
+    /// Whether the robot is welded to the world.
+    pub fixed: bool,
+    /// The entity the eye tracks: the root frame's first visual, else the first visual of
+    /// another of the robot's frames (set by the layout writer).
+    pub tracked: Option<EntityPath>,
+    /// Whether [`Self::tracked`] is drawn in the root frame itself.
+    pub root_tracked: bool,
 }
 
 /// Opens `<path>.part` and writes the static layout. See the module doc for what is written.
@@ -151,6 +174,20 @@ pub fn create(path: &Path, layout: &RecordingLayout, options: &RerunOptions) -> 
         contacts: super::contacts::ContactSeries::new(layout),
         frame_count: layout.frames.len(),
         body_count: layout.bodies.len(),
+        robot: if batched.is_some() {
+            None
+        } else {
+            layout.robot_root().map(|root| RobotView {
+                root,
+                frames: (0..layout.frames.len())
+                    .filter(|&i| layout.frames[i].model == layout.frames[root].model)
+                    .collect(),
+                start: SceneBounds::default(),
+                fixed: layout.robot_is_fixed(),
+                tracked: None,
+                root_tracked: false,
+            })
+        },
         batched,
         done: false,
     };
@@ -241,9 +278,17 @@ impl RerunSink {
         // Dropping the last handle joins Rerun's threads; the file sink is dropped with them.
         drop(rec);
         // The blueprint store, after the recording (so its bytes do not depend on thread timing).
+        let (bounds, tracked) = match &self.robot {
+            Some(robot) if !robot.start.is_empty() => (
+                &robot.start,
+                robot.tracked.as_ref().filter(|_| !robot.fixed),
+            ),
+            _ => (&self.bounds, None),
+        };
         let chunks = blueprint_chunks(
             recording_seed(&self.store_info),
-            &self.bounds,
+            bounds,
+            tracked,
             &self.plot_views,
         )?;
         {
@@ -326,6 +371,16 @@ impl Sink for RerunSink {
             }
             self.bounds
                 .add(&pose.translation.vector, self.frame_reach[i]);
+        }
+        if let Some(robot) = &mut self.robot
+            && (robot.fixed || robot.start.is_empty())
+        {
+            for &i in &robot.frames {
+                robot.start.add(
+                    &frame.world_from_link[i].translation.vector,
+                    self.frame_reach[i],
+                );
+            }
         }
         let angmom_change = if self.joint_plots.is_empty() {
             if self.angmom0.is_empty() {

@@ -66,23 +66,10 @@ fn mesh3d(mesh: &TriangleMesh) -> rerun::Mesh3D {
         )
 }
 
-/// How far a link frame's visual geometry reaches from its origin, m: the largest distance of
-/// a visual origin plus the shape's bounding radius (a mesh counts 0.1 m per unit of scale).
+/// How far a link frame's visual geometry reaches from its origin, m
+/// ([`FrameLayout::reach`]).
 pub(super) fn frame_reach(frame: &FrameLayout) -> f64 {
-    frame
-        .visuals
-        .iter()
-        .map(|v| {
-            let shape = match &v.geometry {
-                Geometry::Box { size } => size.norm() / 2.0,
-                Geometry::Sphere { radius } => *radius,
-                Geometry::Cylinder { radius, length } => radius.hypot(length / 2.0),
-                Geometry::Capsule { radius, length } => radius + length / 2.0,
-                Geometry::Mesh { scale, .. } => 0.1 * scale.amax(),
-            };
-            v.link_from_visual.translation.vector.norm() + shape
-        })
-        .fold(0.0, f64::max)
+    frame.reach()
 }
 
 impl RerunSink {
@@ -108,7 +95,7 @@ impl RerunSink {
         }
 
         let mut used = BTreeSet::new();
-        for frame in &layout.frames {
+        for (frame_index, frame) in layout.frames.iter().enumerate() {
             let entity = transform_entity_path(&frame.model, &frame.link);
             if !used.insert(entity.clone()) {
                 bail!(
@@ -133,7 +120,9 @@ impl RerunSink {
                     );
                     used.insert(entity.clone());
                 }
-                self.write_visual(entity, frame, visual)?;
+                if self.write_visual(entity.clone(), frame, visual)? {
+                    self.note_robot_visual(frame_index, entity);
+                }
             }
             self.frames.push(FrameTrack {
                 entity,
@@ -257,21 +246,42 @@ impl RerunSink {
         )?)
     }
 
+    /// Keeps `entity`, a visual drawn in frame `frame_index`, as the one the 3D view tracks
+    /// when it is the robot's root frame's first visual (or, until one is, the first visual of
+    /// the robot's frames).
+    fn note_robot_visual(&mut self, frame_index: usize, entity: EntityPath) {
+        let Some(robot) = &mut self.robot else {
+            return;
+        };
+        let tracked_is_root = robot.tracked.as_ref().is_some_and(|_| robot.root_tracked);
+        if tracked_is_root {
+            return;
+        }
+        if frame_index == robot.root {
+            robot.tracked = Some(entity);
+            robot.root_tracked = true;
+        } else if robot.tracked.is_none() && robot.frames.contains(&frame_index) {
+            robot.tracked = Some(entity);
+        }
+    }
+
+    /// Writes a visual's static chunk; `false` when it cannot be shown (a warning says why).
     fn write_visual(
         &mut self,
         entity: EntityPath,
         frame: &FrameLayout,
         visual: &Visual,
-    ) -> Result<()> {
+    ) -> Result<bool> {
         let Some(shape) = self.visual_shape(&entity, visual)? else {
-            return Ok(());
+            return Ok(false);
         };
         let frame_id = rerun::CoordinateFrame::new(frame.frame_id.as_str());
         let pose = instance_pose(&visual.link_from_visual, shape.scale);
         let mut batches = frame_id.as_serialized_batches();
         batches.extend(pose.as_serialized_batches());
         batches.extend(shape.batches);
-        self.send(static_batches_chunk(entity, batches)?)
+        self.send(static_batches_chunk(entity, batches)?)?;
+        Ok(true)
     }
 
     /// The component batches drawing `visual` at its own origin (the caller places it: by a

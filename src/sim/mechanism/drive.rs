@@ -40,6 +40,31 @@ pub struct Actuator {
     pub effort_limit: Option<f64>,
 }
 
+impl Actuator {
+    /// The actuator's signal (a servo's target, a motor's effort) when it is a constant.
+    pub fn constant_signal(&self) -> Option<f64> {
+        let signal = match &self.kind {
+            ActuatorKind::Motor { effort } => effort,
+            ActuatorKind::Position { target, .. } | ActuatorKind::Velocity { target, .. } => target,
+        };
+        match signal {
+            Signal::Constant(c) => Some(*c),
+            _ => None,
+        }
+    }
+
+    /// Replaces the actuator's signal: a servo's target, a motor's effort (a dataset's drawn
+    /// input, `crate::dataset::joint_vary`).
+    pub fn set_signal(&mut self, signal: Signal) {
+        match &mut self.kind {
+            ActuatorKind::Motor { effort } => *effort = signal,
+            ActuatorKind::Position { target, .. } | ActuatorKind::Velocity { target, .. } => {
+                *target = signal
+            }
+        }
+    }
+}
+
 /// What acts on one joint coordinate: an actuator, damping, or both.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JointDrive {

@@ -40,7 +40,7 @@
 //!   `Y_UP` maps (x, y, z) to (x, −z, y) and `X_UP` maps (x, y, z) to (−y, −z, x) (the spec's
 //!   right/up/in axes), both proper rotations.
 
-use super::{MAX_MESH_TRIANGLES, check_triangle_count, index_u32, weld};
+use super::{MAX_MESH_TRIANGLES, check_triangle_count, index_u32, weld_indexed};
 use crate::model::geometry::mesh::TriangleMesh;
 use nalgebra::{Matrix3, Matrix4, Rotation3, Unit, Vector3};
 use roxmltree::{Document, Node};
@@ -142,7 +142,7 @@ pub fn read_dae(bytes: &[u8], options: &DaeOptions) -> Result<TriangleMesh, Stri
     }
     let to_metres = up_rotation * meter;
     let vertices: Vec<Vector3<f64>> = reader.vertices.iter().map(|v| to_metres * v).collect();
-    Ok(weld(&vertices, &reader.triangles))
+    Ok(weld_indexed(&vertices, &reader.triangles))
 }
 
 /// The first child element named `name` (namespace ignored).

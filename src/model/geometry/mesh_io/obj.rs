@@ -7,7 +7,7 @@
 //! one mesh and welded, so faces of different groups that share a position are connected.
 //! Material libraries (`mtllib`) are not opened.
 
-use super::{MAX_MESH_TRIANGLES, check_triangle_count, index_u32, weld};
+use super::{MAX_MESH_TRIANGLES, check_triangle_count, index_u32, weld_indexed};
 use crate::model::geometry::mesh::TriangleMesh;
 use nalgebra::Vector3;
 use std::io::BufRead;
@@ -106,5 +106,5 @@ pub fn read_obj(bytes: &[u8]) -> Result<TriangleMesh, String> {
                 .map(|t| [t[0], t[1], t[2]].map(|i| i.saturating_add(offset))),
         );
     }
-    Ok(weld(&vertices, &triangles))
+    Ok(weld_indexed(&vertices, &triangles))
 }
