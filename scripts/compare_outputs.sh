@@ -3,8 +3,8 @@
 #
 #   bash scripts/compare_outputs.sh OLD_BINARY NEW_BINARY [WORK_DIR]
 #
-# Runs, with each binary: every bundled scene (models/*.toml, the dataset specs aside; the swarm
-# for 1 s) with every
+# Runs, with each binary: every bundled scene (models/*.toml, the dataset specs dataset*.toml and
+# *_dataset.toml aside; the swarm for 1 s) with every
 # format (mcap, rrd, parquet, ros2); the bundled dataset spec; a trade sweep; a stability --scene
 # sweep. Then compares every file. Files that hold wall-clock timings are compared with their timing
 # fields removed: trade's table/CSV/JSON (seconds per step), the dataset manifest (wall_secs).
@@ -19,7 +19,7 @@ produce() { # BINARY DIR
   local bin=$1 dir=$2
   for f in models/*.toml; do
     local n; n=$(basename "$f" .toml)
-    case $n in dataset*) continue ;; esac
+    case $n in dataset* | *_dataset) continue ;; esac
     # The 10 000-body swarm for 1 s of its 10 (its four files are 1.5 GB at 10 s).
     local extra=(); [[ $n == swarm ]] && extra=(--duration 1)
     "$bin" simulate "$f" "${extra[@]}" --out "$dir/sim/$n" --format mcap,rrd,parquet,ros2 --threads 2 >"$dir/sim/$n.stdout" 2>&1 \

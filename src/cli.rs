@@ -39,7 +39,8 @@ pub enum Command {
     Info(InfoArgs),
     /// Compare two recordings frame by frame over time (position and orientation error).
     Diff(DiffArgs),
-    /// Replay a tumble MCAP recording into a Rerun .rrd (same entities as a fresh run).
+    /// Replay a tumble MCAP recording into a Rerun .rrd (same entities as a fresh run); or, with
+    /// --lerobot, a dataset folder into a LeRobot v3.0 dataset.
     Convert(ConvertArgs),
     /// Generate a randomized trajectory dataset (Parquet) from a spec, in parallel, resumable, shardable; or merge shards.
     Dataset(crate::commands::dataset::DatasetArgs),

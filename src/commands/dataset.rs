@@ -46,6 +46,10 @@ pub struct DatasetArgs {
     /// Replace the dataset files in --out.
     #[arg(long)]
     pub force: bool,
+    /// Output format: `parquet` (the native tables only) or `lerobot` (the native tables, and
+    /// the runs as a LeRobot v3.0 dataset in the same folder: meta/ and data/; docs/datasets.md).
+    #[arg(long, value_enum, default_value_t = Format::Parquet)]
+    pub format: Format,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -63,6 +67,16 @@ pub struct DatasetArgs {
     /// other is refused (exit 2). Adds to the template's [[scene.model]] allow_mesh_paths.
     #[arg(long = "allow-mesh-path", value_name = "DIR")]
     pub allow_mesh_paths: Vec<PathBuf>,
+}
+
+/// `--format`.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Format {
+    /// The native Parquet tables.
+    #[default]
+    Parquet,
+    /// The native tables and a LeRobot v3.0 dataset (meta/, data/).
+    Lerobot,
 }
 
 #[derive(Subcommand, Debug, Clone)]
@@ -102,6 +116,12 @@ pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
     let (Some(spec_path), Some(out)) = (&args.spec, &args.out) else {
         anyhow::bail!("usage: tumble dataset SPEC.toml --out DIR (see --help)");
     };
+    if args.format == Format::Lerobot && args.shard.is_some() {
+        anyhow::bail!(
+            "--format lerobot with --shard: a shard holds only part of the runs; join the shards \
+             with `tumble dataset merge`, then `tumble convert MERGED_DIR --lerobot OUT_DIR`"
+        );
+    }
     let mut spec = DatasetSpec::load(spec_path)?;
     if args.strict {
         spec.template.set_strict();
@@ -123,6 +143,20 @@ pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
             .and_then(|v| v.parse().ok()),
     };
     let s = dataset::generate(&spec, &opts)?;
+    let lerobot = if args.format == Format::Lerobot {
+        let started = std::time::Instant::now();
+        let l = dataset::lerobot::write(&dataset::lerobot::Options {
+            native: out.clone(),
+            out: out.clone(),
+            // Derived from this folder's runs: a previous conversion is always replaced.
+            force: true,
+            base_dir: Some(spec.template.base_dir.clone()),
+            spec_name: spec_path.display().to_string(),
+        })?;
+        Some((l, started.elapsed().as_secs_f64()))
+    } else {
+        None
+    };
     if s.runs_skipped > 0 || s.chunks_redone > 0 {
         println!(
             "resumed: {} runs ({} chunks) were complete and checked; {} chunks recomputed",
@@ -144,16 +178,36 @@ pub fn run(args: &DatasetArgs) -> anyhow::Result<()> {
             .map(|k| format!(" (shard {k})"))
             .unwrap_or_default()
     );
-    let secs = s.wall_secs.max(1e-9);
+    if let Some((l, secs)) = &lerobot {
+        println!("{}", lerobot_line(l, out, *secs));
+    }
+    // With --format lerobot the figures include the LeRobot writing.
+    let secs = (s.wall_secs + lerobot.as_ref().map_or(0.0, |(_, t)| *t)).max(1e-9);
     println!(
         "runs={} chunks={} rows={} threads={} wall_secs={:.3} runs_per_sec={:.1} body_steps_per_sec={:.4e}",
         s.runs_done,
         s.chunks_done,
         s.rows,
         s.threads,
-        s.wall_secs,
+        secs,
         s.runs_done as f64 / secs,
         s.body_steps as f64 / secs
     );
     Ok(())
+}
+
+/// The line saying what `--format lerobot` (or `convert --lerobot`) wrote.
+pub fn lerobot_line(l: &dataset::lerobot::Summary, out: &std::path::Path, secs: f64) -> String {
+    format!(
+        "wrote LeRobot v3.0 dataset {}: {} episodes, {} frames at {} fps, {} data file(s){} in {secs:.3} s",
+        out.display(),
+        l.episodes,
+        l.frames,
+        l.fps,
+        l.data_files,
+        match l.diverged_left_out {
+            0 => String::new(),
+            n => format!(" ({n} diverged runs left out)"),
+        }
+    )
 }

@@ -43,6 +43,9 @@ pub const OUTPUTS: &[&str] = &[
     "joints",
     "runs",
     "recordings",
+    // `--format lerobot` ([`super::lerobot`]).
+    "meta",
+    "data",
 ];
 
 /// `--force`: removes every dataset output ([`OUTPUTS`]) from `dir`, files and folders.

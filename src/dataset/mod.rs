@@ -18,11 +18,13 @@
 //! DIR/joints/part-NNNNN.parquet         one row per recorded step and joint (articulated models)
 //! DIR/runs/part-NNNNN.parquet            one row per run: drawn parameters and outcome
 //! DIR/recordings/run-NNNNNN.{mcap,rrd}   optional, the first `record_runs` runs
+//! DIR/meta/, DIR/data/                   `--format lerobot`: the runs as a LeRobot v3.0 dataset ([`lerobot`])
 //! ```
 
 pub mod chunk;
 pub mod generate;
 pub mod joint_vary;
+pub mod lerobot;
 pub mod manifest;
 pub mod merge;
 pub mod runs;

@@ -11,6 +11,7 @@ mod dataset;
 mod dataset_robots;
 mod drives;
 mod joint_diff;
+mod lerobot;
 mod partial_step;
 mod recordings;
 mod replay;
