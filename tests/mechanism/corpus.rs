@@ -44,6 +44,8 @@ struct Row {
     error: String,
     path: String,
     package_path: String,
+    /// The "moving" runs' initial joint rates (a TOML inline table); empty for the others.
+    joint_velocities: String,
 }
 
 /// The corpus, run once per test binary (both tests read it).
@@ -70,7 +72,7 @@ fn corpus() -> &'static [Row] {
             .lines()
             .map(|line| {
                 let f: Vec<&str> = line.split('\t').collect();
-                assert_eq!(f.len(), 9, "{line}");
+                assert_eq!(f.len(), 10, "{line}");
                 Row {
                     corpus: f[0].into(),
                     file: f[1].into(),
@@ -81,6 +83,7 @@ fn corpus() -> &'static [Row] {
                     error: f[6].into(),
                     path: f[7].into(),
                     package_path: f[8].into(),
+                    joint_velocities: f[9].into(),
                 }
             })
             .collect()
@@ -148,6 +151,13 @@ fn every_corpus_urdf_runs_or_is_refused_with_its_reason() {
     );
     assert!(runs("pybullet_data", "fixed") >= Some(28), "{counts:?}");
     assert!(runs("pybullet_data", "floating") >= Some(56), "{counts:?}");
+    // The floating runs set moving (every joint at ±0.5 rad/s): measured 59 and 22 (every
+    // floating run with a moving joint).
+    assert!(
+        runs("example-robot-data", "moving") >= Some(59),
+        "{counts:?}"
+    );
+    assert!(runs("pybullet_data", "moving") >= Some(22), "{counts:?}");
     // The refusals whose keys end at another refusal, measured 3 per corpus and base: iCub
     // and iCub reduced (r_upper_leg's collision mesh is open) and romeo_laas_small (`body`'s
     // negative moment; its meshes are absolute paths of another machine); pybullet's
@@ -201,11 +211,20 @@ fn corpus_runs_without_work_keep_their_energy_bounded_at_every_step() {
         if r.kind != "runs" || !r.text.starts_with("dE") {
             continue;
         }
+        // A moving run is the floating base with its joints' rates (gravity is the default,
+        // as in the script's scene).
+        let (base, extra) = match r.base.as_str() {
+            "moving" => (
+                "floating",
+                format!("joint_velocities = {}\n", r.joint_velocities),
+            ),
+            base => (base, String::new()),
+        };
         let text = format!(
             "[sim]\ndt = 0.001\nduration = 1.0\nlog_every = 1\n[[model]]\nurdf = {:?}\n\
              bodies = \"articulated\"\nbase = {:?}\npackage_paths = [{:?}]\n\
-             allow_mesh_paths = [\"/\"]\n",
-            r.path, r.base, r.package_path
+             allow_mesh_paths = [\"/\"]\n{extra}",
+            r.path, base, r.package_path
         );
         let what = format!("{} {} {}", r.corpus, r.file, r.base);
         let scene = Scene::parse(&text, &dir.path().join("corpus.toml")).unwrap();
