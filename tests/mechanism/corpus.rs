@@ -259,8 +259,9 @@ fn corpus_runs_without_work_keep_their_energy_bounded_at_every_step() {
     eprintln!(
         "{checked} runs checked at every step; closest to the bound: {worst:.2} ({worst_what})"
     );
-    // Measured: 141 runs (example-robot-data 69, pybullet_data 72); the largest excursion
+    // Measured: 170 runs (141 fixed or floating at rest, 29 floating with their joints moving
+    // and no stop touched); the largest excursion
     // 7.3e-5 of T_max (ur3_robot, fixed base: 1.22e-3 J of 16.8 J), 0.07 of the bound. Both
     // tests together: 8.6 s in release on 2 cores.
-    assert!(checked >= 140, "{checked}");
+    assert!(checked >= 165, "{checked}");
 }
