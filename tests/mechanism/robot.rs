@@ -13,6 +13,7 @@ use tumble::scene::Scene;
 use tumble::sim::Bodies;
 use tumble::sim::Loads;
 use tumble::simulation::FrameBuilder;
+use tumble::simulation::RunSummary;
 
 struct Swing {
     joints: usize,
@@ -277,22 +278,20 @@ fn pybullet_static_objects_are_refused_with_the_key_that_runs_them() {
     assert!(text.contains(" 0 non-converged solves"), "{text}");
 }
 
-/// Issue 32's energy check at its tightest: pybullet_data's vision60 (12 bodies, its URDF limits
-/// on), fixed base, 1 s at 1 ms, folds its legs into their stops. The stops remove 5.04 J, and
-/// the energy balance `ΔE = W − D` leaves 5.5e-3 J open, 1.0e-3 of the energy's scale (|E(1 s)|
-/// = 5.3 J); it halves with the step (2.3e-3 J at 0.5 ms, 1.1e-3 J at 0.25 ms): the O(h) ledger
-/// of a stop (docs/mechanisms.md, "Energy"), not a leak. Bound 1e-2 (scripts/robot_corpus.py).
-#[test]
-fn vision60_closes_its_energy_balance_through_its_stops() {
-    let urdf = pybullet_data().join("quadruped/vision60.urdf");
+/// A pybullet_data robot's scene (`extra`: more `[[model]]` keys), 1 s at 1 ms, fixed base:
+/// its summary after checking it ran every step with no Newton failure, its body count, and
+/// what its energy balance `ΔE = W − D + C` leaves open with the energy's scale (the largest
+/// of |E(0)|, |E(1 s)|, |ΔE|, |W|, D).
+fn balance_of_one_second(file: &str, extra: &str) -> (usize, RunSummary, f64, f64) {
+    let urdf = pybullet_data().join(file);
     let text = format!(
         "[sim]\ndt = 0.001\nduration = 1.0\n[[model]]\nurdf = {:?}\nbodies = \"articulated\"\n\
-         base = \"fixed\"\nallow_mesh_paths = [\"/\"]\n",
+         base = \"fixed\"\nallow_mesh_paths = [\"/\"]\n{extra}",
         urdf.display().to_string()
     );
     let dir = tempfile::tempdir().unwrap();
-    let scene = Scene::parse(&text, &dir.path().join("vision60.toml")).unwrap();
-    let world = scene.build().unwrap();
+    let scene = Scene::parse(&text, &dir.path().join("robot.toml")).unwrap();
+    let world = scene.build().unwrap_or_else(|e| panic!("{file}: {e:#}"));
     let mut sim = tumble::simulation::Simulation::of_world(
         &world,
         scene.integrator(),
@@ -304,9 +303,9 @@ fn vision60_closes_its_energy_balance_through_its_stops() {
     .unwrap();
     sim.run().unwrap();
     let s = sim.summary();
-    assert_eq!(s.stopped, None, "{s:?}");
-    assert_eq!(s.stats.newton_failures, 0);
-    assert_eq!(s.steps, 1000);
+    assert_eq!(s.stopped, None, "{file}: {s:?}");
+    assert_eq!(s.stats.newton_failures, 0, "{file}");
+    assert_eq!(s.steps, 1000, "{file}");
     let flow = s.energy_flow;
     let change = s.energy_final - s.energy_initial;
     let open = change - (flow.input_work - flow.dissipated + flow.contact_work);
@@ -319,8 +318,20 @@ fn vision60_closes_its_energy_balance_through_its_stops() {
     ]
     .into_iter()
     .fold(0.0, f64::max);
+    (world.bodies.len(), s, open, scale)
+}
+
+/// Issue 32's energy check at its tightest: pybullet_data's vision60 (12 bodies, its URDF limits
+/// on), fixed base, 1 s at 1 ms, folds its legs into their stops. The stops remove 5.04 J, and
+/// the energy balance `ΔE = W − D` leaves 5.5e-3 J open, 1.0e-3 of the energy's scale (|E(1 s)|
+/// = 5.3 J); it halves with the step (2.3e-3 J at 0.5 ms, 1.1e-3 J at 0.25 ms): the O(h) ledger
+/// of a stop (docs/mechanisms.md, "Energy"), not a leak. Bound 1e-2 (scripts/robot_corpus.py).
+#[test]
+fn vision60_closes_its_energy_balance_through_its_stops() {
+    let (_, s, open, scale) = balance_of_one_second("quadruped/vision60.urdf", "");
+    let flow = s.energy_flow;
     eprintln!(
-        "vision60: change {change:.4e} J, dissipated {:.4e} J, open {open:.3e} J ({:.2e} of {scale:.3e} J)",
+        "vision60: dissipated {:.4e} J, open {open:.3e} J ({:.2e} of {scale:.3e} J)",
         flow.dissipated,
         open.abs() / scale
     );
@@ -339,47 +350,15 @@ fn vision60_closes_its_energy_balance_through_its_stops() {
 /// (measured: what the balance leaves open 2.9e-5 of the energy; bound 1e-2).
 #[test]
 fn laikago_runs_with_its_mass_from_its_vhacd_meshes() {
-    let urdf = pybullet_data().join("laikago/laikago.urdf");
-    let text = format!(
-        "[sim]\ndt = 0.001\nduration = 1.0\n[[model]]\nurdf = {:?}\nbodies = \"articulated\"\n\
-         base = \"fixed\"\ninertia = \"geometry\"\nallow_mesh_paths = [\"/\"]\n",
-        urdf.display().to_string()
-    );
-    let dir = tempfile::tempdir().unwrap();
-    let scene = Scene::parse(&text, &dir.path().join("laikago.toml")).unwrap();
-    let world = scene.build().unwrap_or_else(|e| panic!("{e:#}"));
-    let mut sim = tumble::simulation::Simulation::of_world(
-        &world,
-        scene.integrator(),
-        scene.sim.dt,
-        &scene.variational_settings(),
-        1,
-        &scene.run_settings(),
-    )
-    .unwrap();
-    sim.run().unwrap();
-    let s = sim.summary();
-    assert_eq!(s.stopped, None, "{s:?}");
-    assert_eq!(s.stats.newton_failures, 0);
-    assert_eq!(s.steps, 1000);
-    let flow = s.energy_flow;
-    let change = s.energy_final - s.energy_initial;
-    let open = change - (flow.input_work - flow.dissipated + flow.contact_work);
-    let scale = [
-        s.energy_initial.abs(),
-        s.energy_final.abs(),
-        flow.dissipated,
-    ]
-    .into_iter()
-    .fold(0.0, f64::max);
+    let (bodies, s, open, scale) =
+        balance_of_one_second("laikago/laikago.urdf", "inertia = \"geometry\"\n");
     eprintln!(
-        "laikago: {} bodies, E {:.4e} -> {:.4e} J, dissipated {:.3e} J, open {:.2e} of the scale",
-        world.bodies.len(),
+        "laikago: {bodies} bodies, E {:.4e} -> {:.4e} J, dissipated {:.3e} J, open {:.2e} of the scale",
         s.energy_initial,
         s.energy_final,
-        flow.dissipated,
+        s.energy_flow.dissipated,
         open.abs() / scale
     );
-    assert!(world.bodies.len() >= 12, "{}", world.bodies.len());
+    assert!(bodies >= 12, "{bodies}");
     assert!(open.abs() / scale < 1e-2, "{open} of {scale}");
 }

@@ -250,17 +250,22 @@ fn wrong_joint_names_are_refused_with_a_suggestion() {
         "joints = { elbw = { uniform = [0, 1] } }",
     );
     let out = dir.path().join("typo");
-    let o = tumble(
-        &[
-            "dataset",
-            spec.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
-    let err = text(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    // `tumble dataset SPEC --out OUT` must exit 2: its stderr.
+    let refused = || {
+        let o = tumble(
+            &[
+                "dataset",
+                spec.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            dir.path(),
+        );
+        let err = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        err
+    };
+    let err = refused();
     assert!(
         err.contains("typo.toml: vary.joints.elbw: not a moving joint (shoulder, elbow): did you mean `elbow`?"),
         "{err}"
@@ -271,17 +276,7 @@ fn wrong_joint_names_are_refused_with_a_suggestion() {
         .replace(SERVOS, "")
         .replace("joints = { elbw", "actuators = { elbow");
     std::fs::write(&spec, text_spec).unwrap();
-    let o = tumble(
-        &[
-            "dataset",
-            spec.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ],
-        dir.path(),
-    );
-    let err = text(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let err = refused();
     assert!(
         err.contains("vary.actuators: the template has no [[scene.model.actuator]]"),
         "{err}"
