@@ -196,7 +196,6 @@ impl ModelCache {
     /// Run `run` of `spec`: [`draw`], and the joint draws for the chosen model.
     pub fn draw(&self, spec: &DatasetSpec, run: u64) -> RunParams {
         let mut params = draw(spec, run);
-
         if !spec.vary.joints.is_empty() {
             params.joints = spec
                 .vary
