@@ -6,11 +6,14 @@
 # per build unit) in the test build.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
-plain="$(mktemp)"; dev="$(mktemp)"
-trap 'rm -f "$plain" "$dev"' EXIT
+plain="$(mktemp)"; dev="$(mktemp)"; ext="$(mktemp)"
+trap 'rm -f "$plain" "$dev" "$ext"' EXIT
 cargo tree --locked -e no-dev -f '{p} {f}' --prefix none | sed 's/ (\*)$//' | sort -u >"$plain"
 cargo tree --locked -f '{p} {f}' --prefix none | sed 's/ (\*)$//' | sort -u >"$dev"
-python3 - "$plain" "$dev" <<'PY'
+# The Python extension (python/, built by maturin into the same target/) must build the crates
+# it shares with the binary with the same features too, or it rebuilds them.
+cargo tree --locked -p tumble-python -e no-dev -f '{p} {f}' --prefix none | sed 's/ (\*)$//' | sort -u >"$ext"
+python3 - "$plain" "$dev" "$ext" <<'PY'
 import sys
 from collections import defaultdict
 
@@ -21,7 +24,13 @@ def units(path):
         crates[" ".join(parts[:2])].add(" ".join(parts[2:]))
     return crates
 
-plain, dev = units(sys.argv[1]), units(sys.argv[2])
+plain, dev, ext = units(sys.argv[1]), units(sys.argv[2]), units(sys.argv[3])
+shared = [(k, plain[k], ext[k]) for k in sorted(plain) if k in ext and plain[k] != ext[k]]
+for crate, a, b in shared:
+    print(f"  {crate}: binary build {sorted(a)}, Python extension {sorted(b)}", file=sys.stderr)
+if shared:
+    sys.exit("error: the Python extension builds these crates with other features than the binary "
+             "does; add its features to Cargo.toml's feature-unification lines")
 bad = [(k, plain[k], dev.get(k, set())) for k in sorted(plain) if plain[k] != dev.get(k, set())]
 for crate, a, b in bad:
     print(f"  {crate}: binary build {sorted(a)}, test build {sorted(b)}", file=sys.stderr)
