@@ -218,14 +218,7 @@ fn viewers_open_on_the_robot_and_follow_it() {
         d,
     );
     assert!(o.status.success(), "{}", text(&o.stderr));
-    let bp = run_py("read_blueprint.py", &[&d.join("fixed.rrd")]);
-    let eye = bp["entities"]
-        .as_object()
-        .unwrap()
-        .iter()
-        .find(|(k, _)| k.ends_with("/EyeControls3D"))
-        .map(|(_, v)| v.clone())
-        .unwrap();
+    let eye = eye_controls(&d.join("fixed.rrd"));
     assert!(eye.get("EyeControls3D:tracking_entity").is_none(), "{eye}");
 
     // `tumble convert` makes the same choices from the MCAP's layout: the run's own .rrd.
@@ -249,14 +242,19 @@ fn viewers_open_on_the_robot_and_follow_it() {
         d,
     );
     assert!(o.status.success(), "{}", text(&o.stderr));
-    let bp = run_py("read_blueprint.py", &[&d.join("free.rrd")]);
-    let eye = bp["entities"]
+    let eye = eye_controls(&d.join("free.rrd"));
+    assert!(eye.get("EyeControls3D:tracking_entity").is_none(), "{eye}");
+    assert!(!d.join("free.foxglove.json").exists());
+}
+
+/// The 3D view's `EyeControls3D` properties in the blueprint of the recording `rrd`.
+fn eye_controls(rrd: &std::path::Path) -> serde_json::Value {
+    let bp = run_py("read_blueprint.py", &[rrd]);
+    bp["entities"]
         .as_object()
         .unwrap()
         .iter()
         .find(|(k, _)| k.ends_with("/EyeControls3D"))
         .map(|(_, v)| v.clone())
-        .unwrap();
-    assert!(eye.get("EyeControls3D:tracking_entity").is_none(), "{eye}");
-    assert!(!d.join("free.foxglove.json").exists());
+        .unwrap()
 }
