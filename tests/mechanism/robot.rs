@@ -250,32 +250,36 @@ fn simulate_pybullet(file: &str, extra: &[&str]) -> (Option<i32>, String) {
 /// runs the file anyway, and that key does run it.
 #[test]
 fn pybullet_static_objects_are_refused_with_the_key_that_runs_them() {
-    let (code, text) = simulate_pybullet("plane.urdf", &["--base", "floating"]);
-    assert_eq!(code, Some(2), "{text}");
-    for part in [
+    // `file` with `refused_with` is refused naming `parts`; with `runs_with` it runs.
+    let check = |file: &str, refused_with: &[&str], parts: &[&str], runs_with: &[&str]| {
+        let (code, text) = simulate_pybullet(file, refused_with);
+        assert_eq!(code, Some(2), "{text}");
+        for part in parts.iter().chain([&file]) {
+            assert!(text.contains(part), "{part}: {text}");
+        }
+        let (code, text) = simulate_pybullet(file, runs_with);
+        assert_eq!(code, Some(0), "{text}");
+        assert!(text.contains(" 0 non-converged solves"), "{text}");
+    };
+    check(
         "plane.urdf",
-        "has no link with positive mass",
-        "mass 0 or is missing",
-        "`inertia = \"geometry\"` on the model (`--inertia geometry`)",
-    ] {
-        assert!(text.contains(part), "{part}: {text}");
-    }
-    let (code, text) = simulate_pybullet("plane.urdf", &["--inertia", "geometry"]);
-    assert_eq!(code, Some(0), "{text}");
-    assert!(text.contains(" 0 non-converged solves"), "{text}");
-
-    let (code, text) = simulate_pybullet("cube.urdf", &["--base", "fixed"]);
-    assert_eq!(code, Some(2), "{text}");
-    for part in [
+        &["--base", "floating"],
+        &[
+            "has no link with positive mass",
+            "mass 0 or is missing",
+            "`inertia = \"geometry\"` on the model (`--inertia geometry`)",
+        ],
+        &["--inertia", "geometry"],
+    );
+    check(
         "cube.urdf",
-        "no moving joint left",
-        "base = \"floating\" (`--base floating`) lets it fall as one rigid body",
-    ] {
-        assert!(text.contains(part), "{part}: {text}");
-    }
-    let (code, text) = simulate_pybullet("cube.urdf", &["--base", "floating"]);
-    assert_eq!(code, Some(0), "{text}");
-    assert!(text.contains(" 0 non-converged solves"), "{text}");
+        &["--base", "fixed"],
+        &[
+            "no moving joint left",
+            "base = \"floating\" (`--base floating`) lets it fall as one rigid body",
+        ],
+        &["--base", "floating"],
+    );
 }
 
 /// A pybullet_data robot's scene (`extra`: more `[[model]]` keys), 1 s at 1 ms, fixed base:
