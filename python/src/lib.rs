@@ -141,9 +141,8 @@ impl Simulation {
 
     /// Steps `n` times (at most to the scene's duration); returns the steps done in all.
     #[pyo3(signature = (n=1))]
-    fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<u64> {
+    fn step(&mut self, n: u64) -> PyResult<u64> {
         let sim = self.sim()?;
-        let _ = py;
         sim.advance(n).map_err(err)?;
         Ok(sim.step())
     }
