@@ -1,6 +1,7 @@
 //! Time signals that drive inputs (issue 30: actuator efforts and targets, applied loads): a
 //! constant, a sine, a sum of sines (the seeded random smooth inputs of issue 32, drawn by
-//! `crate::scene::signal::smooth`), or a table linear between its rows. Evaluated inside the
+//! `crate::scene::signal::smooth`), a table linear between its rows, or a value held from
+//! outside between steps ([`Held`]: a controller in the loop, issue 33). Evaluated inside the
 //! step, so plain numbers only; the scene parses them (`crate::scene::signal`).
 //!
 //! ```text
@@ -9,7 +10,11 @@
 //! sines:     s(t) = offset + Σ_k a_k sin(2π f_k t + φ_k)
 //! table:     s(t) = v_k + (v_{k+1} − v_k) (t − t_k) / (t_{k+1} − t_k)   for t_k ≤ t ≤ t_{k+1}
 //!            s(t) = v_0 for t < t_0, v_{n−1} for t > t_{n−1}  (held beyond the ends)
+//! held:      s(t) = the scene's signal until a value is set, then the last value set
 //! ```
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// A signal of time (s).
 #[derive(Debug, Clone, PartialEq)]
@@ -33,6 +38,64 @@ pub enum Signal {
         times_secs: Vec<f64>,
         values: Vec<f64>,
     },
+    /// Set from outside between steps ([`Held`]).
+    Held(Held),
+}
+
+/// An input a controller sets between steps (zero-order hold): the scene's signal until the
+/// first [`Held::set`], then the last value set, whatever the time. Clones share the value
+/// (the copies of a mechanism the partitions hold read the one the controller sets). A step
+/// reads it at both ends of its interval, so a value set before a step is the step's constant
+/// input: the trapezoid average of [`crate::sim::mechanism::JointDrive::step_effort`] is that
+/// value exactly, the same bits as a [`Signal::Constant`] of it.
+#[derive(Debug, Clone)]
+pub struct Held(Arc<HeldCell>);
+
+#[derive(Debug)]
+struct HeldCell {
+    /// The value's bits (`f64::to_bits`).
+    bits: AtomicU64,
+    /// Whether a value was set (else the scene's signal applies).
+    set: AtomicBool,
+    scene: Signal,
+}
+
+impl Held {
+    /// A held input following `scene` until set.
+    pub fn new(scene: Signal) -> Self {
+        Self(Arc::new(HeldCell {
+            bits: AtomicU64::new(0),
+            set: AtomicBool::new(false),
+            scene,
+        }))
+    }
+
+    /// Holds `value` from the next step on. Steps read it after the stepping threads met the
+    /// caller (a window starts after this call returns), so relaxed ordering suffices.
+    pub fn set(&self, value: f64) {
+        self.0.bits.store(value.to_bits(), Ordering::Relaxed);
+        self.0.set.store(true, Ordering::Relaxed);
+    }
+
+    /// The value held, if one was set.
+    pub fn value(&self) -> Option<f64> {
+        self.0
+            .set
+            .load(Ordering::Relaxed)
+            .then(|| f64::from_bits(self.0.bits.load(Ordering::Relaxed)))
+    }
+
+    /// The signal it follows until set.
+    pub fn scene(&self) -> &Signal {
+        &self.0.scene
+    }
+}
+
+/// Two held inputs are equal when they are the same input (clones of one another).
+impl PartialEq for Held {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
 }
 
 impl Signal {
@@ -67,6 +130,7 @@ impl Signal {
                 let (v0, v1) = (values[k], values[k + 1]);
                 v0 + (v1 - v0) * ((t_secs - t0) / (t1 - t0))
             }
+            Signal::Held(h) => h.value().unwrap_or_else(|| h.scene().at(t_secs)),
         }
     }
 
@@ -99,6 +163,10 @@ impl Signal {
                 let k = times_secs.partition_point(|&tk| tk <= t_secs) - 1;
                 (values[k + 1] - values[k]) / (times_secs[k + 1] - times_secs[k])
             }
+            Signal::Held(h) => match h.value() {
+                Some(_) => 0.0,
+                None => h.scene().rate(t_secs),
+            },
         }
     }
 }
@@ -106,6 +174,31 @@ impl Signal {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A held input follows its scene signal (value and rate) until set, then holds the value
+    /// at every time with no rate; a clone sees the value set through the original.
+    #[test]
+    fn a_held_input_follows_the_scene_until_set_then_holds_the_last_value() {
+        let scene = Signal::Sine {
+            amplitude: 2.0,
+            frequency_hz: 0.25,
+            phase: 0.0,
+            offset: 1.0,
+        };
+        let held = Held::new(scene.clone());
+        let s = Signal::Held(held.clone());
+        let copy = s.clone();
+        assert_eq!((s.at(1.0), s.rate(0.0)), (scene.at(1.0), scene.rate(0.0)));
+        assert_eq!(s.at(1.0), 3.0);
+        assert_eq!(held.value(), None);
+        held.set(-0.75);
+        held.set(0.5);
+        for t in [0.0, 1.0, 7.3] {
+            assert_eq!((copy.at(t), copy.rate(t)), (0.5, 0.0));
+        }
+        assert_eq!(s, copy);
+        assert_ne!(s, Signal::Held(Held::new(scene)));
+    }
 
     #[test]
     fn a_constant_is_the_same_at_every_time_and_has_no_rate() {

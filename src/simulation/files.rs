@@ -128,6 +128,79 @@ fn accuracy_plan(
     }))
 }
 
+/// The sinks of a recording and the files they publish when finished ([`open_recording`]).
+pub struct Recording {
+    /// One per file, each encoding on its own thread ([`Pipelined`]).
+    pub sinks: Vec<Box<dyn Sink>>,
+    /// The files, in the order of [`Outputs::written`]: pass them to
+    /// [`Simulation::finish`] (or [`Simulation::discard`]).
+    pub paths: Vec<PathBuf>,
+}
+
+/// Opens the files `options.formats` names under `stem` for `world` (the output folder made,
+/// each file under its `.part` name until the run finishes): what `simulate` records, for a
+/// [`Simulation`] stepped by its caller (the Python package's `record=`). The visual meshes'
+/// triangles are checked first (`scene_file` names the scene in that error); a file that cannot
+/// be opened removes the ones opened before it.
+pub fn open_recording(
+    world: &World,
+    scene_file: &Path,
+    stem: &Path,
+    options: &SimulateOptions,
+) -> anyhow::Result<Recording> {
+    let formats = options.formats;
+    let body_count = world.layout.bodies.len();
+    if formats.contains(Format::Mcap) || formats.contains(Format::Rrd) {
+        // Both draw every recorded link's visual meshes: bounded per scene before any file.
+        crate::scene::triangles::check_recorded(world, scene_file)?;
+    }
+    if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create the output folder {}", dir.display()))?;
+    }
+    let written = formats.paths_of(stem, &world.layout);
+    let outputs: Vec<&Path> = written.iter().map(PathBuf::as_path).collect();
+    // Each file is encoded on its own thread, beside the stepping; the threads share one copy
+    // of each frame (`record::pipelined`).
+    let mut sinks: Vec<Box<dyn Sink>> = Vec::new();
+    let share = crate::record::pipelined::FrameShare::default();
+    let queue = crate::record::pipelined::queue_frames(crate::record::pipelined::frame_bytes(
+        world.attachments.len(),
+        body_count,
+        world.layout.joints.len(),
+    ));
+    let add = |sinks: &mut Vec<Box<dyn Sink>>,
+               sink: anyhow::Result<Box<dyn Sink + Send>>,
+               name: &str|
+     -> anyhow::Result<()> {
+        let pipelined = sink.and_then(|sink| Pipelined::shared(sink, name, &share, queue));
+        match pipelined {
+            Ok(sink) => {
+                sinks.push(Box::new(sink));
+                Ok(())
+            }
+            Err(e) => crate::record::finish_all(std::mem::take(sinks), Err(e), &outputs),
+        }
+    };
+    let sink_options = SinkOptions {
+        mcap: McapOptions {
+            ellipsoids: options.rerun.ellipsoids,
+            compression: options.mcap_compression.resolve(body_count),
+        },
+        rerun: options.rerun,
+        print_mcap_warnings: true,
+    };
+    for format in formats.iter() {
+        for (file, _, sink) in crate::record::open(format, stem, &world.layout, &sink_options) {
+            add(&mut sinks, sink, file.thread_name())?;
+        }
+    }
+    Ok(Recording {
+        sinks,
+        paths: written,
+    })
+}
+
 /// Runs `scene` and writes `<stem>.mcap` and `<stem>.rrd` (on one thread).
 pub fn simulate(
     scene: &Scene,
@@ -219,56 +292,15 @@ pub fn simulate_world(
         .with_context(|| scene.source.display().to_string())?
     };
     let formats = options.formats;
-    if formats.contains(Format::Mcap) || formats.contains(Format::Rrd) {
-        // Both draw every recorded link's visual meshes: bounded per scene before any file.
-        crate::scene::triangles::check_recorded(world, &scene.source)?;
-    }
-    if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create the output folder {}", dir.display()))?;
-    }
     let mcap = OutputFile::Mcap.path(stem);
     let rrd = OutputFile::Rrd.path(stem);
     let ros2 = formats
         .contains(Format::Ros2)
         .then(|| OutputFile::Ros2.path(stem));
-    let written = formats.paths_of(stem, &world.layout);
+    let recording = open_recording(world, &scene.source, stem, options)?;
+    let written = recording.paths;
     let outputs: Vec<&Path> = written.iter().map(PathBuf::as_path).collect();
-    // Each file is encoded on its own thread, beside the stepping; the threads share one copy
-    // of each frame (`record::pipelined`).
-    let mut sinks: Vec<Box<dyn Sink>> = Vec::new();
-    let share = crate::record::pipelined::FrameShare::default();
-    let queue = crate::record::pipelined::queue_frames(crate::record::pipelined::frame_bytes(
-        world.attachments.len(),
-        body_count,
-        world.layout.joints.len(),
-    ));
-    let add = |sinks: &mut Vec<Box<dyn Sink>>,
-               sink: anyhow::Result<Box<dyn Sink + Send>>,
-               name: &str|
-     -> anyhow::Result<()> {
-        let pipelined = sink.and_then(|sink| Pipelined::shared(sink, name, &share, queue));
-        match pipelined {
-            Ok(sink) => {
-                sinks.push(Box::new(sink));
-                Ok(())
-            }
-            Err(e) => crate::record::finish_all(std::mem::take(sinks), Err(e), &outputs),
-        }
-    };
-    let sink_options = SinkOptions {
-        mcap: McapOptions {
-            ellipsoids: options.rerun.ellipsoids,
-            compression: options.mcap_compression.resolve(body_count),
-        },
-        rerun: options.rerun,
-        print_mcap_warnings: true,
-    };
-    for format in formats.iter() {
-        for (file, _, sink) in crate::record::open(format, stem, &world.layout, &sink_options) {
-            add(&mut sinks, sink, file.thread_name())?;
-        }
-    }
+    let sinks = recording.sinks;
     sim.attach_all(sinks)?;
     let stepping_threads = sim.partitions().threads();
     let summary = sim.run_to_end(&outputs)?;

@@ -18,6 +18,8 @@
 //! only the steps `log_every` names (and the last) are recorded.
 
 pub mod files;
+pub mod inputs;
+pub mod rollout;
 mod frames;
 mod summary;
 #[cfg(test)]

@@ -1,0 +1,526 @@
+//! Many runs of one scene at once (issue 33's `tumble.rollout`, in the shape of MuJoCo's
+//! `rollout`): each roll starts from its own initial state, optionally driven by its own input
+//! sequence, and the states after every `every`-th step come back as flat row-major arrays
+//! `[roll][sample][body][component]`.
+//!
+//! Two paths, the same physics as `simulate`:
+//! - **batched**: a scene of free bodies with nothing coupling them (no mechanism, contact or
+//!   applied load) and no inputs: the rolls' bodies are one batch, stepped by one
+//!   [`Simulation`] on `threads` threads, as `tumble bench` steps a batch (the bodies are
+//!   independent, so a body's trajectory does not depend on the batch it is in);
+//! - **per roll**: anything else: one [`Simulation`] per roll (its own world: rolls never
+//!   touch), the rolls spread over `threads` threads.
+//!
+//! A roll's bodies start where [`RollStart::bodies`] puts them (free bodies: centre of mass,
+//! principal frame, velocities), or, for an articulated first `[[model]]`, at the joint
+//! positions and rates [`RollStart::joints`] names (forward kinematics of the first table, as
+//! a dataset's `vary.joints` does). A diverging roll (the guard, [`crate::sim::guard`]) is an
+//! error naming the roll.
+
+use super::inputs::{InputKind, Inputs};
+use super::{Inits, Progress, Simulation};
+use crate::scene::Scene;
+use crate::scene::{FirstTable, LoadedModels};
+use crate::sim::BodyInit;
+use crate::world::World;
+use anyhow::{Context, bail};
+use rayon::prelude::*;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use std::collections::HashMap;
+
+/// Where one roll starts.
+#[derive(Debug, Clone, Default)]
+pub struct RollStart {
+    /// Free bodies' initial states (the scene's where `None`).
+    pub bodies: BodyStarts,
+    /// Joint positions (rad or m) of the first `[[model]]` (articulated), by recorded joint
+    /// name; joints not named keep the scene's.
+    pub joint_positions: Vec<(String, f64)>,
+    /// Joint rates (rad/s or m/s), the same way.
+    pub joint_velocities: Vec<(String, f64)>,
+}
+
+/// Initial states of every body, each part optional (the scene's where `None`), every given
+/// one with one entry per body in the scene's order.
+#[derive(Debug, Clone, Default)]
+pub struct BodyStarts {
+    /// Centres of mass, m, world.
+    pub position: Option<Vec<Vector3<f64>>>,
+    /// Principal frames in the world (normalised here).
+    pub orientation: Option<Vec<Quaternion<f64>>>,
+    /// m/s, world.
+    pub linear_velocity: Option<Vec<Vector3<f64>>>,
+    /// rad/s, world.
+    pub angular_velocity: Option<Vec<Vector3<f64>>>,
+}
+
+impl BodyStarts {
+    fn is_empty(&self) -> bool {
+        self.position.is_none()
+            && self.orientation.is_none()
+            && self.linear_velocity.is_none()
+            && self.angular_velocity.is_none()
+    }
+
+    /// Checks the counts and values against `bodies` bodies.
+    fn check(&self, bodies: usize) -> anyhow::Result<()> {
+        let counts = [
+            ("position", self.position.as_ref().map(Vec::len)),
+            ("orientation", self.orientation.as_ref().map(Vec::len)),
+            ("linear_velocity", self.linear_velocity.as_ref().map(Vec::len)),
+            ("angular_velocity", self.angular_velocity.as_ref().map(Vec::len)),
+        ];
+        for (name, count) in counts {
+            if let Some(n) = count.filter(|&n| n != bodies) {
+                bail!("{name}: {n} entries for {bodies} bodies");
+            }
+        }
+        let finite = |v: &Vector3<f64>| v.iter().all(|x| x.is_finite());
+        for (name, values) in [
+            ("position", &self.position),
+            ("linear_velocity", &self.linear_velocity),
+            ("angular_velocity", &self.angular_velocity),
+        ] {
+            if let Some(b) = values.iter().flatten().position(|v| !finite(v)) {
+                bail!("{name}: body {b}: not finite");
+            }
+        }
+        if let Some(b) = self.orientation.iter().flatten().position(|q| {
+            let n = q.norm();
+            !(n.is_finite() && n > 0.0)
+        }) {
+            bail!("orientation: body {b}: not a rotation (zero or not finite)");
+        }
+        Ok(())
+    }
+
+    /// Puts the given parts onto `inits` (masses and moments stay the scene's).
+    fn apply(&self, inits: &mut [BodyInit]) {
+        for (i, init) in inits.iter_mut().enumerate() {
+            if let Some(p) = &self.position {
+                init.world_from_body.translation.vector = p[i];
+            }
+            if let Some(q) = &self.orientation {
+                init.world_from_body.rotation = UnitQuaternion::from_quaternion(q[i]);
+            }
+            if let Some(v) = &self.linear_velocity {
+                init.linvel_world = v[i];
+            }
+            if let Some(w) = &self.angular_velocity {
+                init.angvel_world = w[i];
+            }
+        }
+    }
+}
+
+/// One actuated joint's input over every roll and step: `values[r * steps + k]` is held over
+/// step `k + 1` of roll `r` ([`Inputs`]).
+#[derive(Debug, Clone)]
+pub struct RollInput {
+    pub joint: String,
+    pub kind: InputKind,
+    pub values: Vec<f64>,
+}
+
+/// What [`rollout`] does.
+#[derive(Debug, Clone, Copy)]
+pub struct RolloutOptions {
+    pub steps: u64,
+    /// A sample after every `every`-th step (>= 1).
+    pub every: u64,
+    pub threads: usize,
+}
+
+/// The states of every roll after every `every`-th step (the initial state is not a sample),
+/// flat and row-major; world frame, SI units.
+#[derive(Debug, Clone, Default)]
+pub struct Rollout {
+    pub rolls: usize,
+    pub samples: usize,
+    pub bodies: usize,
+    pub joints: usize,
+    /// Per sample, s.
+    pub time_secs: Vec<f64>,
+    /// `[r][s][b][3]`: centre of mass.
+    pub position: Vec<f64>,
+    /// `[r][s][b][4]`: principal frame, x y z w.
+    pub orientation: Vec<f64>,
+    pub linear_velocity: Vec<f64>,
+    pub angular_velocity: Vec<f64>,
+    /// `[r][s][j]`.
+    pub joint_position: Vec<f64>,
+    pub joint_velocity: Vec<f64>,
+    /// Whether the rolls were stepped as one batch (the module doc).
+    pub batched: bool,
+}
+
+/// Per body: its link frame's index and its principal frame in that link frame (the
+/// recordings' body pose: `world_from_link[frame] * link_from_principal`).
+pub fn body_frames(world: &World) -> Vec<(usize, nalgebra::Isometry3<f64>)> {
+    world
+        .layout
+        .bodies
+        .iter()
+        .map(|b| (b.frame, b.link_from_principal))
+        .collect()
+}
+
+/// One sample's slices of a roll's output.
+struct SampleOut<'a> {
+    position: &'a mut [f64],
+    orientation: &'a mut [f64],
+    linear_velocity: &'a mut [f64],
+    angular_velocity: &'a mut [f64],
+    joint_position: &'a mut [f64],
+    joint_velocity: &'a mut [f64],
+}
+
+/// Writes the current state of `sim` as the recordings report it (through the frame, as
+/// [`Simulation::frame`] builds it: the same numbers as a recording of that step).
+fn write_frame(sim: &mut Simulation, frames: &[(usize, nalgebra::Isometry3<f64>)], out: SampleOut) {
+    let frame = sim.frame();
+    for (b, (state, (f, link_from_principal))) in frame.bodies.iter().zip(frames).enumerate() {
+        let pose = frame.world_from_link[*f] * link_from_principal;
+        let q = pose.rotation.quaternion().coords;
+        out.position[3 * b..3 * b + 3].copy_from_slice(pose.translation.vector.as_slice());
+        out.orientation[4 * b..4 * b + 4].copy_from_slice(&[q.x, q.y, q.z, q.w]);
+        out.linear_velocity[3 * b..3 * b + 3].copy_from_slice(state.linvel_world.as_slice());
+        out.angular_velocity[3 * b..3 * b + 3].copy_from_slice(state.angvel_world.as_slice());
+    }
+    for (j, state) in frame.joints.iter().enumerate() {
+        out.joint_position[j] = state.position;
+        out.joint_velocity[j] = state.velocity;
+    }
+}
+
+/// Runs `starts.len()` rolls of `scene` (the module doc).
+pub fn rollout(
+    scene: &Scene,
+    starts: &[RollStart],
+    inputs: &[RollInput],
+    options: &RolloutOptions,
+) -> anyhow::Result<Rollout> {
+    let file = scene.source.display().to_string();
+    let every = options.every.max(1);
+    let loaded = scene.load_models()?;
+    let world = scene.assemble(&loaded, &|table, copy| scene.models[table].placement(copy))?;
+    let rolls = starts.len();
+    let samples = usize::try_from(options.steps / every).context("too many samples")?;
+    let (bodies, joints) = (world.bodies.len(), world.layout.joints.len());
+    for (r, start) in starts.iter().enumerate() {
+        if !start.bodies.is_empty() {
+            start
+                .bodies
+                .check(bodies)
+                .with_context(|| format!("{file}: roll {r}"))?;
+            if !world.mechanisms.is_empty() {
+                bail!(
+                    "{file}: roll {r}: body states cannot start an articulated model (its bodies \
+                     must satisfy its joints); give joint positions and rates"
+                );
+            }
+        }
+    }
+    for input in inputs {
+        let want = rolls as u64 * options.steps;
+        if input.values.len() as u64 != want {
+            bail!(
+                "{file}: the input of {}: {} values for {rolls} rolls of {} steps",
+                input.joint,
+                input.values.len(),
+                options.steps
+            );
+        }
+    }
+    let sized = |width: usize| vec![0.0; rolls * samples * width];
+    let mut out = Rollout {
+        rolls,
+        samples,
+        bodies,
+        joints,
+        time_secs: (1..=samples as u64)
+            .map(|s| super::time_ns(s * every, scene.sim.dt) as f64 / 1e9)
+            .collect(),
+        position: sized(3 * bodies),
+        orientation: sized(4 * bodies),
+        linear_velocity: sized(3 * bodies),
+        angular_velocity: sized(3 * bodies),
+        joint_position: sized(joints),
+        joint_velocity: sized(joints),
+        batched: false,
+    };
+    let settings = crate::sim::RunSettings {
+        steps: options.steps,
+        log_every: every,
+        ..scene.run_settings()
+    };
+    let independent = world.mechanisms.is_empty()
+        && world.body_loads.is_empty()
+        && !world.contact.is_active()
+        && inputs.is_empty();
+    if independent && rolls > 0 {
+        batched(scene, &world, starts, &settings, options.threads, &mut out)?;
+        out.batched = true;
+        return Ok(out);
+    }
+    let frames = body_frames(&world);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.threads.max(1))
+        .build()?;
+    let chunk = |w: usize| (samples * w).max(1);
+    let results: Vec<anyhow::Result<()>> = pool.install(|| {
+        out.position
+            .par_chunks_mut(chunk(3 * bodies))
+            .zip(out.orientation.par_chunks_mut(chunk(4 * bodies)))
+            .zip(out.linear_velocity.par_chunks_mut(chunk(3 * bodies)))
+            .zip(out.angular_velocity.par_chunks_mut(chunk(3 * bodies)))
+            .zip(out.joint_position.par_chunks_mut(chunk(joints)))
+            .zip(out.joint_velocity.par_chunks_mut(chunk(joints)))
+            .enumerate()
+            .map(|(r, (((((p, o), v), w), jp), jv))| {
+                let roll_world = roll_world(scene, &loaded, &world, &starts[r])
+                    .with_context(|| format!("{file}: roll {r}"))?;
+                let mut roll = RollBuffers {
+                    position: p,
+                    orientation: o,
+                    linear_velocity: v,
+                    angular_velocity: w,
+                    joint_position: jp,
+                    joint_velocity: jv,
+                };
+                run_roll(scene, roll_world, r, inputs, &settings, &frames, &mut roll)
+                    .with_context(|| format!("{file}: roll {r}"))
+            })
+            .collect()
+    });
+    for result in results {
+        result?;
+    }
+    Ok(out)
+}
+
+/// One roll's output arrays.
+struct RollBuffers<'a> {
+    position: &'a mut [f64],
+    orientation: &'a mut [f64],
+    linear_velocity: &'a mut [f64],
+    angular_velocity: &'a mut [f64],
+    joint_position: &'a mut [f64],
+    joint_velocity: &'a mut [f64],
+}
+
+impl RollBuffers<'_> {
+    fn sample(&mut self, s: usize, bodies: usize, joints: usize) -> SampleOut<'_> {
+        SampleOut {
+            position: &mut self.position[s * 3 * bodies..(s + 1) * 3 * bodies],
+            orientation: &mut self.orientation[s * 4 * bodies..(s + 1) * 4 * bodies],
+            linear_velocity: &mut self.linear_velocity[s * 3 * bodies..(s + 1) * 3 * bodies],
+            angular_velocity: &mut self.angular_velocity[s * 3 * bodies..(s + 1) * 3 * bodies],
+            joint_position: &mut self.joint_position[s * joints..(s + 1) * joints],
+            joint_velocity: &mut self.joint_velocity[s * joints..(s + 1) * joints],
+        }
+    }
+}
+
+/// Roll `start`'s world: the scene's, its bodies replaced, or the first table re-posed at
+/// the roll's joint positions and rates.
+fn roll_world(
+    scene: &Scene,
+    loaded: &LoadedModels,
+    world: &World,
+    start: &RollStart,
+) -> anyhow::Result<World> {
+    if start.joint_positions.is_empty() && start.joint_velocities.is_empty() {
+        let mut w = world.clone();
+        start.bodies.apply(&mut w.bodies);
+        return Ok(w);
+    }
+    let Some(entry) = scene.models.first() else {
+        bail!("joint states given for a scene without models");
+    };
+    let prefix = entry.name.as_ref().map(|n| format!("{n}/"));
+    let table_joints: Vec<&str> = world
+        .layout
+        .mechanisms
+        .first()
+        .filter(|_| entry.bodies == crate::scene::BodiesMode::Articulated)
+        .map(|m| {
+            world.layout.joints[m.joints.clone()]
+                .iter()
+                .map(|j| j.name.as_str())
+                .collect()
+        })
+        .unwrap_or_default();
+    let urdf_name = |name: &str| -> anyhow::Result<String> {
+        if !table_joints.contains(&name) {
+            bail!(
+                "joint {name:?}: not a moving joint of the first [[model]] (articulated){}",
+                crate::message::did_you_mean(name, table_joints.iter().copied())
+            );
+        }
+        Ok(match &prefix {
+            Some(p) => name.strip_prefix(p.as_str()).unwrap_or(name).to_string(),
+            None => name.to_string(),
+        })
+    };
+    let mut positions: HashMap<String, f64> =
+        entry.joints.iter().map(|(k, v)| (k.clone(), *v)).collect();
+    for (name, value) in &start.joint_positions {
+        positions.insert(urdf_name(name)?, *value);
+    }
+    let mut roll_scene = scene.clone();
+    for (name, value) in &start.joint_velocities {
+        roll_scene.models[0]
+            .joint_velocities
+            .insert(urdf_name(name)?, *value);
+    }
+    let table = &loaded.tables[0];
+    let model = table
+        .model
+        .at_joint_positions(&positions)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let first = FirstTable {
+        model: &model,
+        actuators: &table.actuators,
+    };
+    roll_scene.assemble_with(
+        loaded,
+        &|t, copy| roll_scene.models[t].placement(copy),
+        Some(&first),
+    )
+}
+
+/// Steps one roll, sampling after every `settings.log_every`-th step.
+fn run_roll(
+    scene: &Scene,
+    mut world: World,
+    roll: usize,
+    inputs: &[RollInput],
+    settings: &crate::sim::RunSettings,
+    frames: &[(usize, nalgebra::Isometry3<f64>)],
+    out: &mut RollBuffers<'_>,
+) -> anyhow::Result<()> {
+    let held: Option<Inputs> = (!inputs.is_empty()).then(|| super::inputs::hold(&mut world));
+    let (bodies, joints) = (world.bodies.len(), world.layout.joints.len());
+    let inits = std::mem::take(&mut world.bodies);
+    let (kind, dt, variational) = (
+        scene.integrator(),
+        scene.sim.dt,
+        scene.variational_settings(),
+    );
+    let mut sim = Simulation::new(
+        &world,
+        Inits::Owned(inits),
+        &|part| {
+            crate::sim::integrator_for(kind, dt, &variational, part.mechanisms, part.range.len())
+        },
+        1,
+        settings,
+    )?;
+    let every = settings.log_every;
+    let mut values: Vec<(String, f64)> = Vec::with_capacity(1);
+    let mut done = 0;
+    while done < settings.steps {
+        // With inputs, one step at a time (each holds its own value); else a sample at a time.
+        let n = match &held {
+            Some(held) => {
+                for input in inputs {
+                    values.clear();
+                    let k = roll * settings.steps as usize + done as usize;
+                    values.push((input.joint.clone(), input.values[k]));
+                    held.set(input.kind, &values)?;
+                }
+                1
+            }
+            None => every.min(settings.steps - done),
+        };
+        if sim.advance(n)? == Progress::Stopped {
+            stopped(&mut sim, roll)?;
+        }
+        done += n;
+        if done.is_multiple_of(every) {
+            let s = (done / every - 1) as usize;
+            write_frame(&mut sim, frames, out.sample(s, bodies, joints));
+        }
+    }
+    Ok(())
+}
+
+fn stopped(sim: &mut Simulation, roll: usize) -> anyhow::Result<()> {
+    let summary = sim.summary();
+    match summary.stopped {
+        Some(d) => bail!(
+            "roll {roll} diverged at step {} (body {}): {}",
+            d.step,
+            d.body,
+            d.cause
+        ),
+        None => Ok(()),
+    }
+}
+
+/// The batched path: every roll's bodies in one batch of a bare world (no layout), stepped on
+/// `threads` threads, each sample read from the batch.
+fn batched(
+    scene: &Scene,
+    world: &World,
+    starts: &[RollStart],
+    settings: &crate::sim::RunSettings,
+    threads: usize,
+    out: &mut Rollout,
+) -> anyhow::Result<()> {
+    let n = world.bodies.len();
+    let mut inits = Vec::with_capacity(n * starts.len());
+    for start in starts {
+        let first = inits.len();
+        inits.extend_from_slice(&world.bodies);
+        start.bodies.apply(&mut inits[first..]);
+    }
+    let (kind, dt, variational) = (
+        scene.integrator(),
+        scene.sim.dt,
+        scene.variational_settings(),
+    );
+    let mut sim = Simulation::new(
+        &World::default(),
+        Inits::Owned(inits),
+        &|part| {
+            crate::sim::integrator_for(kind, dt, &variational, part.mechanisms, part.range.len())
+        },
+        threads,
+        settings,
+    )?;
+    let every = settings.log_every;
+    let (samples, file) = (out.samples, scene.source.display());
+    for s in 0..samples {
+        if sim.advance(every)? == Progress::Stopped {
+            let d = sim.summary().stopped.expect("stopped");
+            bail!(
+                "{file}: roll {} diverged at step {} (body {}): {}",
+                d.body / n.max(1),
+                d.step,
+                d.body % n.max(1),
+                d.cause
+            );
+        }
+        let view = sim.view();
+        let fill = |r: usize, b: usize, i: usize, out: &mut Rollout| {
+            let (batch, j) = view.body(i);
+            let base = (r * samples + s) * n + b;
+            let pose = batch.world_from_body(j);
+            let q = pose.rotation.quaternion().coords;
+            out.position[3 * base..3 * base + 3].copy_from_slice(batch.com_world[j].as_slice());
+            out.orientation[4 * base..4 * base + 4].copy_from_slice(&[q.x, q.y, q.z, q.w]);
+            out.linear_velocity[3 * base..3 * base + 3]
+                .copy_from_slice(batch.linvel_world[j].as_slice());
+            out.angular_velocity[3 * base..3 * base + 3]
+                .copy_from_slice(batch.angvel_world(j).as_slice());
+        };
+        for r in 0..starts.len() {
+            for b in 0..n {
+                fill(r, b, r * n + b, out);
+            }
+        }
+    }
+    Ok(())
+}
