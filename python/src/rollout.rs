@@ -7,7 +7,9 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods}
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tumble::simulation::inputs::InputKind;
-use tumble::simulation::rollout::{BodyStarts, RollInput, RollStart, RolloutOptions};
+use tumble::simulation::rollout::{
+    BodyStarts, RollInput, RollStart, RolloutBuffers, RolloutOptions,
+};
 
 /// A `(rolls, ..., width)` float array as its rolls' rows of `width` values each.
 fn rows(
@@ -47,9 +49,11 @@ fn vectors3(v: &[f64]) -> Vec<nalgebra::Vector3<f64>> {
 /// in the dict). `inputs`: `{joint: (R, steps)}`, a motor's effort or a servo's target held
 /// over each step. Returns `time` (S,), `position` (R, S, N, 3), `orientation` (R, S, N, 4),
 /// `linear_velocity`, `angular_velocity` (R, S, N, 3), `joint_position`, `joint_velocity`
-/// (R, S, J), `body_names`, `joint_names`.
+/// (R, S, J), `body_names`, `joint_names`. `out`: a previous result of the same shapes, whose
+/// arrays are filled again instead of new ones (MuJoCo's `state=`: fresh memory costs the
+/// kernel's zeroing of every page, more than the sampling itself).
 #[pyfunction]
-#[pyo3(signature = (scene, initial_states=None, steps=None, inputs=None, threads=None, every=1, rolls=None))]
+#[pyo3(signature = (scene, initial_states=None, steps=None, inputs=None, threads=None, every=1, rolls=None, out=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn rollout<'py>(
     py: Python<'py>,
@@ -60,6 +64,7 @@ pub fn rollout<'py>(
     threads: Option<usize>,
     every: u64,
     rolls: Option<usize>,
+    out: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let s = &scene.inner;
     let steps = steps.unwrap_or_else(|| s.steps());
@@ -220,34 +225,97 @@ pub fn rollout<'py>(
         every,
         threads,
     };
-    let out = py
-        .detach(|| tumble::simulation::rollout::rollout(s, &starts, &roll_inputs, &options))
-        .map_err(err)?;
+    // The arrays are numpy's (its allocator asks for huge pages: a fresh 100 MB output costs
+    // a tenth of what 4 KiB pages do), filled in place with the GIL released.
+    let samples = (steps / every) as usize;
+    let jn = joint_names.len();
+    let shape4 = |w: usize| [r, samples, n, w];
+    let (p, o, v, w, jp, jv) = match out {
+        Some(out) => {
+            let get4 = |key: &str, width: usize| -> PyResult<Bound<'py, numpy::PyArray4<f64>>> {
+                let a = out.get_item(key)?.ok_or_else(|| {
+                    TumbleError::new_err(format!("out: no {key:?} array (pass a rollout's result)"))
+                })?;
+                let a = a.cast_into::<numpy::PyArray4<f64>>().map_err(|_| {
+                    TumbleError::new_err(format!("out[{key:?}]: not a 4-d float64 array"))
+                })?;
+                if a.shape() != shape4(width) {
+                    return Err(TumbleError::new_err(format!(
+                        "out[{key:?}]: shape {:?}, this rollout's is {:?}",
+                        a.shape(),
+                        shape4(width)
+                    )));
+                }
+                Ok(a)
+            };
+            let get3 = |key: &str| -> PyResult<Bound<'py, numpy::PyArray3<f64>>> {
+                let a = out.get_item(key)?.ok_or_else(|| {
+                    TumbleError::new_err(format!("out: no {key:?} array (pass a rollout's result)"))
+                })?;
+                let a = a.cast_into::<numpy::PyArray3<f64>>().map_err(|_| {
+                    TumbleError::new_err(format!("out[{key:?}]: not a 3-d float64 array"))
+                })?;
+                if a.shape() != [r, samples, jn] {
+                    return Err(TumbleError::new_err(format!(
+                        "out[{key:?}]: shape {:?}, this rollout's is {:?}",
+                        a.shape(),
+                        [r, samples, jn]
+                    )));
+                }
+                Ok(a)
+            };
+            (
+                get4("position", 3)?,
+                get4("orientation", 4)?,
+                get4("linear_velocity", 3)?,
+                get4("angular_velocity", 3)?,
+                get3("joint_position")?,
+                get3("joint_velocity")?,
+            )
+        }
+        // SAFETY: every element is written by `rollout_into` before the arrays are returned;
+        // on an error they are dropped unread.
+        None => unsafe {
+            (
+                numpy::PyArray4::<f64>::new(py, shape4(3), false),
+                numpy::PyArray4::<f64>::new(py, shape4(4), false),
+                numpy::PyArray4::<f64>::new(py, shape4(3), false),
+                numpy::PyArray4::<f64>::new(py, shape4(3), false),
+                numpy::PyArray3::<f64>::new(py, [r, samples, jn], false),
+                numpy::PyArray3::<f64>::new(py, [r, samples, jn], false),
+            )
+        },
+    };
+    let shape = {
+        let busy = |e: numpy::BorrowError| {
+            TumbleError::new_err(format!("out: an array is not writable or in use ({e})"))
+        };
+        let (mut pw, mut ow) = (p.try_readwrite().map_err(busy)?, o.try_readwrite().map_err(busy)?);
+        let (mut vw, mut ww) = (v.try_readwrite().map_err(busy)?, w.try_readwrite().map_err(busy)?);
+        let (mut jpw, mut jvw) = (jp.try_readwrite().map_err(busy)?, jv.try_readwrite().map_err(busy)?);
+        let buffers = RolloutBuffers {
+            position: pw.as_slice_mut().map_err(|e| TumbleError::new_err(e.to_string()))?,
+            orientation: ow.as_slice_mut().map_err(|e| TumbleError::new_err(e.to_string()))?,
+            linear_velocity: vw.as_slice_mut().map_err(|e| TumbleError::new_err(e.to_string()))?,
+            angular_velocity: ww.as_slice_mut().map_err(|e| TumbleError::new_err(e.to_string()))?,
+            joint_position: jpw.as_slice_mut().map_err(|e| TumbleError::new_err(e.to_string()))?,
+            joint_velocity: jvw.as_slice_mut().map_err(|e| TumbleError::new_err(e.to_string()))?,
+        };
+        py.detach(|| {
+            tumble::simulation::rollout::rollout_into(s, &starts, &roll_inputs, &options, buffers)
+        })
+        .map_err(err)?
+    };
     let d = PyDict::new(py);
-    let (rr, ss, nn, jj) = (out.rolls, out.samples, out.bodies, out.joints);
-    d.set_item("time", PyArray1::from_vec(py, out.time_secs))?;
-    for (key, values, width) in [
-        ("position", out.position, 3),
-        ("orientation", out.orientation, 4),
-        ("linear_velocity", out.linear_velocity, 3),
-        ("angular_velocity", out.angular_velocity, 3),
-    ] {
-        let a = PyArray1::from_vec(py, values)
-            .reshape([rr, ss, nn, width])
-            .map_err(|e| TumbleError::new_err(e.to_string()))?;
-        d.set_item(key, a)?;
-    }
-    for (key, values) in [
-        ("joint_position", out.joint_position),
-        ("joint_velocity", out.joint_velocity),
-    ] {
-        let a = PyArray1::from_vec(py, values)
-            .reshape([rr, ss, jj])
-            .map_err(|e| TumbleError::new_err(e.to_string()))?;
-        d.set_item(key, a)?;
-    }
+    d.set_item("time", PyArray1::from_vec(py, shape.time_secs))?;
+    d.set_item("position", p)?;
+    d.set_item("orientation", o)?;
+    d.set_item("linear_velocity", v)?;
+    d.set_item("angular_velocity", w)?;
+    d.set_item("joint_position", jp)?;
+    d.set_item("joint_velocity", jv)?;
     d.set_item("body_names", body_names)?;
     d.set_item("joint_names", joint_names)?;
-    d.set_item("batched", out.batched)?;
+    d.set_item("batched", shape.batched)?;
     Ok(d)
 }

@@ -287,6 +287,19 @@ impl Simulation {
         Ok(d)
     }
 
+    /// The joints' positions and rates now, `(q, v)`: two (J,) arrays in the order of
+    /// `state()["joint_names"]` (what a controller reads every step, without the rest of the
+    /// state).
+    fn joint_state<'py>(
+        &mut self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+        let frame = self.sim()?.frame();
+        let q: Vec<f64> = frame.joints.iter().map(|j| j.position).collect();
+        let v: Vec<f64> = frame.joints.iter().map(|j| j.velocity).collect();
+        Ok((PyArray1::from_vec(py, q), PyArray1::from_vec(py, v)))
+    }
+
     /// Sets motor efforts (N m, or N on a slider) by recorded joint name, held from the next
     /// step on (zero-order hold) until set again. Unknown names, servos and non-finite values
     /// raise, and nothing is set then.
