@@ -294,9 +294,9 @@ impl Simulation {
         &mut self,
         py: Python<'py>,
     ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
-        let frame = self.sim()?.frame();
-        let q: Vec<f64> = frame.joints.iter().map(|j| j.position).collect();
-        let v: Vec<f64> = frame.joints.iter().map(|j| j.velocity).collect();
+        let n = self.joint_names.len();
+        let (mut q, mut v) = (vec![0.0; n], vec![0.0; n]);
+        self.sim()?.joint_state(&mut q, &mut v);
         Ok((PyArray1::from_vec(py, q), PyArray1::from_vec(py, v)))
     }
 

@@ -369,38 +369,7 @@ impl FrameBuilder {
         }
         if !self.mechanisms.is_empty() {
             let time_secs = time_ns as f64 / 1e9;
-            if self.located.len() != self.mechanisms.len() {
-                self.located = self
-                    .mechanisms
-                    .iter()
-                    .map(|(m, _)| {
-                        let k = batch.part_of(m.first_body);
-                        let start = batch.parts[k].first;
-                        let range = start..start + batch.parts[k].bodies.len();
-                        let local = crate::sim::partition::rebase(std::slice::from_ref(m), &range);
-                        (k, Mechanism::clone(&local[0]))
-                    })
-                    .collect();
-            }
-            // The reports (projections, coordinates) on the pool, one task per mechanism; then
-            // copied into the frame in order (warnings in joint order).
-            let located = &self.located;
-            let report = |((_, reporter), (k, local)): (
-                &mut (Arc<Mechanism>, Reporter),
-                &(usize, Mechanism),
-            )| {
-                reporter.report(local, view.part(*k), loads, time_secs);
-            };
-            if view.is_threaded() {
-                view.install(|| {
-                    self.mechanisms
-                        .par_iter_mut()
-                        .zip(located.par_iter())
-                        .for_each(report);
-                });
-            } else {
-                self.mechanisms.iter_mut().zip(located).for_each(report);
-            }
+            self.report_mechanisms(batch, loads, time_secs);
             let located = std::mem::take(&mut self.located);
             for (m, (k, local)) in located.iter().enumerate() {
                 let part = &batch.parts[*k];
@@ -411,6 +380,66 @@ impl FrameBuilder {
         }
         self.pool = pool;
         self.last()
+    }
+
+    /// Runs every mechanism's reporter on the batch (projections, coordinates, rates, totals),
+    /// one task per mechanism on the stepping pool.
+    fn report_mechanisms(&mut self, batch: &Partitions<'_>, loads: &Loads, time_secs: f64) {
+        if self.located.len() != self.mechanisms.len() {
+            self.located = self
+                .mechanisms
+                .iter()
+                .map(|(m, _)| {
+                    let k = batch.part_of(m.first_body);
+                    let start = batch.parts[k].first;
+                    let range = start..start + batch.parts[k].bodies.len();
+                    let local = crate::sim::partition::rebase(std::slice::from_ref(m), &range);
+                    (k, Mechanism::clone(&local[0]))
+                })
+                .collect();
+        }
+        let view = batch.view();
+        let located = &self.located;
+        let report = |((_, reporter), (k, local)): (
+            &mut (Arc<Mechanism>, Reporter),
+            &(usize, Mechanism),
+        )| {
+            reporter.report(local, view.part(*k), loads, time_secs);
+        };
+        if view.is_threaded() {
+            view.install(|| {
+                self.mechanisms
+                    .par_iter_mut()
+                    .zip(located.par_iter())
+                    .for_each(report);
+            });
+        } else {
+            self.mechanisms.iter_mut().zip(located).for_each(report);
+        }
+    }
+
+    /// The joints' positions and rates at `step`, as [`FrameBuilder::frame_of_parts`] reports
+    /// them (the mechanisms' reports alone: no link pose, body state or total), in the order
+    /// of the layout's joints.
+    pub fn joints_of_parts(
+        &mut self,
+        batch: &Partitions<'_>,
+        loads: &Loads,
+        step: u64,
+        dt_secs: f64,
+        position: &mut [f64],
+        velocity: &mut [f64],
+    ) {
+        if self.mechanisms.is_empty() {
+            return;
+        }
+        self.report_mechanisms(batch, loads, time_ns(step, dt_secs) as f64 / 1e9);
+        for (k, (_, reporter)) in self.mechanisms.iter().enumerate() {
+            let joints = self.mechanism_ranges[k].1.clone();
+            let report = &reporter.report;
+            position[joints.clone()].copy_from_slice(&report.position[..joints.len()]);
+            velocity[joints.clone()].copy_from_slice(&report.velocity[..joints.len()]);
+        }
     }
 
     /// Total mechanical energy of the last frame built (reported states), J.

@@ -366,6 +366,22 @@ impl Simulation {
         self.frames.shared()
     }
 
+    /// The joints' positions and rates now (rad or m, rad/s or m/s; the layout's joints in
+    /// order), the numbers [`Simulation::frame`] would hold, without building the rest of a
+    /// frame: what a controller reads every step. Both slices hold one value per joint.
+    pub fn joint_state(&mut self, position: &mut [f64], velocity: &mut [f64]) {
+        if self.built == Some(self.step) {
+            let frame = self.frames.shared();
+            for ((p, v), j) in position.iter_mut().zip(velocity.iter_mut()).zip(&frame.joints) {
+                (*p, *v) = (j.position, j.velocity);
+            }
+            return;
+        }
+        let dt = self.parts.dt();
+        self.frames
+            .joints_of_parts(&self.parts, &self.loads, self.step, dt, position, velocity);
+    }
+
     /// What the run did so far; after the last step, its final energy and the largest change
     /// of a conserved angular momentum (a stopped run keeps them at 0, as before the first
     /// step: its state is the diverged one).
