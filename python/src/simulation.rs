@@ -44,13 +44,29 @@ impl Simulation {
             .ok_or_else(|| TumbleError::new_err("the simulation is finished"))
     }
 
-    fn set(&mut self, kind: InputKind, values: &Bound<'_, PyDict>) -> PyResult<()> {
+    /// `values`: `{joint: value}`, or a sequence in the order of the joints of `kind`
+    /// (`Simulation.motors` or `Simulation.servos`).
+    fn set(&mut self, kind: InputKind, values: &Bound<'_, PyAny>) -> PyResult<()> {
         self.sim()?;
-        let mut pairs = Vec::with_capacity(values.len());
-        for (k, v) in values.iter() {
-            pairs.push((k.extract::<String>()?, v.extract::<f64>()?));
+        if let Ok(values) = values.cast::<PyDict>() {
+            let mut pairs = Vec::with_capacity(values.len());
+            for (k, v) in values.iter() {
+                pairs.push((k.extract::<String>()?, v.extract::<f64>()?));
+            }
+            return self.inputs.set(kind, &pairs).map_err(err);
         }
-        self.inputs.set(kind, &pairs).map_err(err)
+        if let Ok(array) = values.extract::<numpy::PyReadonlyArray1<'_, f64>>()
+            && let Ok(slice) = array.as_slice()
+        {
+            return self.inputs.set_in_order(kind, slice).map_err(err);
+        }
+        let in_order: Vec<f64> = values.extract().map_err(|_| {
+            TumbleError::new_err(
+                "expected {joint: value} or a sequence of floats in the order of \
+                 Simulation.motors (efforts) or Simulation.servos (targets)",
+            )
+        })?;
+        self.inputs.set_in_order(kind, &in_order).map_err(err)
     }
 
     /// Finishes the files and raises the guard's stop, as `simulate` does.
@@ -237,6 +253,19 @@ impl Simulation {
         self.dt_secs
     }
 
+    /// The joints with a motor, in the order `set_efforts` takes a sequence in.
+    #[getter]
+    fn motors(&self) -> Vec<String> {
+        self.inputs.names(InputKind::Effort).map(String::from).collect()
+    }
+
+    /// The joints with a position or velocity servo, in the order `set_targets` takes a
+    /// sequence in.
+    #[getter]
+    fn servos(&self) -> Vec<String> {
+        self.inputs.names(InputKind::Target).map(String::from).collect()
+    }
+
     /// The actuated joints: `{name: "motor" | "position" | "velocity"}` (motors take
     /// `set_efforts`, servos `set_targets`).
     #[getter]
@@ -300,16 +329,17 @@ impl Simulation {
         Ok((PyArray1::from_vec(py, q), PyArray1::from_vec(py, v)))
     }
 
-    /// Sets motor efforts (N m, or N on a slider) by recorded joint name, held from the next
-    /// step on (zero-order hold) until set again. Unknown names, servos and non-finite values
-    /// raise, and nothing is set then.
-    fn set_efforts(&mut self, efforts: &Bound<'_, PyDict>) -> PyResult<()> {
+    /// Sets motor efforts (N m, or N on a slider), held from the next step on (zero-order
+    /// hold) until set again: `{joint: effort}` by recorded joint name, or a sequence in the
+    /// order of `motors` (no name lookup). Unknown names, servos, a wrong count and
+    /// non-finite values raise, and nothing is set then.
+    fn set_efforts(&mut self, efforts: &Bound<'_, PyAny>) -> PyResult<()> {
         self.set(InputKind::Effort, efforts)
     }
 
     /// Sets servo targets (a position servo's rad or m, a velocity servo's rad/s or m/s), as
     /// `set_efforts` does efforts.
-    fn set_targets(&mut self, targets: &Bound<'_, PyDict>) -> PyResult<()> {
+    fn set_targets(&mut self, targets: &Bound<'_, PyAny>) -> PyResult<()> {
         self.set(InputKind::Target, targets)
     }
 

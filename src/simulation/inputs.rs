@@ -135,6 +135,37 @@ impl Inputs {
         }
         Ok(())
     }
+
+    /// The joints `kind` sets, in order ([`Inputs::set_in_order`]'s order).
+    pub fn names(&self, kind: InputKind) -> impl Iterator<Item = &str> {
+        self.joints
+            .iter()
+            .filter(move |j| kind.accepts(j.law))
+            .map(|j| j.joint.as_str())
+    }
+
+    /// Sets every input of `kind`, in the order of [`Inputs::names`] (no name lookup: a
+    /// controller's every-step call). A count that is not theirs, or a value that is not
+    /// finite, is an error and nothing is set.
+    pub fn set_in_order(&self, kind: InputKind, values: &[f64]) -> anyhow::Result<()> {
+        let count = self.names(kind).count();
+        if values.len() != count {
+            bail!(
+                "{} values for the {count} joints that take {} ({})",
+                values.len(),
+                kind.what(),
+                self.names(kind).collect::<Vec<_>>().join(", ")
+            );
+        }
+        if let Some((name, value)) = self.names(kind).zip(values).find(|(_, v)| !v.is_finite()) {
+            bail!("{name}: the value {value} is not finite");
+        }
+        let inputs = self.joints.iter().filter(|j| kind.accepts(j.law));
+        for (input, value) in inputs.zip(values) {
+            input.held.set(*value);
+        }
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -263,5 +294,26 @@ mod tests {
             .to_string();
         assert_eq!(e, "arm/elbow: the value NaN is not finite");
         assert_eq!(inputs.joints[0].held.scene(), &Signal::Constant(0.25));
+        let names: Vec<&str> = inputs.names(InputKind::Target).collect();
+        assert_eq!(names, ["arm/shoulder", "arm/elbow"]);
+        let e = inputs
+            .set_in_order(InputKind::Target, &[1.0])
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "1 values for the 2 joints that take a target (position and velocity servos) \
+             (arm/shoulder, arm/elbow)"
+        );
+        let e = inputs
+            .set_in_order(InputKind::Target, &[1.0, f64::INFINITY])
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e, "arm/elbow: the value inf is not finite");
+        assert_eq!(inputs.joints[1].held.value(), None, "nothing set by a bad call");
+        inputs.set_in_order(InputKind::Target, &[0.5, -0.5]).unwrap();
+        assert_eq!(inputs.joints[1].held.value(), Some(0.5));
+        assert_eq!(inputs.joints[2].held.value(), Some(-0.5));
+        assert_eq!(inputs.joints[0].held.value(), None, "the motor is not a target");
     }
 }
