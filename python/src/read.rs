@@ -75,13 +75,22 @@ fn tables(path: &std::path::Path) -> anyhow::Result<Vec<(&'static str, Columns)>
     let (mut tf_t, mut tf_q) = (Vectors::<3>::new(), Vectors::<4>::new());
     let (mut b_clock, mut b_name) = (Clock::default(), Vec::new());
     let (mut b_p, mut b_q) = (Vectors::<3>::new(), Vectors::<4>::new());
-    let (mut b_v, mut b_w, mut b_l) = (Vectors::<3>::new(), Vectors::<3>::new(), Vectors::<3>::new());
+    let (mut b_v, mut b_w, mut b_l) = (
+        Vectors::<3>::new(),
+        Vectors::<3>::new(),
+        Vectors::<3>::new(),
+    );
     let (mut b_ke, mut b_pe) = (Vec::new(), Vec::new());
     let (mut j_clock, mut j_name) = (Clock::default(), Vec::new());
-    let (mut j_pos, mut j_vel, mut j_eff, mut j_tgt) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut j_pos, mut j_vel, mut j_eff, mut j_tgt) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut j_sat, mut j_lim) = (Vec::new(), Vec::new());
     let (mut m_clock, mut m_name) = (Clock::default(), Vec::new());
-    let (mut m_p, mut m_l, mut m_c) = (Vectors::<3>::new(), Vectors::<3>::new(), Vectors::<3>::new());
+    let (mut m_p, mut m_l, mut m_c) = (
+        Vectors::<3>::new(),
+        Vectors::<3>::new(),
+        Vectors::<3>::new(),
+    );
     let (mut m_ke, mut m_pe, mut m_rm, mut m_rr) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut c_clock, mut c_a, mut c_b) = (Clock::default(), Vec::new(), Vec::new());
     let (mut c_p, mut c_n, mut c_f, mut c_i) = (
@@ -137,7 +146,10 @@ fn tables(path: &std::path::Path) -> anyhow::Result<Vec<(&'static str, Columns)>
         for c in &s.contacts {
             c_clock.push(s.step, s.time_ns);
             c_a.push(layout.bodies[c.body_a].name.clone());
-            c_b.push(c.body_b.map_or_else(|| "ground".to_string(), |b| layout.bodies[b].name.clone()));
+            c_b.push(
+                c.body_b
+                    .map_or_else(|| "ground".to_string(), |b| layout.bodies[b].name.clone()),
+            );
             c_p.push(xyz(&c.point_world));
             c_n.push(xyz(&c.normal_world));
             c_f.push(xyz(&c.force_world));
@@ -150,7 +162,10 @@ fn tables(path: &std::path::Path) -> anyhow::Result<Vec<(&'static str, Columns)>
     tf_clock.into(&mut tf);
     tf.text("frame_id", tf_frame);
     tf_t.into(&mut tf, ["translation_x", "translation_y", "translation_z"]);
-    tf_q.into(&mut tf, ["rotation_x", "rotation_y", "rotation_z", "rotation_w"]);
+    tf_q.into(
+        &mut tf,
+        ["rotation_x", "rotation_y", "rotation_z", "rotation_w"],
+    );
     out.push(("/tf", tf));
     let mut bodies = Columns::default();
     b_clock.into(&mut bodies);
@@ -158,11 +173,37 @@ fn tables(path: &std::path::Path) -> anyhow::Result<Vec<(&'static str, Columns)>
     b_p.into(&mut bodies, ["position_x", "position_y", "position_z"]);
     b_q.into(
         &mut bodies,
-        ["orientation_x", "orientation_y", "orientation_z", "orientation_w"],
+        [
+            "orientation_x",
+            "orientation_y",
+            "orientation_z",
+            "orientation_w",
+        ],
     );
-    b_v.into(&mut bodies, ["linear_velocity_x", "linear_velocity_y", "linear_velocity_z"]);
-    b_w.into(&mut bodies, ["angular_velocity_x", "angular_velocity_y", "angular_velocity_z"]);
-    b_l.into(&mut bodies, ["angular_momentum_x", "angular_momentum_y", "angular_momentum_z"]);
+    b_v.into(
+        &mut bodies,
+        [
+            "linear_velocity_x",
+            "linear_velocity_y",
+            "linear_velocity_z",
+        ],
+    );
+    b_w.into(
+        &mut bodies,
+        [
+            "angular_velocity_x",
+            "angular_velocity_y",
+            "angular_velocity_z",
+        ],
+    );
+    b_l.into(
+        &mut bodies,
+        [
+            "angular_momentum_x",
+            "angular_momentum_y",
+            "angular_momentum_z",
+        ],
+    );
     bodies.f64("kinetic_energy", b_ke);
     bodies.f64("potential_energy", b_pe);
     out.push(("/bodies", bodies));
@@ -182,8 +223,22 @@ fn tables(path: &std::path::Path) -> anyhow::Result<Vec<(&'static str, Columns)>
         let mut m = Columns::default();
         m_clock.into(&mut m);
         m.text("model", m_name);
-        m_p.into(&mut m, ["linear_momentum_x", "linear_momentum_y", "linear_momentum_z"]);
-        m_l.into(&mut m, ["angular_momentum_x", "angular_momentum_y", "angular_momentum_z"]);
+        m_p.into(
+            &mut m,
+            [
+                "linear_momentum_x",
+                "linear_momentum_y",
+                "linear_momentum_z",
+            ],
+        );
+        m_l.into(
+            &mut m,
+            [
+                "angular_momentum_x",
+                "angular_momentum_y",
+                "angular_momentum_z",
+            ],
+        );
         m_c.into(&mut m, ["com_x", "com_y", "com_z"]);
         m.f64("kinetic_energy", m_ke);
         m.f64("potential_energy", m_pe);

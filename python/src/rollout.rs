@@ -290,16 +290,37 @@ pub fn rollout<'py>(
         let busy = |e: numpy::BorrowError| {
             TumbleError::new_err(format!("out: an array is not writable or in use ({e})"))
         };
-        let (mut pw, mut ow) = (p.try_readwrite().map_err(busy)?, o.try_readwrite().map_err(busy)?);
-        let (mut vw, mut ww) = (v.try_readwrite().map_err(busy)?, w.try_readwrite().map_err(busy)?);
-        let (mut jpw, mut jvw) = (jp.try_readwrite().map_err(busy)?, jv.try_readwrite().map_err(busy)?);
+        let (mut pw, mut ow) = (
+            p.try_readwrite().map_err(busy)?,
+            o.try_readwrite().map_err(busy)?,
+        );
+        let (mut vw, mut ww) = (
+            v.try_readwrite().map_err(busy)?,
+            w.try_readwrite().map_err(busy)?,
+        );
+        let (mut jpw, mut jvw) = (
+            jp.try_readwrite().map_err(busy)?,
+            jv.try_readwrite().map_err(busy)?,
+        );
         let buffers = RolloutBuffers {
-            position: pw.as_slice_mut().map_err(|e| TumbleError::new_err(e.to_string()))?,
-            orientation: ow.as_slice_mut().map_err(|e| TumbleError::new_err(e.to_string()))?,
-            linear_velocity: vw.as_slice_mut().map_err(|e| TumbleError::new_err(e.to_string()))?,
-            angular_velocity: ww.as_slice_mut().map_err(|e| TumbleError::new_err(e.to_string()))?,
-            joint_position: jpw.as_slice_mut().map_err(|e| TumbleError::new_err(e.to_string()))?,
-            joint_velocity: jvw.as_slice_mut().map_err(|e| TumbleError::new_err(e.to_string()))?,
+            position: pw
+                .as_slice_mut()
+                .map_err(|e| TumbleError::new_err(e.to_string()))?,
+            orientation: ow
+                .as_slice_mut()
+                .map_err(|e| TumbleError::new_err(e.to_string()))?,
+            linear_velocity: vw
+                .as_slice_mut()
+                .map_err(|e| TumbleError::new_err(e.to_string()))?,
+            angular_velocity: ww
+                .as_slice_mut()
+                .map_err(|e| TumbleError::new_err(e.to_string()))?,
+            joint_position: jpw
+                .as_slice_mut()
+                .map_err(|e| TumbleError::new_err(e.to_string()))?,
+            joint_velocity: jvw
+                .as_slice_mut()
+                .map_err(|e| TumbleError::new_err(e.to_string()))?,
         };
         py.detach(|| {
             tumble::simulation::rollout::rollout_into(s, &starts, &roll_inputs, &options, buffers)

@@ -86,7 +86,10 @@ impl Scene {
         let world = self.inner.build().map_err(err)?;
         let layout = &world.layout;
         let mut bodies = Columns::default();
-        bodies.text("name", layout.bodies.iter().map(|b| b.name.clone()).collect());
+        bodies.text(
+            "name",
+            layout.bodies.iter().map(|b| b.name.clone()).collect(),
+        );
         bodies.text(
             "model",
             layout
@@ -125,12 +128,18 @@ impl Scene {
             );
         }
         let mut joints = Columns::default();
-        joints.text("name", layout.joints.iter().map(|j| j.name.clone()).collect());
+        joints.text(
+            "name",
+            layout.joints.iter().map(|j| j.name.clone()).collect(),
+        );
         joints.text(
             "model",
             layout.joints.iter().map(|j| j.model.clone()).collect(),
         );
-        joints.text("type", layout.joints.iter().map(|j| j.kind.clone()).collect());
+        joints.text(
+            "type",
+            layout.joints.iter().map(|j| j.kind.clone()).collect(),
+        );
         let limit = |k: usize| -> Vec<f64> {
             layout
                 .joints
@@ -144,7 +153,9 @@ impl Scene {
         let (mut law, mut effort_limit, mut damping) =
             (vec![String::new(); n], vec![f64::NAN; n], vec![0.0; n]);
         for d in &layout.drives {
-            law[d.joint] = d.actuator.map_or_else(String::new, |a| a.name().to_string());
+            law[d.joint] = d
+                .actuator
+                .map_or_else(String::new, |a| a.name().to_string());
             effort_limit[d.joint] = d.effort_limit.unwrap_or(f64::NAN);
             damping[d.joint] = d.damping;
         }

@@ -19,6 +19,9 @@ struct OnThisThread<'a>(&'a mut Run);
 // SAFETY: see the type's doc: the reference never leaves this thread.
 unsafe impl Send for OnThisThread<'_> {}
 
+/// Two (J,) arrays: joint positions and rates.
+type Pair<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
+
 /// A running simulation of a scene.
 #[pyclass(unsendable, module = "tumble")]
 pub struct Simulation {
@@ -164,8 +167,8 @@ impl Simulation {
                     .map_err(|e| TumbleError::new_err(e.to_string()))?;
                 foxglove_layout = Some((path, format!("{text}\n")));
             }
-            let ellipsoids =
-                ellipsoids_choice(false, false).unwrap_or_else(|| world.layout.default_ellipsoids());
+            let ellipsoids = ellipsoids_choice(false, false)
+                .unwrap_or_else(|| world.layout.default_ellipsoids());
             let options = tumble::simulation::SimulateOptions {
                 rerun: tumble::record::rerun::RerunOptions { ellipsoids },
                 formats,
@@ -188,7 +191,13 @@ impl Simulation {
             &world,
             tumble::simulation::Inits::Owned(inits),
             &|part| {
-                tumble::sim::integrator_for(kind, dt, &variational, part.mechanisms, part.range.len())
+                tumble::sim::integrator_for(
+                    kind,
+                    dt,
+                    &variational,
+                    part.mechanisms,
+                    part.range.len(),
+                )
             },
             threads,
             &settings,
@@ -256,14 +265,20 @@ impl Simulation {
     /// The joints with a motor, in the order `set_efforts` takes a sequence in.
     #[getter]
     fn motors(&self) -> Vec<String> {
-        self.inputs.names(InputKind::Effort).map(String::from).collect()
+        self.inputs
+            .names(InputKind::Effort)
+            .map(String::from)
+            .collect()
     }
 
     /// The joints with a position or velocity servo, in the order `set_targets` takes a
     /// sequence in.
     #[getter]
     fn servos(&self) -> Vec<String> {
-        self.inputs.names(InputKind::Target).map(String::from).collect()
+        self.inputs
+            .names(InputKind::Target)
+            .map(String::from)
+            .collect()
     }
 
     /// The actuated joints: `{name: "motor" | "position" | "velocity"}` (motors take
@@ -319,10 +334,7 @@ impl Simulation {
     /// The joints' positions and rates now, `(q, v)`: two (J,) arrays in the order of
     /// `state()["joint_names"]` (what a controller reads every step, without the rest of the
     /// state).
-    fn joint_state<'py>(
-        &mut self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>)> {
+    fn joint_state<'py>(&mut self, py: Python<'py>) -> PyResult<Pair<'py>> {
         let n = self.joint_names.len();
         let (mut q, mut v) = (vec![0.0; n], vec![0.0; n]);
         self.sim()?.joint_state(&mut q, &mut v);

@@ -202,7 +202,11 @@ mod tests {
         Scene::parse(&text, &dir.join("scene.toml")).unwrap()
     }
 
-    fn run(scene: &Scene, inputs: impl FnOnce(&mut World) -> Option<Inputs>, steps: u64) -> Vec<(f64, f64)> {
+    fn run(
+        scene: &Scene,
+        inputs: impl FnOnce(&mut World) -> Option<Inputs>,
+        steps: u64,
+    ) -> Vec<(f64, f64)> {
         let mut world = scene.build().unwrap();
         let held = inputs(&mut world);
         let mut sim = Simulation::of_world(
@@ -216,14 +220,20 @@ mod tests {
         .unwrap();
         if let Some(held) = held {
             // Between steps: a motor impulse 0.5 N m for 100 steps, then -1.5 N m for 40.
-            held.set(InputKind::Effort, &[("spin".into(), 0.5)]).unwrap();
+            held.set(InputKind::Effort, &[("spin".into(), 0.5)])
+                .unwrap();
             sim.advance(100).unwrap();
-            held.set(InputKind::Effort, &[("spin".into(), -1.5)]).unwrap();
+            held.set(InputKind::Effort, &[("spin".into(), -1.5)])
+                .unwrap();
             sim.advance(40).unwrap();
         }
         sim.advance(steps).unwrap();
         let frame = sim.frame().clone();
-        frame.joints.iter().map(|j| (j.position, j.velocity)).collect()
+        frame
+            .joints
+            .iter()
+            .map(|j| (j.position, j.velocity))
+            .collect()
     }
 
     /// Held inputs set to the scene's own constants step the same bits as the scene; a motor
@@ -240,7 +250,10 @@ mod tests {
                 let inputs = hold(w);
                 let names: Vec<&str> = inputs.joints.iter().map(|j| j.joint.as_str()).collect();
                 assert_eq!(names, ["spin", "arm/shoulder", "arm/elbow"]);
-                let set = [("arm/shoulder".to_string(), 0.3), ("arm/elbow".into(), -0.2)];
+                let set = [
+                    ("arm/shoulder".to_string(), 0.3),
+                    ("arm/elbow".into(), -0.2),
+                ];
                 inputs.set(InputKind::Target, &set).unwrap();
                 None
             },
@@ -260,7 +273,11 @@ mod tests {
         // 0.066 rad. The variational step with a held effort is exact for it.
         let theta = 0.5 * 10.0 * 0.1_f64.powi(2) + 1.0 * 0.04 - 0.5 * 30.0 * 0.04_f64.powi(2);
         // Measured: 0 rad (the same bits).
-        assert!((driven[0].0 - theta).abs() < 1e-12, "{} vs {theta}", driven[0].0);
+        assert!(
+            (driven[0].0 - theta).abs() < 1e-12,
+            "{} vs {theta}",
+            driven[0].0
+        );
     }
 
     /// Bad names and laws are refused with the joint named, and nothing is set by a bad call.
@@ -270,24 +287,37 @@ mod tests {
         let mut world = scene(dir.path(), 0.25, [0.0, 0.0]).build().unwrap();
         let inputs = hold(&mut world);
         let e = inputs
-            .set(InputKind::Effort, &[("spin".into(), 1.0), ("spn".into(), 2.0)])
+            .set(
+                InputKind::Effort,
+                &[("spin".into(), 1.0), ("spn".into(), 2.0)],
+            )
             .unwrap_err()
             .to_string();
         assert_eq!(
             e,
             "spn: no actuated joint of that name takes an effort (motor actuators): did you mean `spin`?"
         );
-        assert_eq!(inputs.joints[0].held.value(), None, "the good name was not set");
+        assert_eq!(
+            inputs.joints[0].held.value(),
+            None,
+            "the good name was not set"
+        );
         let e = inputs
             .set(InputKind::Effort, &[("arm/elbow".into(), 1.0)])
             .unwrap_err()
             .to_string();
-        assert!(e.starts_with("arm/elbow: its actuator is a position actuator"), "{e}");
+        assert!(
+            e.starts_with("arm/elbow: its actuator is a position actuator"),
+            "{e}"
+        );
         let e = inputs
             .set(InputKind::Target, &[("zzz".into(), 1.0)])
             .unwrap_err()
             .to_string();
-        assert!(e.ends_with("(those that do: arm/shoulder, arm/elbow)"), "{e}");
+        assert!(
+            e.ends_with("(those that do: arm/shoulder, arm/elbow)"),
+            "{e}"
+        );
         let e = inputs
             .set(InputKind::Target, &[("arm/elbow".into(), f64::NAN)])
             .unwrap_err()
@@ -310,10 +340,20 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert_eq!(e, "arm/elbow: the value inf is not finite");
-        assert_eq!(inputs.joints[1].held.value(), None, "nothing set by a bad call");
-        inputs.set_in_order(InputKind::Target, &[0.5, -0.5]).unwrap();
+        assert_eq!(
+            inputs.joints[1].held.value(),
+            None,
+            "nothing set by a bad call"
+        );
+        inputs
+            .set_in_order(InputKind::Target, &[0.5, -0.5])
+            .unwrap();
         assert_eq!(inputs.joints[1].held.value(), Some(0.5));
         assert_eq!(inputs.joints[2].held.value(), Some(-0.5));
-        assert_eq!(inputs.joints[0].held.value(), None, "the motor is not a target");
+        assert_eq!(
+            inputs.joints[0].held.value(),
+            None,
+            "the motor is not a target"
+        );
     }
 }

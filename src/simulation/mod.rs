@@ -18,9 +18,9 @@
 //! only the steps `log_every` names (and the last) are recorded.
 
 pub mod files;
+mod frames;
 pub mod inputs;
 pub mod rollout;
-mod frames;
 mod summary;
 #[cfg(test)]
 mod tests;
@@ -372,7 +372,11 @@ impl Simulation {
     pub fn joint_state(&mut self, position: &mut [f64], velocity: &mut [f64]) {
         if self.built == Some(self.step) {
             let frame = self.frames.shared();
-            for ((p, v), j) in position.iter_mut().zip(velocity.iter_mut()).zip(&frame.joints) {
+            for ((p, v), j) in position
+                .iter_mut()
+                .zip(velocity.iter_mut())
+                .zip(&frame.joints)
+            {
                 (*p, *v) = (j.position, j.velocity);
             }
             return;

@@ -24,8 +24,8 @@ use crate::scene::{FirstTable, LoadedModels};
 use crate::sim::BodyInit;
 use crate::world::World;
 use anyhow::{Context, bail};
-use rayon::prelude::*;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use rayon::prelude::*;
 use std::collections::HashMap;
 
 /// Where one roll starts.
@@ -67,8 +67,14 @@ impl BodyStarts {
         let counts = [
             ("position", self.position.as_ref().map(Vec::len)),
             ("orientation", self.orientation.as_ref().map(Vec::len)),
-            ("linear_velocity", self.linear_velocity.as_ref().map(Vec::len)),
-            ("angular_velocity", self.angular_velocity.as_ref().map(Vec::len)),
+            (
+                "linear_velocity",
+                self.linear_velocity.as_ref().map(Vec::len),
+            ),
+            (
+                "angular_velocity",
+                self.angular_velocity.as_ref().map(Vec::len),
+            ),
         ];
         for (name, count) in counts {
             if let Some(n) = count.filter(|&n| n != bodies) {
@@ -181,8 +187,14 @@ pub struct RolloutBuffers<'a> {
 impl<'a> RolloutBuffers<'a> {
     /// Each roll's part of the arrays (`samples` samples of `bodies` bodies and `joints`
     /// joints per roll).
-    fn split(self, rolls: usize, samples: usize, bodies: usize, joints: usize) -> Vec<RollBuffers<'a>> {
-        fn parts<'b>(a: &'b mut [f64], rolls: usize, len: usize) -> Vec<&'b mut [f64]> {
+    fn split(
+        self,
+        rolls: usize,
+        samples: usize,
+        bodies: usize,
+        joints: usize,
+    ) -> Vec<RollBuffers<'a>> {
+        fn parts(a: &mut [f64], rolls: usize, len: usize) -> Vec<&mut [f64]> {
             if len == 0 {
                 return (0..rolls).map(|_| <&mut [f64]>::default()).collect();
             }
@@ -320,7 +332,10 @@ pub fn rollout_into(
         ("joint_velocity", out.joint_velocity.len(), joints),
     ] {
         if len != rolls * samples * width {
-            bail!("internal error: the rollout's {name} array holds {len} values, not {}", rolls * samples * width);
+            bail!(
+                "internal error: the rollout's {name} array holds {len} values, not {}",
+                rolls * samples * width
+            );
         }
     }
     for (r, start) in starts.iter().enumerate() {
@@ -368,7 +383,15 @@ pub fn rollout_into(
         && !world.contact.is_active()
         && inputs.is_empty();
     if independent && rolls > 0 {
-        batched(scene, &world, starts, &settings, options.threads, samples, out)?;
+        batched(
+            scene,
+            &world,
+            starts,
+            &settings,
+            options.threads,
+            samples,
+            out,
+        )?;
         shape.batched = true;
         return Ok(shape);
     }
@@ -571,7 +594,9 @@ fn batched(
     let groups = threads.clamp(1, starts.len().max(1));
     let per_group = starts.len().div_ceil(groups);
     let rows = |width: usize| (per_group * samples * n * width).max(1);
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(groups).build()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(groups)
+        .build()?;
     let file = scene.source.display().to_string();
     let results: Vec<anyhow::Result<()>> = pool.install(|| {
         out.position
@@ -653,7 +678,10 @@ fn step_group(
     let mut s0 = 0;
     for s in 0..samples {
         if sim.advance(every)? == Progress::Stopped {
-            let d = sim.summary().stopped.expect("a stopped run names its divergence");
+            let d = sim
+                .summary()
+                .stopped
+                .expect("a stopped run names its divergence");
             return Err(GroupDiverged {
                 roll: d.body / n.max(1),
                 step: d.step,
