@@ -337,3 +337,20 @@ def test_the_gil_is_released_while_stepping():
     assert done[0][0] < returned, (done, returned)
     assert done[0][1] > 100
     assert sim.steps == 60000
+
+
+def test_the_worked_example_holds_the_arm(tmp_path):
+    # python/examples/pd_arm.py (docs/python.md): the arm reaches (1.0, -0.8) rad and holds it,
+    # sagging under gravity by its torque over kp (measured 1.71e-3 rad); the motors' work is
+    # the energy change to the ledger's O(h) (measured 6e-4 relative).
+    import runpy
+
+    example = runpy.run_path(os.path.join(ROOT, "python", "examples", "pd_arm.py"))
+    errors, summary = example["run"](str(tmp_path / "pd_arm"))
+    assert len(errors) == 3000
+    assert errors[400] < 5e-3 and errors[500] > 0.9  # the target jumps at 0.5 s
+    assert errors[-1000:].max() < 5e-3
+    work, change = summary["input_work"], summary["energy_final"] - summary["energy_initial"]
+    assert abs(change - work) < 3e-3 * abs(work), summary
+    names = sorted(p.name for p in summary["written"])
+    assert names == ["pd_arm.foxglove.json", "pd_arm.mcap", "pd_arm.rrd"]
