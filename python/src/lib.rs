@@ -22,7 +22,12 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 
-create_exception!(_tumble, TumbleError, PyException);
+create_exception!(
+    _tumble,
+    TumbleError,
+    PyException,
+    "Any error of the tumble library, with the message the CLI prints (the file, the key)."
+);
 
 /// The library's error as a `TumbleError` (its whole chain, as the CLI prints it).
 pub(crate) fn err(e: anyhow::Error) -> PyErr {
