@@ -5,15 +5,16 @@
 //!
 //! Two paths, the same physics as `simulate`:
 //! - **batched**: a scene of free bodies with nothing coupling them (no mechanism, contact or
-//!   applied load) and no inputs: the rolls' bodies are one batch, stepped by one
-//!   [`Simulation`] on `threads` threads, as `tumble bench` steps a batch (the bodies are
-//!   independent, so a body's trajectory does not depend on the batch it is in);
+//!   applied load) and no inputs: the rolls are cut into one group per thread, each group's
+//!   bodies one batch stepped by its own [`Simulation`] on its thread, the threads never
+//!   meeting (the bodies are independent, so a body's trajectory does not depend on the batch
+//!   it is in);
 //! - **per roll**: anything else: one [`Simulation`] per roll (its own world: rolls never
 //!   touch), the rolls spread over `threads` threads.
 //!
 //! A roll's bodies start where [`RollStart::bodies`] puts them (free bodies: centre of mass,
 //! principal frame, velocities), or, for an articulated first `[[model]]`, at the joint
-//! positions and rates [`RollStart::joints`] names (forward kinematics of the first table, as
+//! positions and rates [`RollStart::joint_positions`] and [`RollStart::joint_velocities`] name (forward kinematics of the first table, as
 //! a dataset's `vary.joints` does). A diverging roll (the guard, [`crate::sim::guard`]) is an
 //! error naming the roll.
 
