@@ -396,7 +396,6 @@ pub fn rollout_into(
         shape.batched = true;
         return Ok(shape);
     }
-    let frames = body_frames(&world);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.threads.max(1))
         .build()?;
@@ -408,6 +407,9 @@ pub fn rollout_into(
             .map(|(r, mut roll)| {
                 let roll_world = roll_world(scene, &loaded, &world, &starts[r])
                     .with_context(|| format!("{file}: roll {r}"))?;
+                // Each roll's own principal frames: a body with two equal moments has a
+                // plane of them, and a model posed otherwise may pick another.
+                let frames = body_frames(&roll_world);
                 run_roll(scene, roll_world, r, inputs, &settings, &frames, &mut roll)
                     .with_context(|| format!("{file}: roll {r}"))
             })
@@ -721,4 +723,315 @@ fn step_group(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simulation::inputs::hold;
+
+    fn scene(text: &str) -> Scene {
+        let models = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+        Scene::parse(text, &models.join("scene.toml")).unwrap()
+    }
+
+    const HANDLE: &str = "[sim]\ndt = 0.001\nduration = 0.05\ngravity = [0.0, 0.0, -9.81]\n\
+        [[model]]\nurdf = \"t_handle.urdf\"\nbodies = \"rigid\"\nposition = [0.0, 0.0, 1.0]\n";
+
+    const ARM: &str = "[sim]\ndt = 0.001\nduration = 0.05\ngravity = [0.0, 0.0, -9.81]\n\
+        [[model]]\nurdf = \"arm.urdf\"\nname = \"arm\"\nbodies = \"articulated\"\nbase = \"fixed\"\n\
+        [[model.actuator]]\njoint = \"shoulder\"\nkind = \"motor\"\neffort = 0.0\n\
+        [[model.actuator]]\njoint = \"elbow\"\nkind = \"motor\"\neffort = 0.0\n";
+
+    /// The state a Simulation of `world` reports after each `every` steps, as rollout arrays
+    /// of one roll: (positions, orientations, linear, angular, joint positions, rates).
+    fn simulate(
+        scene: &Scene,
+        mut world: World,
+        every: u64,
+        inputs: &[(usize, Vec<f64>)],
+    ) -> [Vec<f64>; 6] {
+        let held = hold(&mut world);
+        let frames = body_frames(&world);
+        let settings = crate::sim::RunSettings {
+            log_every: every,
+            ..scene.run_settings()
+        };
+        let mut sim = Simulation::of_world(
+            &world,
+            scene.integrator(),
+            scene.sim.dt,
+            &scene.variational_settings(),
+            1,
+            &settings,
+        )
+        .unwrap();
+        let (n, j) = (world.bodies.len(), world.layout.joints.len());
+        let samples = (settings.steps / every) as usize;
+        let mut out: [Vec<f64>; 6] = [
+            vec![0.0; samples * 3 * n],
+            vec![0.0; samples * 4 * n],
+            vec![0.0; samples * 3 * n],
+            vec![0.0; samples * 3 * n],
+            vec![0.0; samples * j],
+            vec![0.0; samples * j],
+        ];
+        for k in 0..settings.steps {
+            for (input, values) in inputs {
+                held.joints[*input].held.set(values[k as usize]);
+            }
+            sim.advance(1).unwrap();
+            if (k + 1) % every == 0 {
+                let s = ((k + 1) / every - 1) as usize;
+                let [p, o, v, w, jp, jv] = &mut out;
+                let mut roll = RollBuffers {
+                    position: p,
+                    orientation: o,
+                    linear_velocity: v,
+                    angular_velocity: w,
+                    joint_position: jp,
+                    joint_velocity: jv,
+                };
+                write_frame(&mut sim, &frames, roll.sample(s, n, j));
+            }
+        }
+        out
+    }
+
+    fn arrays(r: &Rollout, roll: usize) -> [Vec<f64>; 6] {
+        let part = |a: &[f64], width: usize| {
+            a[roll * r.samples * width..(roll + 1) * r.samples * width].to_vec()
+        };
+        [
+            part(&r.position, 3 * r.bodies),
+            part(&r.orientation, 4 * r.bodies),
+            part(&r.linear_velocity, 3 * r.bodies),
+            part(&r.angular_velocity, 3 * r.bodies),
+            part(&r.joint_position, r.joints),
+            part(&r.joint_velocity, r.joints),
+        ]
+    }
+
+    /// Free bodies: the batched path (two threads, three rolls, samples every 5 steps) equals
+    /// a Simulation of each start, to round-off (the pose composed through the link frame in
+    /// one, read from the body in the other: measured 2.2e-16).
+    #[test]
+    fn batched_rolls_are_simulations_of_their_starts() {
+        let scene = scene(HANDLE);
+        let spins = [
+            Vector3::new(0.1, 5.0, 0.2),
+            Vector3::new(3.0, -1.0, 0.5),
+            Vector3::zeros(),
+        ];
+        let starts: Vec<RollStart> = spins
+            .iter()
+            .enumerate()
+            .map(|(k, w)| RollStart {
+                bodies: BodyStarts {
+                    angular_velocity: Some(vec![*w]),
+                    position: (k == 2).then(|| vec![Vector3::new(0.5, 0.0, 2.0)]),
+                    ..Default::default()
+                },
+                ..Default::default()
+            })
+            .collect();
+        let options = RolloutOptions {
+            steps: 50,
+            every: 5,
+            threads: 2,
+        };
+        let out = rollout(&scene, &starts, &[], &options).unwrap();
+        assert!(out.batched);
+        assert_eq!(
+            (out.rolls, out.samples, out.bodies, out.joints),
+            (3, 10, 1, 0)
+        );
+        assert_eq!(out.time_secs.len(), 10);
+        assert_eq!(out.time_secs[9], 0.05);
+        for (k, start) in starts.iter().enumerate() {
+            let mut world = scene.build().unwrap();
+            start.bodies.apply(&mut world.bodies);
+            let want = simulate(&scene, world, 5, &[]);
+            for (got, want) in arrays(&out, k).iter().zip(&want) {
+                assert_eq!(got.len(), want.len());
+                for (a, b) in got.iter().zip(want) {
+                    assert!(
+                        (a - b).abs() <= 1e-14 * (1.0 + b.abs()),
+                        "roll {k}: {a} vs {b}"
+                    );
+                }
+            }
+        }
+        let w0 = &out.angular_velocity[..3];
+        let w1 = &out.angular_velocity[30..33];
+        assert!((w0[1] - w1[1]).abs() > 1.0, "the starts were used");
+    }
+
+    /// An articulated arm: the per-roll path with input sequences equals a held Simulation
+    /// bit for bit, and from joint starts a Simulation of the scene placed there.
+    #[test]
+    fn per_roll_paths_are_the_simulations_of_their_starts() {
+        let scene = scene(ARM);
+        let steps = 50;
+        let u: Vec<f64> = (0..2 * steps)
+            .map(|k| ((k % 17) as f64 - 8.0) * 0.25)
+            .collect();
+        let inputs = [RollInput {
+            joint: "arm/elbow".into(),
+            kind: InputKind::Effort,
+            values: u.clone(),
+        }];
+        let starts = vec![
+            RollStart::default(),
+            RollStart {
+                joint_positions: vec![("arm/shoulder".into(), 0.4), ("arm/elbow".into(), -0.7)],
+                joint_velocities: vec![("arm/elbow".into(), 1.5)],
+                ..Default::default()
+            },
+        ];
+        let options = RolloutOptions {
+            steps,
+            every: 1,
+            threads: 2,
+        };
+        let out = rollout(&scene, &starts, &inputs, &options).unwrap();
+        assert!(!out.batched);
+        assert_eq!(
+            (out.rolls, out.samples, out.bodies, out.joints),
+            (2, 50, 2, 2)
+        );
+        let placed = ARM.replace(
+            "base = \"fixed\"\n",
+            "base = \"fixed\"\njoints = { shoulder = 0.4, elbow = -0.7 }\n\
+             joint_velocities = { elbow = 1.5 }\n",
+        );
+        for (r, text) in [ARM.to_string(), placed].iter().enumerate() {
+            let roll_scene = self::scene(text);
+            let world = roll_scene.build().unwrap();
+            let values = u[r * steps as usize..(r + 1) * steps as usize].to_vec();
+            let placed_frames = body_frames(&world);
+            let want = simulate(&roll_scene, world, 1, &[(1, values)]);
+            let got = arrays(&out, r);
+            if r == 0 {
+                assert!(got == want, "roll 0: not the same bits");
+                continue;
+            }
+            // From joint starts the roll's model is posed from the loaded one
+            // (`Model::at_joint_positions`), the scene's loaded at its `joints`: the same
+            // forward kinematics in another order (measured: 5.6e-17 m apart). The upper arm,
+            // a cylinder, has a plane of principal axes: each world picks its own, so the
+            // orientations are compared as the link frames they place.
+            let close = |a: &[f64], b: &[f64]| {
+                a.iter()
+                    .zip(b)
+                    .all(|(x, y)| (x - y).abs() <= 1e-15 * (1.0 + y.abs()))
+            };
+            for k in [0, 2, 3, 4, 5] {
+                assert!(close(&got[k], &want[k]), "roll 1, array {k}");
+            }
+            let loaded = scene.load_models().unwrap();
+            let base = scene.build().unwrap();
+            let roll_frames = body_frames(&roll_world(&scene, &loaded, &base, &starts[1]).unwrap());
+            let link = |q: &[f64], frames: &[(usize, nalgebra::Isometry3<f64>)], b: usize| {
+                let q = UnitQuaternion::from_quaternion(Quaternion::new(q[3], q[0], q[1], q[2]));
+                q * frames[b].1.rotation.inverse()
+            };
+            for (g, w) in got[1]
+                .chunks(4)
+                .zip(want[1].chunks(4))
+                .enumerate()
+                .map(|(i, (g, w))| {
+                    let b = i % 2;
+                    (link(g, &roll_frames, b), link(w, &placed_frames, b))
+                })
+            {
+                // Measured: 2.2e-16 rad.
+                assert!(g.angle_to(&w) < 1e-12, "{}", g.angle_to(&w));
+            }
+        }
+        assert!((out.joint_position[0] - out.joint_position[100]).abs() > 0.1);
+    }
+
+    /// What is refused, with the roll or the input named.
+    #[test]
+    fn bad_starts_and_inputs_are_refused() {
+        let options = RolloutOptions {
+            steps: 10,
+            every: 1,
+            threads: 1,
+        };
+        let arm = scene(ARM);
+        let body_start = RollStart {
+            bodies: BodyStarts {
+                position: Some(vec![Vector3::zeros(); 2]),
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let e = rollout(&arm, &[body_start], &[], &options)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("roll 0: body states cannot start an articulated model"),
+            "{e}"
+        );
+        let e = rollout(
+            &arm,
+            &[RollStart {
+                joint_positions: vec![("arm/elbw".into(), 0.1)],
+                ..Default::default()
+            }],
+            &[],
+            &options,
+        )
+        .unwrap_err();
+        let e = format!("{e:#}");
+        assert!(e.contains("roll 0: joint \"arm/elbw\": not a moving joint of the first [[model]] (articulated): did you mean `arm/elbow`?"), "{e}");
+        let short = RollInput {
+            joint: "arm/elbow".into(),
+            kind: InputKind::Effort,
+            values: vec![0.0; 9],
+        };
+        let e = rollout(&arm, &[RollStart::default()], &[short], &options)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.ends_with("the input of arm/elbow: 9 values for 1 rolls of 10 steps"),
+            "{e}"
+        );
+        let handle = scene(HANDLE);
+        for (starts, want) in [
+            (
+                BodyStarts {
+                    position: Some(vec![Vector3::zeros(); 2]),
+                    ..Default::default()
+                },
+                "position: 2 entries for 1 bodies",
+            ),
+            (
+                BodyStarts {
+                    orientation: Some(vec![Quaternion::new(0.0, 0.0, 0.0, 0.0)]),
+                    ..Default::default()
+                },
+                "orientation: body 0: not a rotation (zero or not finite)",
+            ),
+            (
+                BodyStarts {
+                    linear_velocity: Some(vec![Vector3::new(f64::NAN, 0.0, 0.0)]),
+                    ..Default::default()
+                },
+                "linear_velocity: body 0: not finite",
+            ),
+        ] {
+            let start = RollStart {
+                bodies: starts,
+                ..Default::default()
+            };
+            let e = format!(
+                "{:#}",
+                rollout(&handle, &[start], &[], &options).unwrap_err()
+            );
+            assert!(e.ends_with(want), "{e}");
+        }
+    }
 }
