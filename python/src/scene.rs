@@ -79,7 +79,9 @@ impl Scene {
     }
 
     /// The scene built, as tables (pandas DataFrames): `bodies` (name, model, link frame,
-    /// mass kg, principal moments kg m², initial centre of mass m, world) and `joints` (the
+    /// mass kg, principal moments kg m², the principal frame in the link frame: centre of mass
+    /// `com_link_*` m and axes `principal_q*` (x y z w), the initial centre of mass `com_*` m,
+    /// world) and `joints` (the
     /// moving joints recorded: name, model, URDF type, limits, actuator law, effort limit,
     /// damping). Errors as `Simulation(scene)` would raise them.
     fn inspect<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
@@ -114,6 +116,32 @@ impl Scene {
                     .bodies
                     .iter()
                     .map(|b| b.principal_moments[k])
+                    .collect(),
+            );
+        }
+        // The principal frame in the link frame: the centre of mass and the axes of the moments.
+        for (name, k) in [("com_link_x", 0), ("com_link_y", 1), ("com_link_z", 2)] {
+            bodies.f64(
+                name,
+                layout
+                    .bodies
+                    .iter()
+                    .map(|b| b.link_from_principal.translation.vector[k])
+                    .collect(),
+            );
+        }
+        for (name, k) in [
+            ("principal_qx", 0),
+            ("principal_qy", 1),
+            ("principal_qz", 2),
+            ("principal_qw", 3),
+        ] {
+            bodies.f64(
+                name,
+                layout
+                    .bodies
+                    .iter()
+                    .map(|b| b.link_from_principal.rotation.coords[k])
                     .collect(),
             );
         }

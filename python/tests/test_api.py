@@ -281,6 +281,37 @@ def test_inspect_lists_the_urdfs_masses_and_joints():
     info = tumble.Scene.from_toml('[[model]]\nurdf = "arm.urdf"\nbodies = "links"\n', base_dir=MODELS).inspect()
     bodies = info["bodies"]
     assert dict(zip(bodies.frame_id, bodies.mass)) == masses
+
+    # Each link's inertia tensor in its link frame, from the URDF (the inertial origin's rpy
+    # turning the <inertia> tensor), against R diag(moments) R^T from the principal frame.
+    def rpy_matrix(r, p, y):
+        cx, sx, cy, sy, cz, sz = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+        rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+        ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+        rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+        return rz @ ry @ rx
+
+    for link in urdf.findall("link"):
+        inertial = link.find("inertial")
+        if inertial is None:
+            continue
+        origin = inertial.find("origin")
+        xyz = np.array([float(v) for v in origin.get("xyz", "0 0 0").split()])
+        rot = rpy_matrix(*[float(v) for v in origin.get("rpy", "0 0 0").split()])
+        i = inertial.find("inertia").attrib
+        tensor = np.array([[float(i["ixx"]), float(i["ixy"]), float(i["ixz"])],
+                           [float(i["ixy"]), float(i["iyy"]), float(i["iyz"])],
+                           [float(i["ixz"]), float(i["iyz"]), float(i["izz"])]])
+        want = rot @ tensor @ rot.T
+        row = bodies[bodies.frame_id == link.get("name")].iloc[0]
+        x, y, z, w = row.principal_qx, row.principal_qy, row.principal_qz, row.principal_qw
+        r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+        got = r @ np.diag([row.moment_1, row.moment_2, row.moment_3]) @ r.T
+        # Measured: 1e-18 kg m^2 (the eigen-decomposition's round-off).
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
+        np.testing.assert_allclose([row.com_link_x, row.com_link_y, row.com_link_z], xyz, rtol=0, atol=1e-15)
     arm = tumble.Scene.from_file(os.path.join(MODELS, "arm_servo.toml")).inspect()["joints"]
     assert list(arm.name) == ["arm/shoulder", "arm/elbow"]
     assert list(arm.actuator) == ["position", "position"]

@@ -42,7 +42,8 @@ class Scene:
         """The scene's file (for `from_toml`, `scene.toml` in its `base_dir`)."""
     def inspect(self) -> Dict[str, _Frame]:
         """`{"bodies": DataFrame, "joints": DataFrame}`: each body's name, model, frame_id,
-        mass (kg), principal moments moment_1..3 (kg m²), initial centre of mass com_x..z (m);
+        mass (kg), principal moments moment_1..3 (kg m²), its principal frame in the link frame
+        (com_link_x..z m, principal_qx..qw), initial centre of mass com_x..z (m, world);
         each recorded joint's name, model, type, lower, upper, actuator, effort_limit,
         damping, limited."""
 
