@@ -185,20 +185,11 @@ impl Simulation {
         }
         let settings = s.run_settings();
         let inits = std::mem::take(&mut world.bodies);
-        let (kind, dt, variational) = (s.integrator(), s.sim.dt, s.variational_settings());
         let outputs_ref: Vec<&Path> = outputs.iter().map(PathBuf::as_path).collect();
-        let mut sim = match Run::new(
+        let mut sim = match Run::of_scene(
+            s,
             &world,
             tumble::simulation::Inits::Owned(inits),
-            &|part| {
-                tumble::sim::integrator_for(
-                    kind,
-                    dt,
-                    &variational,
-                    part.mechanisms,
-                    part.range.len(),
-                )
-            },
             threads,
             &settings,
         ) {
@@ -220,7 +211,7 @@ impl Simulation {
             outputs,
             foxglove_layout,
             body_frame_ids,
-            dt_secs: dt,
+            dt_secs: s.sim.dt,
         })
     }
 

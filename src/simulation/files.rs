@@ -249,11 +249,7 @@ pub fn simulate_world(
         )?),
         None => None,
     };
-    let (kind, dt, variational) = (
-        scene.integrator(),
-        scene.sim.dt,
-        scene.variational_settings(),
-    );
+    let variational = scene.variational_settings();
     let settings = crate::sim::RunSettings {
         stop_on_interrupt: true,
         ..scene.run_settings()
@@ -274,18 +270,10 @@ pub fn simulate_world(
         // mechanisms, each partition's integrator steps its own (docs/mechanisms.md). The
         // initial states leave the world: the run frees them once the partitions hold theirs.
         let inits = std::mem::take(&mut world.bodies);
-        Simulation::new(
+        Simulation::of_scene(
+            scene,
             &*world,
             Inits::Owned(inits),
-            &|part| {
-                crate::sim::integrator_for(
-                    kind,
-                    dt,
-                    &variational,
-                    part.mechanisms,
-                    part.range.len(),
-                )
-            },
             options.threads,
             &settings,
         )

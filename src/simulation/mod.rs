@@ -233,6 +233,37 @@ impl Simulation {
         )
     }
 
+    /// [`Simulation::new`] from `inits` with `scene`'s integrator at its step on `threads`
+    /// threads (a `simulate` run, a Python simulation, a rollout's roll).
+    pub fn of_scene(
+        scene: &crate::scene::Scene,
+        world: &World,
+        inits: Inits<'_>,
+        threads: usize,
+        settings: &RunSettings,
+    ) -> anyhow::Result<Self> {
+        let (kind, dt, variational) = (
+            scene.integrator(),
+            scene.sim.dt,
+            scene.variational_settings(),
+        );
+        Self::new(
+            world,
+            inits,
+            &|part| {
+                crate::sim::integrator_for(
+                    kind,
+                    dt,
+                    &variational,
+                    part.mechanisms,
+                    part.range.len(),
+                )
+            },
+            threads,
+            settings,
+        )
+    }
+
     /// [`Simulation::new`] with one partition stepped by `integrator` on this thread (e.g. an
     /// integrator made by hand, or one that needs the whole batch).
     pub fn with_integrator(

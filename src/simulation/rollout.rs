@@ -525,20 +525,7 @@ fn run_roll(
     let held: Option<Inputs> = (!inputs.is_empty()).then(|| super::inputs::hold(&mut world));
     let (bodies, joints) = (world.bodies.len(), world.layout.joints.len());
     let inits = std::mem::take(&mut world.bodies);
-    let (kind, dt, variational) = (
-        scene.integrator(),
-        scene.sim.dt,
-        scene.variational_settings(),
-    );
-    let mut sim = Simulation::new(
-        &world,
-        Inits::Owned(inits),
-        &|part| {
-            crate::sim::integrator_for(kind, dt, &variational, part.mechanisms, part.range.len())
-        },
-        1,
-        settings,
-    )?;
+    let mut sim = Simulation::of_scene(scene, &world, Inits::Owned(inits), 1, settings)?;
     let every = settings.log_every;
     let mut values: Vec<(String, f64)> = Vec::with_capacity(1);
     let mut done = 0;
@@ -655,20 +642,7 @@ fn step_group(
         inits.extend_from_slice(&world.bodies);
         start.bodies.apply(&mut inits[first..]);
     }
-    let (kind, dt, variational) = (
-        scene.integrator(),
-        scene.sim.dt,
-        scene.variational_settings(),
-    );
-    let mut sim = Simulation::new(
-        &World::default(),
-        Inits::Owned(inits),
-        &|part| {
-            crate::sim::integrator_for(kind, dt, &variational, part.mechanisms, part.range.len())
-        },
-        1,
-        settings,
-    )?;
+    let mut sim = Simulation::of_scene(scene, &World::default(), Inits::Owned(inits), 1, settings)?;
     let every = settings.log_every;
     let samples = (settings.steps / every) as usize;
     let [position, orientation, linvel, angvel] = out;
