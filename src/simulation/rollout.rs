@@ -544,7 +544,7 @@ fn run_roll(
             None => every.min(settings.steps - done),
         };
         if sim.advance(n)? == Progress::Stopped {
-            stopped(&mut sim, roll)?;
+            stopped(&mut sim)?;
         }
         done += n;
         if done.is_multiple_of(every) {
@@ -555,15 +555,11 @@ fn run_roll(
     Ok(())
 }
 
-fn stopped(sim: &mut Simulation, roll: usize) -> anyhow::Result<()> {
+/// The guard's stop of a roll as an error (the caller names the roll).
+fn stopped(sim: &mut Simulation) -> anyhow::Result<()> {
     let summary = sim.summary();
     match summary.stopped {
-        Some(d) => bail!(
-            "roll {roll} diverged at step {} (body {}): {}",
-            d.step,
-            d.body,
-            d.cause
-        ),
+        Some(d) => bail!("diverged at step {} (body {}): {}", d.step, d.body, d.cause),
         None => Ok(()),
     }
 }
@@ -601,7 +597,7 @@ fn batched(
                 step_group(scene, world, group, settings, [p, o, v, w]).map_err(|e| {
                     match e.downcast_ref::<GroupDiverged>() {
                         Some(d) => anyhow::anyhow!(
-                            "{file}: roll {} diverged at step {} (body {}): {}",
+                            "{file}: roll {}: diverged at step {} (body {}): {}",
                             first_roll + d.roll,
                             d.step,
                             d.body,
@@ -932,6 +928,45 @@ mod tests {
             }
         }
         assert!((out.joint_position[0] - out.joint_position[60]).abs() > 0.1);
+    }
+
+    /// A roll the guard stops is an error naming the roll (the others ran): a rotor driven
+    /// with 1e200 N m from its 5th step.
+    #[test]
+    fn a_diverging_roll_is_an_error_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("rotor.urdf"),
+            r#"<robot name="rotor"><link name="base"/>
+<link name="wheel"><inertial><mass value="2"/><inertia ixx="0.03" iyy="0.04" izz="0.05" ixy="0" ixz="0" iyz="0"/></inertial></link>
+<joint name="spin" type="continuous"><parent link="base"/><child link="wheel"/><axis xyz="0 0 1"/></joint>
+</robot>"#,
+        )
+        .unwrap();
+        let text = "[sim]\ndt = 0.001\nduration = 0.02\n[[model]]\nurdf = \"rotor.urdf\"\n\
+                    bodies = \"articulated\"\nbase = \"fixed\"\n[[model.actuator]]\n\
+                    joint = \"spin\"\nkind = \"motor\"\neffort = 0.0\n";
+        let scene = Scene::parse(text, &dir.path().join("scene.toml")).unwrap();
+        let mut values = vec![0.1; 40];
+        for v in &mut values[24..] {
+            *v = 1e200;
+        }
+        let input = RollInput {
+            joint: "spin".into(),
+            kind: InputKind::Effort,
+            values,
+        };
+        let options = RolloutOptions {
+            steps: 20,
+            every: 1,
+            threads: 1,
+        };
+        let starts = vec![RollStart::default(); 2];
+        let e = format!(
+            "{:#}",
+            rollout(&scene, &starts, &[input], &options).unwrap_err()
+        );
+        assert!(e.contains("roll 1: diverged at step 5 (body 0): "), "{e}");
     }
 
     /// What is refused, with the roll or the input named.
