@@ -231,19 +231,13 @@ pub fn body_frames(world: &World) -> Vec<(usize, nalgebra::Isometry3<f64>)> {
         .collect()
 }
 
-/// One sample's slices of a roll's output.
-struct SampleOut<'a> {
-    position: &'a mut [f64],
-    orientation: &'a mut [f64],
-    linear_velocity: &'a mut [f64],
-    angular_velocity: &'a mut [f64],
-    joint_position: &'a mut [f64],
-    joint_velocity: &'a mut [f64],
-}
-
 /// Writes the current state of `sim` as the recordings report it (through the frame, as
 /// [`Simulation::frame`] builds it: the same numbers as a recording of that step).
-fn write_frame(sim: &mut Simulation, frames: &[(usize, nalgebra::Isometry3<f64>)], out: SampleOut) {
+fn write_frame(
+    sim: &mut Simulation,
+    frames: &[(usize, nalgebra::Isometry3<f64>)],
+    out: RollBuffers<'_>,
+) {
     let frame = sim.frame();
     for (b, (state, (f, link_from_principal))) in frame.bodies.iter().zip(frames).enumerate() {
         let pose = frame.world_from_link[*f] * link_from_principal;
@@ -421,7 +415,7 @@ pub fn rollout_into(
     Ok(shape)
 }
 
-/// One roll's output arrays.
+/// One roll's output arrays (or one sample's part of them).
 struct RollBuffers<'a> {
     position: &'a mut [f64],
     orientation: &'a mut [f64],
@@ -432,8 +426,9 @@ struct RollBuffers<'a> {
 }
 
 impl RollBuffers<'_> {
-    fn sample(&mut self, s: usize, bodies: usize, joints: usize) -> SampleOut<'_> {
-        SampleOut {
+    /// Sample `s`'s part of the roll's arrays.
+    fn sample(&mut self, s: usize, bodies: usize, joints: usize) -> RollBuffers<'_> {
+        RollBuffers {
             position: &mut self.position[s * 3 * bodies..(s + 1) * 3 * bodies],
             orientation: &mut self.orientation[s * 4 * bodies..(s + 1) * 4 * bodies],
             linear_velocity: &mut self.linear_velocity[s * 3 * bodies..(s + 1) * 3 * bodies],
