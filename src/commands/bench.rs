@@ -123,7 +123,7 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
     for &t in &counts {
         let parts = partition_count(args.bodies, t);
         println!(
-            "{} x {} steps of {} bodies ({}, dt = {} s), no recording, {t} thread{} ({parts} partition{})",
+            "{} x {} steps of {} bodies ({}, dt = {} s), no recording, {t} thread{} ({parts} partition{}), vector unit {} (TUMBLE_SIMD caps it)",
             args.repeats,
             args.steps,
             args.bodies,
@@ -131,6 +131,7 @@ fn run_batch(args: &BenchArgs) -> anyhow::Result<()> {
             dt,
             if t == 1 { "" } else { "s" },
             if parts == 1 { "" } else { "s" },
+            crate::sim::simd::active().name(),
         );
     }
     // The thread counts take turns, run after run, so that a slow spell of the (shared) machine

@@ -13,6 +13,7 @@ pub mod partition;
 pub mod reference;
 pub mod run_settings;
 pub mod signal;
+pub mod simd;
 pub mod so3;
 pub mod workload;
 

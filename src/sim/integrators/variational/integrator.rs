@@ -4,17 +4,20 @@
 //! substep when needed).
 
 use super::VariationalSettings;
-use super::lanes::{LANES, Lanes, Quat, V3};
-use super::newton::{NewtonOut, advance, newton, newton_one_update, predict};
+use super::lanes::{LANES, Lanes, Pack, Quat, V3, has};
+use super::newton::{NewtonOut, advance, newton_one_update, predict};
 use super::one_body::solve_xi;
 use super::substep::substep_unconverged;
+#[cfg(target_arch = "x86_64")]
+use super::vector::{F64x4x2, F64x8x2};
 use crate::sim::Bodies;
 use crate::sim::guard::Watch;
 use crate::sim::integrators::EnergyFlow;
 use crate::sim::integrators::translation::step_translation;
 use crate::sim::integrators::{BLOCK_BODIES, Integrator, StepStats};
 use crate::sim::loads::{KickLedger, Loads};
-use crate::sim::so3::Real;
+use crate::sim::simd::Level;
+
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// The exponential-map variational integrator over a batch.
@@ -29,6 +32,8 @@ pub struct Variational {
     fresh: bool,
     /// The work of the applied loads ([`Loads::forced_step`]).
     ledger: KickLedger,
+    /// The vector unit the step runs on ([`crate::sim::simd`]: the same bits on all).
+    simd: Level,
 }
 
 impl Variational {
@@ -39,7 +44,20 @@ impl Variational {
             xi: Vec::new(),
             fresh: false,
             ledger: KickLedger::default(),
+            simd: crate::sim::simd::active(),
         }
+    }
+
+    /// The same integrator stepping on `level`'s vector unit (the machine's widest when it
+    /// lacks `level`): for the test that every unit steps the same bits, and for benchmarks.
+    pub fn with_simd(mut self, level: Level) -> Self {
+        self.simd = level.min(crate::sim::simd::detected());
+        self
+    }
+
+    /// The vector unit it steps on.
+    pub fn simd(&self) -> Level {
+        self.simd
     }
 
     /// The per-body `ξ` of the next step (after [`Integrator::init`]).
@@ -153,7 +171,9 @@ impl Variational {
         self.step_range_unforced(bodies, range, loads, watch)
     }
 
-    /// [`Variational::step_range_watched`] without the applied loads' kicks.
+    /// [`Variational::step_range_watched`] without the applied loads' kicks, on the vector unit
+    /// of [`Variational::simd`] (every unit steps the same bits).
+    #[allow(unsafe_code)]
     fn step_range_unforced(
         &mut self,
         bodies: &mut Bodies,
@@ -161,45 +181,112 @@ impl Variational {
         loads: &Loads,
         watch: Option<&Watch>,
     ) -> (StepStats, bool) {
-        let offset = range.start;
-        let predict_xi = !std::mem::replace(&mut self.fresh, false);
-        let dt = self.dt_secs;
-        let mut stats = StepStats::default();
-        let mut any_suspect = false;
-        let mut start = range.start;
-        while start < range.end {
-            let block = start..(start + BLOCK_BODIES).min(range.end);
-            rotate_block(
-                bodies,
-                &mut self.xi[block.start - offset..block.end - offset],
-                block.clone(),
-                dt,
-                predict_xi,
-                &self.settings,
-                &mut stats,
-            );
-            step_translation(
-                &mut bodies.com_world[block.clone()],
-                &mut bodies.linvel_world[block.clone()],
-                dt,
-                loads,
-                self.settings.potential,
-            );
-            if let Some(watch) = watch {
-                any_suspect |= watch.any_suspect(bodies, block.clone());
-            }
-            start = block.end;
+        let job = Blocks {
+            offset: range.start,
+            bodies,
+            xi: &mut self.xi,
+            range,
+            loads,
+            watch,
+            dt: self.dt_secs,
+            predict_xi: !std::mem::replace(&mut self.fresh, false),
+            settings: &self.settings,
+        };
+        match self.simd {
+            // SAFETY: `self.simd` is at most `simd::detected()` (`Variational::new`,
+            // `with_simd`): the CPU has the instructions these functions are compiled with.
+            #[cfg(target_arch = "x86_64")]
+            Level::Avx512 => unsafe { step_blocks_avx512(job) },
+            #[cfg(target_arch = "x86_64")]
+            Level::Avx2 => unsafe { step_blocks_avx2(job) },
+            _ => step_blocks::<Lanes<LANES>, LANES>(job),
         }
-        (stats, any_suspect)
     }
 }
 
-// The blocks start in multiples of the lanes, so the lanes are those of one pass.
-const _: () = assert!(BLOCK_BODIES.is_multiple_of(LANES));
+/// One call's bodies and settings for [`step_blocks`].
+struct Blocks<'a> {
+    bodies: &'a mut Bodies,
+    /// The per-body `ξ`, indexed from `offset`.
+    xi: &'a mut [Vector3<f64>],
+    offset: usize,
+    range: std::ops::Range<usize>,
+    loads: &'a Loads,
+    watch: Option<&'a Watch>,
+    dt: f64,
+    predict_xi: bool,
+    settings: &'a VariationalSettings,
+}
 
-/// The rotation step of the bodies `block` (batch indices; `xi` is theirs), in lanes of
-/// [`LANES`] bodies and the rest one by one.
-fn rotate_block(
+/// [`step_blocks`] in 4 lanes of AVX registers, compiled for AVX2 (translation and guard
+/// included, vectorized by the compiler for AVX2 with the same rounding).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn step_blocks_avx2(job: Blocks) -> (StepStats, bool) {
+    step_blocks::<F64x4x2, 8>(job)
+}
+
+/// [`step_blocks`] in 8 lanes of AVX-512 registers, compiled for AVX-512F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn step_blocks_avx512(job: Blocks) -> (StepStats, bool) {
+    step_blocks::<F64x8x2, 16>(job)
+}
+
+/// The step of `job.range`, block by block of [`BLOCK_BODIES`] bodies: rotation in packs of `N`
+/// bodies (the rest one by one), translation, then the guard's test of the block while it is in
+/// cache. Inlined into each vector unit's function, so it is compiled with that unit's
+/// instructions.
+#[inline(always)]
+fn step_blocks<L: Pack<N>, const N: usize>(job: Blocks) -> (StepStats, bool) {
+    let Blocks {
+        bodies,
+        xi,
+        offset,
+        range,
+        loads,
+        watch,
+        dt,
+        predict_xi,
+        settings,
+    } = job;
+    let mut stats = StepStats::default();
+    let mut any_suspect = false;
+    let mut start = range.start;
+    while start < range.end {
+        let block = start..(start + BLOCK_BODIES).min(range.end);
+        rotate_block::<L, N>(
+            bodies,
+            &mut xi[block.start - offset..block.end - offset],
+            block.clone(),
+            dt,
+            predict_xi,
+            settings,
+            &mut stats,
+        );
+        step_translation(
+            &mut bodies.com_world[block.clone()],
+            &mut bodies.linvel_world[block.clone()],
+            dt,
+            loads,
+            settings.potential,
+        );
+        if let Some(watch) = watch {
+            any_suspect |= watch.any_suspect(bodies, block.clone());
+        }
+        start = block.end;
+    }
+    (stats, any_suspect)
+}
+
+// The blocks start in multiples of the lanes of every unit, so the lanes are those of one pass.
+const _: () = assert!(BLOCK_BODIES.is_multiple_of(LANES));
+const _: () = assert!(BLOCK_BODIES.is_multiple_of(16));
+
+/// The rotation step of the bodies `block` (batch indices; `xi` is theirs), in packs of `N`
+/// bodies and the rest one by one.
+#[inline(always)]
+fn rotate_block<L: Pack<N>, const N: usize>(
     bodies: &mut Bodies,
     xi: &mut [Vector3<f64>],
     block: std::ops::Range<usize>,
@@ -209,14 +296,14 @@ fn rotate_block(
     stats: &mut StepStats,
 ) {
     let first = block.start;
-    let (j_l, j_r) = bodies.inertia_body[block.clone()].as_chunks::<LANES>();
-    let (ij_l, ij_r) = bodies.inv_inertia_body[block.clone()].as_chunks::<LANES>();
-    let (m_l, m_r) = bodies.angmom_body[block.clone()].as_chunks_mut::<LANES>();
-    let (q_l, q_r) = bodies.world_from_body[block].as_chunks_mut::<LANES>();
-    let (xi_l, xi_r) = xi.as_chunks_mut::<LANES>();
+    let (j_l, j_r) = bodies.inertia_body[block.clone()].as_chunks::<N>();
+    let (ij_l, ij_r) = bodies.inv_inertia_body[block.clone()].as_chunks::<N>();
+    let (m_l, m_r) = bodies.angmom_body[block.clone()].as_chunks_mut::<N>();
+    let (q_l, q_r) = bodies.world_from_body[block].as_chunks_mut::<N>();
+    let (xi_l, xi_r) = xi.as_chunks_mut::<N>();
     let chunks = j_l.iter().zip(ij_l).zip(m_l).zip(q_l).zip(xi_l);
     for (c, ((((j, ij), m), q), xi)) in chunks.enumerate() {
-        step_bodies(
+        step_bodies::<L, N>(
             j,
             ij,
             m,
@@ -225,13 +312,13 @@ fn rotate_block(
             dt,
             predict_xi,
             settings,
-            first + c * LANES,
+            first + c * N,
             stats,
         );
     }
     let rest = j_r.iter().zip(ij_r).zip(m_r).zip(q_r).zip(xi_r);
     for (r, ((((j, ij), m), q), xi)) in rest.enumerate() {
-        step_bodies::<1>(
+        step_bodies::<Lanes<1>, 1>(
             std::array::from_ref(j),
             std::array::from_ref(ij),
             std::array::from_mut(m),
@@ -240,7 +327,7 @@ fn rotate_block(
             dt,
             predict_xi,
             settings,
-            first + j_l.len() * LANES + r,
+            first + j_l.len() * N + r,
             stats,
         );
     }
@@ -250,7 +337,7 @@ fn rotate_block(
 /// `first_body` is the batch index of lane 0 (for [`StepStats::failed_body`]).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn step_bodies<const N: usize>(
+fn step_bodies<L: Pack<N>, const N: usize>(
     inertia: &[Vector3<f64>; N],
     inv_inertia: &[Vector3<f64>; N],
     angmom: &mut [Vector3<f64>; N],
@@ -262,19 +349,19 @@ fn step_bodies<const N: usize>(
     first_body: usize,
     stats: &mut StepStats,
 ) {
-    let m = V3::gather(angmom);
+    let m = V3::<L>::gather(angmom);
     let mut xi0 = V3::gather(xi);
     if predict_xi {
-        xi0 = predict(V3::gather(inv_inertia), m, xi0, Lanes::splat(dt_secs));
+        xi0 = predict(V3::gather(inv_inertia), m, xi0, L::splat(dt_secs));
     }
-    let j_over_h = V3::gather(inertia).scale(Lanes::splat(1.0 / dt_secs));
-    let threshold = Lanes::splat(settings.newton_tol) * m.amax();
+    let j_over_h = V3::<L>::gather(inertia).scale(L::splat(1.0 / dt_secs));
+    let threshold = L::splat(settings.newton_tol) * m.amax();
     // Two inlined copies of `finish`: the common path keeps everything in registers.
     match newton_one_update(j_over_h, m, xi0, threshold, settings) {
         Some(out) => finish(&out, m, angmom, q, xi, first_body, stats),
         None => {
-            let out = newton(j_over_h, m, xi0, threshold, settings);
-            if settings.substep && !out.converged.iter().all(|&c| c) {
+            let out = L::newton(j_over_h, m, xi0, threshold, settings);
+            if settings.substep && out.converged != L::ALL {
                 let start = (*angmom, *q);
                 finish(
                     &out,
@@ -307,9 +394,9 @@ fn step_bodies<const N: usize>(
 
 /// Rotates `q` and `M` by the solved `ξ`, stores `ξ`, and adds the Newton statistics.
 #[inline(always)]
-pub(super) fn finish<const N: usize>(
-    out: &NewtonOut<N>,
-    m: V3<Lanes<N>>,
+pub(super) fn finish<L: Pack<N>, const N: usize>(
+    out: &NewtonOut<L, N>,
+    m: V3<L>,
     angmom: &mut [Vector3<f64>; N],
     q: &mut [UnitQuaternion<f64>; N],
     xi: &mut [Vector3<f64>; N],
@@ -321,6 +408,6 @@ pub(super) fn finish<const N: usize>(
     m_next.scatter(angmom);
     out.xi.scatter(xi);
     for i in 0..N {
-        stats.add_solve(first_body + i, out.iterations[i], out.converged[i]);
+        stats.add_solve(first_body + i, out.iterations[i], has(out.converged, i));
     }
 }

@@ -1,21 +1,64 @@
-//! The SIMD lane types of the variational step: [`Lanes`] (`N` bodies' values of one quantity),
-//! [`V3`] (a 3-vector of lanes) and [`Quat`] (a quaternion of lanes), gathered from and
-//! scattered to the batch's storage.
+//! The SIMD lane types of the variational step: the [`Pack`] trait (`N` bodies' values of one
+//! quantity, processed by the same instructions) with its portable implementation [`Lanes`]
+//! (an array the compiler turns into SSE2's two-lane instructions; one body is `N = 1`) and the
+//! explicit AVX and AVX-512 registers of [`super::vector`], and the generic [`V3`] (a 3-vector of
+//! packs) and [`Quat`] (a quaternion of packs), gathered from and scattered to the batch's
+//! storage.
 //!
-//! The step's arithmetic is written once over `N` lanes (`N` bodies processed by the same
-//! instructions; one body is `N = 1`), so every path rounds identically.
+//! The step's arithmetic is written once over a `Pack`, and every implementation rounds each
+//! lane as `f64` does (IEEE add, subtract, multiply and divide, never fused; `abs` and negation
+//! by the sign bit; `max` as `if a > b { a } else { b }`; ordered comparisons, false for NaN),
+//! so every path and every lane width steps the same bits.
 
+use super::VariationalSettings;
+use super::newton::{NewtonOut, newton};
 use crate::sim::so3::Real;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
-/// `N` bodies' values of one quantity. The lane loops become SSE2 packed instructions (`addpd`,
-/// `mulpd`, `divpd`: two lanes per instruction); `N = 4` gives two independent dependency chains
-/// per value, which measured faster than `N = 2` and `N = 8` (see `docs/variational_performance.md`).
+/// `N` bodies' values of one quantity, with the lane-wise operations the step needs beyond
+/// [`Real`]'s arithmetic. Masks are bit sets: bit `i` is lane `i`.
+pub(super) trait Pack<const N: usize>: Real + std::fmt::Debug {
+    /// Every bit of a mask of `N` lanes.
+    const ALL: u32 = if N >= 32 { u32::MAX } else { (1u32 << N) - 1 };
+    fn from_array(a: [f64; N]) -> Self;
+    fn to_array(self) -> [f64; N];
+    /// Lane-wise `if self > o { self } else { o }` (x86's `maxpd`).
+    fn max(self, o: Self) -> Self;
+    /// Lanes where `self <= o` (false for NaN).
+    fn le(self, o: Self) -> u32;
+    /// Lanes where `self < o` (false for NaN).
+    fn lt(self, o: Self) -> u32;
+    /// Lanes where `self != o` and neither is NaN.
+    fn ne(self, o: Self) -> u32;
+    /// Lane-wise `if mask has lane i { a } else { b }`.
+    fn select(mask: u32, a: Self, b: Self) -> Self;
+
+    /// Lanes where `self` is finite.
+    #[inline(always)]
+    fn finite(self) -> u32 {
+        self.abs().lt(Self::splat(f64::INFINITY))
+    }
+
+    /// [`newton`] out of line (the rare path of the batched step), compiled with this pack's
+    /// instructions.
+    fn newton(
+        j_over_h: V3<Self>,
+        m: V3<Self>,
+        xi: V3<Self>,
+        threshold: Self,
+        settings: &VariationalSettings,
+    ) -> NewtonOut<Self, N>;
+}
+
+/// `N` bodies' values of one quantity as an array: the portable [`Pack`]. The lane loops become
+/// SSE2 packed instructions (`addpd`, `mulpd`, `divpd`: two lanes per instruction); `N = 4`
+/// gives two independent dependency chains per value, which measured faster than `N = 2` and
+/// `N = 8` (see `docs/variational_performance.md`).
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Lanes<const N: usize>(pub(super) [f64; N]);
 
-/// Bodies stepped together.
+/// Bodies stepped together on the portable path.
 pub(super) const LANES: usize = 4;
 
 macro_rules! lanes_binop {
@@ -53,15 +96,27 @@ impl<const N: usize> Real for Lanes<N> {
     }
 }
 
-impl<const N: usize> Lanes<N> {
-    /// Whether `pred` holds in every lane (evaluated in all lanes, no early exit).
-    #[inline(always)]
-    pub(super) fn all(self, pred: impl Fn(f64) -> bool) -> bool {
-        self.0.iter().fold(true, |acc, &x| acc & pred(x))
+/// The lanes where `pred` holds, as a mask (evaluated in all lanes, no early exit).
+#[inline(always)]
+fn mask<const N: usize>(pred: impl Fn(usize) -> bool) -> u32 {
+    let mut m = 0;
+    for i in 0..N {
+        m |= u32::from(pred(i)) << i;
     }
-    /// Lane-wise maximum (equal to `f64::max` for non-NaN lanes).
+    m
+}
+
+impl<const N: usize> Pack<N> for Lanes<N> {
     #[inline(always)]
-    pub(super) fn max(self, o: Self) -> Self {
+    fn from_array(a: [f64; N]) -> Self {
+        Lanes(a)
+    }
+    #[inline(always)]
+    fn to_array(self) -> [f64; N] {
+        self.0
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
         Lanes(std::array::from_fn(|i| {
             if self.0[i] > o.0[i] {
                 self.0[i]
@@ -70,6 +125,40 @@ impl<const N: usize> Lanes<N> {
             }
         }))
     }
+    #[inline(always)]
+    fn le(self, o: Self) -> u32 {
+        mask::<N>(|i| self.0[i] <= o.0[i])
+    }
+    #[inline(always)]
+    fn lt(self, o: Self) -> u32 {
+        mask::<N>(|i| self.0[i] < o.0[i])
+    }
+    #[inline(always)]
+    fn ne(self, o: Self) -> u32 {
+        mask::<N>(|i| self.0[i] < o.0[i] || self.0[i] > o.0[i])
+    }
+    #[inline(always)]
+    fn select(mask: u32, a: Self, b: Self) -> Self {
+        Lanes(std::array::from_fn(|i| {
+            if mask >> i & 1 == 1 { a.0[i] } else { b.0[i] }
+        }))
+    }
+    #[inline(never)]
+    fn newton(
+        j_over_h: V3<Self>,
+        m: V3<Self>,
+        xi: V3<Self>,
+        threshold: Self,
+        settings: &VariationalSettings,
+    ) -> NewtonOut<Self, N> {
+        newton(j_over_h, m, xi, threshold, settings)
+    }
+}
+
+/// Whether lane `i` of `mask` is set.
+#[inline(always)]
+pub(super) fn has(mask: u32, i: usize) -> bool {
+    mask >> i & 1 == 1
 }
 
 /// A 3-vector of lanes.
@@ -132,56 +221,78 @@ impl<R: Real> V3<R> {
     }
 }
 
-impl<const N: usize> V3<Lanes<N>> {
+impl<L> V3<L> {
     #[inline(always)]
-    pub(super) fn gather(v: &[Vector3<f64>; N]) -> Self {
+    pub(super) fn gather<const N: usize>(v: &[Vector3<f64>; N]) -> Self
+    where
+        L: Pack<N>,
+    {
         Self {
-            x: Lanes(v.each_ref().map(|v| v.x)),
-            y: Lanes(v.each_ref().map(|v| v.y)),
-            z: Lanes(v.each_ref().map(|v| v.z)),
+            x: L::from_array(v.each_ref().map(|v| v.x)),
+            y: L::from_array(v.each_ref().map(|v| v.y)),
+            z: L::from_array(v.each_ref().map(|v| v.z)),
         }
     }
+    /// The three components as arrays of lanes.
     #[inline(always)]
-    pub(super) fn lane(self, i: usize) -> Vector3<f64> {
-        Vector3::new(self.x.0[i], self.y.0[i], self.z.0[i])
+    pub(super) fn arrays<const N: usize>(self) -> [[f64; N]; 3]
+    where
+        L: Pack<N>,
+    {
+        [self.x.to_array(), self.y.to_array(), self.z.to_array()]
     }
     #[inline(always)]
-    pub(super) fn scatter(self, v: &mut [Vector3<f64>; N]) {
+    pub(super) fn lane<const N: usize>(self, i: usize) -> Vector3<f64>
+    where
+        L: Pack<N>,
+    {
+        let [x, y, z] = self.arrays();
+        Vector3::new(x[i], y[i], z[i])
+    }
+    #[inline(always)]
+    pub(super) fn scatter<const N: usize>(self, v: &mut [Vector3<f64>; N])
+    where
+        L: Pack<N>,
+    {
+        let [x, y, z] = self.arrays();
         for (i, v) in v.iter_mut().enumerate() {
-            *v = self.lane(i);
+            *v = Vector3::new(x[i], y[i], z[i]);
         }
     }
     /// `|v|_∞` per lane.
     #[inline(always)]
-    pub(super) fn amax(self) -> Lanes<N> {
+    pub(super) fn amax<const N: usize>(self) -> L
+    where
+        L: Pack<N>,
+    {
         self.x.abs().max(self.y.abs()).max(self.z.abs())
     }
     /// Lanes where every `|v_i| <= threshold` (false for NaN).
     #[inline(always)]
-    pub(super) fn within(self, threshold: Lanes<N>) -> [bool; N] {
-        let (x, y, z) = (self.x.abs(), self.y.abs(), self.z.abs());
-        std::array::from_fn(|i| {
-            (x.0[i] <= threshold.0[i]) & (y.0[i] <= threshold.0[i]) & (z.0[i] <= threshold.0[i])
-        })
+    pub(super) fn within<const N: usize>(self, threshold: L) -> u32
+    where
+        L: Pack<N>,
+    {
+        self.x.abs().le(threshold) & self.y.abs().le(threshold) & self.z.abs().le(threshold)
     }
     /// Lanes where every component is finite.
     #[inline(always)]
-    pub(super) fn finite(self) -> [bool; N] {
-        let s = self.x.abs() + self.y.abs() + self.z.abs();
-        s.0.map(f64::is_finite)
+    pub(super) fn finite<const N: usize>(self) -> u32
+    where
+        L: Pack<N>,
+    {
+        (self.x.abs() + self.y.abs() + self.z.abs()).finite()
     }
-    /// Lane-wise `if keep { self } else { other }`.
+    /// Lane-wise `if keep has lane i { self } else { other }`.
     #[inline(always)]
-    pub(super) fn select(self, keep: &[bool; N], other: Self) -> Self {
-        let pick = |a: Lanes<N>, b: Lanes<N>| {
-            Lanes(std::array::from_fn(
-                |i| if keep[i] { a.0[i] } else { b.0[i] },
-            ))
-        };
+    pub(super) fn select<const N: usize>(self, keep: u32, other: Self) -> Self
+    where
+        L: Pack<N>,
+    {
         Self {
-            x: pick(self.x, other.x),
-            y: pick(self.y, other.y),
-            z: pick(self.z, other.z),
+            x: L::select(keep, self.x, other.x),
+            y: L::select(keep, self.y, other.y),
+            z: L::select(keep, self.z, other.z),
         }
     }
 }
@@ -193,27 +304,30 @@ pub(super) struct Quat<R> {
     pub(super) v: V3<R>,
 }
 
-impl<const N: usize> Quat<Lanes<N>> {
+impl<L> Quat<L> {
     #[inline(always)]
-    pub(super) fn gather(q: &[UnitQuaternion<f64>; N]) -> Self {
+    pub(super) fn gather<const N: usize>(q: &[UnitQuaternion<f64>; N]) -> Self
+    where
+        L: Pack<N>,
+    {
         Self {
-            w: Lanes(q.each_ref().map(|q| q.w)),
+            w: L::from_array(q.each_ref().map(|q| q.w)),
             v: V3 {
-                x: Lanes(q.each_ref().map(|q| q.i)),
-                y: Lanes(q.each_ref().map(|q| q.j)),
-                z: Lanes(q.each_ref().map(|q| q.k)),
+                x: L::from_array(q.each_ref().map(|q| q.i)),
+                y: L::from_array(q.each_ref().map(|q| q.j)),
+                z: L::from_array(q.each_ref().map(|q| q.k)),
             },
         }
     }
     #[inline(always)]
-    pub(super) fn scatter(self, q: &mut [UnitQuaternion<f64>; N]) {
+    pub(super) fn scatter<const N: usize>(self, q: &mut [UnitQuaternion<f64>; N])
+    where
+        L: Pack<N>,
+    {
+        let w = self.w.to_array();
+        let [x, y, z] = self.v.arrays();
         for (i, q) in q.iter_mut().enumerate() {
-            *q = UnitQuaternion::new_unchecked(Quaternion::new(
-                self.w.0[i],
-                self.v.x.0[i],
-                self.v.y.0[i],
-                self.v.z.0[i],
-            ));
+            *q = UnitQuaternion::new_unchecked(Quaternion::new(w[i], x[i], y[i], z[i]));
         }
     }
 }

@@ -40,6 +40,8 @@ mod one_body;
 mod substep;
 #[cfg(test)]
 mod tests;
+#[cfg(target_arch = "x86_64")]
+mod vector;
 
 pub use integrator::Variational;
 pub use one_body::{NewtonSolve, RotationEval, solve_xi, solve3};

@@ -4,39 +4,46 @@
 //! the solved `ξ` ([`advance`]), and the Newton loops ([`newton`], and its straight-line common
 //! case [`newton_one_update`]).
 
-use super::lanes::{Lanes, Quat, V3};
+use super::lanes::{Pack, Quat, V3, has};
 use super::{Jacobian, VariationalSettings};
 use crate::sim::so3::{self, Coefficients, Real, SERIES_THETA_SQ};
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 
 /// The coefficient functions per lane: all lanes by series at once when every `θ` is below
 /// [`so3::SERIES_THETA`] (at `h|Ω|` below 0.02 rad: the common case), otherwise lane by lane
 /// with [`Coefficients::new`] (one `sin_cos` per lane above it). Both round identically.
 #[inline(always)]
-pub(super) fn coefficients<const N: usize>(theta_sq: Lanes<N>) -> Coefficients<Lanes<N>> {
-    if theta_sq.all(|t| t < SERIES_THETA_SQ) {
+pub(super) fn coefficients<L: Pack<N>, const N: usize>(theta_sq: L) -> Coefficients<L> {
+    if theta_sq.lt(L::splat(SERIES_THETA_SQ)) == L::ALL {
         Coefficients::series(theta_sq)
     } else {
-        coefficients_by_lane(theta_sq)
+        let k = coefficients_by_lane(theta_sq.to_array());
+        Coefficients {
+            a: L::from_array(k.a),
+            b: L::from_array(k.b),
+            c: L::from_array(k.c),
+            db_over_theta: L::from_array(k.db_over_theta),
+            dc_over_theta: L::from_array(k.dc_over_theta),
+            half_cos: L::from_array(k.half_cos),
+            half_sin_over_theta: L::from_array(k.half_sin_over_theta),
+        }
     }
 }
 
-/// [`coefficients`] lane by lane, out of line: only bodies turning more than
-/// [`so3::SERIES_THETA`] per step take it.
+/// [`coefficients`] lane by lane, out of line and on plain arrays (so it is the same code for
+/// every vector unit): only bodies turning more than [`so3::SERIES_THETA`] per step take it.
 #[inline(never)]
-fn coefficients_by_lane<const N: usize>(theta_sq: Lanes<N>) -> Coefficients<Lanes<N>> {
-    {
-        let k = theta_sq.0.map(Coefficients::new);
-        let field = |f: fn(&Coefficients) -> f64| Lanes(k.each_ref().map(f));
-        Coefficients {
-            a: field(|k| k.a),
-            b: field(|k| k.b),
-            c: field(|k| k.c),
-            db_over_theta: field(|k| k.db_over_theta),
-            dc_over_theta: field(|k| k.dc_over_theta),
-            half_cos: field(|k| k.half_cos),
-            half_sin_over_theta: field(|k| k.half_sin_over_theta),
-        }
+fn coefficients_by_lane<const N: usize>(theta_sq: [f64; N]) -> Coefficients<[f64; N]> {
+    let k = theta_sq.map(Coefficients::new);
+    let field = |f: fn(&Coefficients) -> f64| k.each_ref().map(f);
+    Coefficients {
+        a: field(|k| k.a),
+        b: field(|k| k.b),
+        c: field(|k| k.c),
+        db_over_theta: field(|k| k.db_over_theta),
+        dc_over_theta: field(|k| k.dc_over_theta),
+        half_cos: field(|k| k.half_cos),
+        half_sin_over_theta: field(|k| k.half_sin_over_theta),
     }
 }
 
@@ -93,48 +100,71 @@ pub(super) fn analytic_jacobian<R: Real>(
         .sub(m.scale(k.c + k.c));
     let q = xi.scale(k.c);
     let bm = m.scale(k.b);
-    let col = |diag: V3<R>, xj: R, mj: R| diag.sub(p.scale(xj)).sub(q.scale(mj));
     [
-        col(
+        jacobian_column(
             V3 {
                 x: d.x,
                 y: -bm.z,
                 z: bm.y,
             },
+            p,
+            q,
             xi.x,
             m.x,
         ),
-        col(
+        jacobian_column(
             V3 {
                 x: bm.z,
                 y: d.y,
                 z: -bm.x,
             },
+            p,
+            q,
             xi.y,
             m.y,
         ),
-        col(
+        jacobian_column(
             V3 {
                 x: -bm.y,
                 y: bm.x,
                 z: d.z,
             },
+            p,
+            q,
             xi.z,
             m.z,
         ),
     ]
 }
 
+/// One column of [`analytic_jacobian`]: `diag - p ξ_j - q m_j`. A function, not a closure's
+/// body: closures are not `#[inline(always)]`, and a vector operation left in one out of line
+/// would be compiled without the dispatched unit's instructions.
+#[inline(always)]
+fn jacobian_column<R: Real>(diag: V3<R>, p: V3<R>, q: V3<R>, xj: R, mj: R) -> V3<R> {
+    diag.sub(p.scale(xj)).sub(q.scale(mj))
+}
+
 /// The seed's approximate Jacobian `J T(ξ)^-1` (of `g`: `J/h T(ξ)^-1`), as columns (lane by
 /// lane: not a hot path).
-pub(super) fn approximate_jacobian<const N: usize>(
-    j: V3<Lanes<N>>,
-    xi: V3<Lanes<N>>,
-) -> [V3<Lanes<N>>; 3] {
+#[inline(always)]
+pub(super) fn approximate_jacobian<L: Pack<N>, const N: usize>(j: V3<L>, xi: V3<L>) -> [V3<L>; 3] {
+    let [c0, c1, c2] = approximate_by_lane(j.arrays(), xi.arrays());
+    [V3::gather(&c0), V3::gather(&c1), V3::gather(&c2)]
+}
+
+/// [`approximate_jacobian`]'s columns, lane by lane, out of line on plain arrays.
+#[inline(never)]
+fn approximate_by_lane<const N: usize>(
+    j: [[f64; N]; 3],
+    xi: [[f64; N]; 3],
+) -> [[Vector3<f64>; N]; 3] {
     let per_lane: [Matrix3<f64>; N] = std::array::from_fn(|i| {
-        Matrix3::from_diagonal(&j.lane(i)) * so3::t_inverse_matrix(&xi.lane(i))
+        let j = Vector3::new(j[0][i], j[1][i], j[2][i]);
+        let xi = Vector3::new(xi[0][i], xi[1][i], xi[2][i]);
+        Matrix3::from_diagonal(&j) * so3::t_inverse_matrix(&xi)
     });
-    [0, 1, 2].map(|c| V3::gather(&per_lane.each_ref().map(|a| a.column(c).into_owned())))
+    [0, 1, 2].map(|c| per_lane.each_ref().map(|a| a.column(c).into_owned()))
 }
 
 /// Solves `[c0 c1 c2] x = b` by the adjugate: rows of the inverse are `c1×c2`, `c2×c0`,
@@ -190,40 +220,43 @@ pub(super) fn advance<R: Real>(q: Quat<R>, m: V3<R>, xi: V3<R>, e: &Eval<R>) -> 
 }
 
 /// The outcome of [`newton`], per lane.
-pub(super) struct NewtonOut<const N: usize> {
-    pub(super) xi: V3<Lanes<N>>,
+pub(super) struct NewtonOut<L, const N: usize> {
+    pub(super) xi: V3<L>,
     /// The residual evaluation at `xi`.
-    pub(super) eval: Eval<Lanes<N>>,
+    pub(super) eval: Eval<L>,
     pub(super) iterations: [u32; N],
-    pub(super) converged: [bool; N],
+    /// The lanes that converged (a mask, bit `i` for lane `i`).
+    pub(super) converged: u32,
 }
 
 /// Newton on `g(ξ) = f(ξ)/h = 0` from `xi`, lane by lane: a lane stops (its `ξ` is frozen) once
 /// every `|g_i| <= threshold` (`newton_tol · |M|_∞`), or after `newton_max_iters` updates, or on a
 /// non-finite residual or a singular Jacobian. Lanes that stopped are re-evaluated with the
 /// others at the same `ξ`, which reproduces their residual exactly.
-#[inline(never)]
-pub(super) fn newton<const N: usize>(
-    j_over_h: V3<Lanes<N>>,
-    m: V3<Lanes<N>>,
-    mut xi: V3<Lanes<N>>,
-    threshold: Lanes<N>,
+///
+/// Inlined into its caller, so that each vector unit's copy is compiled with that unit's
+/// instructions; [`Pack::newton`] is the out-of-line entry for the batched step.
+#[inline(always)]
+pub(super) fn newton<L: Pack<N>, const N: usize>(
+    j_over_h: V3<L>,
+    m: V3<L>,
+    mut xi: V3<L>,
+    threshold: L,
     settings: &VariationalSettings,
-) -> NewtonOut<N> {
+) -> NewtonOut<L, N> {
     let mut iterations = [0u32; N];
-    let mut done = [false; N];
-    let mut converged = [false; N];
+    let mut done = 0u32;
+    let mut converged = 0u32;
     loop {
         let eval = evaluate(j_over_h, m, xi, coefficients(xi.dot(xi)));
         let within = eval.f.within(threshold);
         let finite = eval.f.finite();
-        for i in 0..N {
-            if !done[i] {
-                converged[i] = within[i];
-                done[i] = within[i] | (iterations[i] >= settings.newton_max_iters) | !finite[i];
-            }
-        }
-        if done.iter().all(|&d| d) {
+        let capped = iteration_mask(&iterations, settings.newton_max_iters);
+        // Lanes still running take their new state; stopped lanes keep theirs.
+        converged = (converged & done) | (within & !done);
+        done |= within | capped | !finite;
+        done &= L::ALL;
+        if done == L::ALL {
             return NewtonOut {
                 xi,
                 eval,
@@ -236,12 +269,22 @@ pub(super) fn newton<const N: usize>(
             Jacobian::Approximate => approximate_jacobian(j_over_h, xi),
         };
         let (delta, det) = cramer(&cols, eval.f);
-        for i in 0..N {
-            done[i] |= !(det.0[i] != 0.0 && det.0[i].is_finite());
-            iterations[i] += u32::from(!done[i]);
+        done |= !(det.ne(L::splat(0.0)) & det.finite()) & L::ALL;
+        for (i, n) in iterations.iter_mut().enumerate() {
+            *n += u32::from(!has(done, i));
         }
-        xi = xi.select(&done, xi.sub(delta));
+        xi = xi.select(done, xi.sub(delta));
     }
+}
+
+/// The lanes whose iteration count has reached `max`.
+#[inline(always)]
+fn iteration_mask<const N: usize>(iterations: &[u32; N], max: u32) -> u32 {
+    let mut m = 0;
+    for (i, &n) in iterations.iter().enumerate() {
+        m |= u32::from(n >= max) << i;
+    }
+    m
 }
 
 /// The common case of [`newton`] as straight-line code: every `|ξ|` in the series regime, no
@@ -249,39 +292,45 @@ pub(super) fn newton<const N: usize>(
 /// what [`newton`] would (the same arithmetic in the same order), or `None` when any lane leaves
 /// that path; the caller then runs [`newton`] from the same start.
 #[inline(always)]
-pub(super) fn newton_one_update<const N: usize>(
-    j_over_h: V3<Lanes<N>>,
-    m: V3<Lanes<N>>,
-    xi0: V3<Lanes<N>>,
-    threshold: Lanes<N>,
+pub(super) fn newton_one_update<L: Pack<N>, const N: usize>(
+    j_over_h: V3<L>,
+    m: V3<L>,
+    xi0: V3<L>,
+    threshold: L,
     settings: &VariationalSettings,
-) -> Option<NewtonOut<N>> {
+) -> Option<NewtonOut<L, N>> {
     if settings.jacobian != Jacobian::Analytic || settings.newton_max_iters == 0 {
         return None;
     }
     // Series regime only: merging the lane-by-lane `sin_cos` branch into this path would keep
     // the coefficients in memory (measured +12 % instructions per body-step).
-    let series = |t2: Lanes<N>| {
-        t2.all(|t| t < SERIES_THETA_SQ)
-            .then(|| Coefficients::series(t2))
-    };
-    let e0 = evaluate(j_over_h, m, xi0, series(xi0.dot(xi0))?);
+    let e0 = evaluate(j_over_h, m, xi0, series_only(xi0.dot(xi0))?);
     // A non-finite residual needs no test here: it makes `ξ` non-finite and fails the series
     // test below.
-    if e0.f.within(threshold).iter().any(|&c| c) {
+    if e0.f.within(threshold) != 0 {
         return None;
     }
     let (delta, det) = cramer(&analytic_jacobian(j_over_h, m, xi0, &e0), e0.f);
-    if !det.all(|d| d != 0.0 && d.is_finite()) {
+    if (det.ne(L::splat(0.0)) & det.finite()) != L::ALL {
         return None;
     }
     let xi = xi0.sub(delta);
-    let eval = evaluate(j_over_h, m, xi, series(xi.dot(xi))?);
+    let eval = evaluate(j_over_h, m, xi, series_only(xi.dot(xi))?);
     let converged = eval.f.within(threshold);
-    converged.iter().all(|&c| c).then_some(NewtonOut {
+    (converged == L::ALL).then_some(NewtonOut {
         xi,
         eval,
         iterations: [1; N],
         converged,
     })
+}
+
+/// The coefficients by their series when every lane is in the series regime.
+#[inline(always)]
+fn series_only<L: Pack<N>, const N: usize>(theta_sq: L) -> Option<Coefficients<L>> {
+    if theta_sq.lt(L::splat(SERIES_THETA_SQ)) == L::ALL {
+        Some(Coefficients::series(theta_sq))
+    } else {
+        None
+    }
 }

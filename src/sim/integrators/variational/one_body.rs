@@ -4,8 +4,8 @@
 //! [`crate::sim::mechanism`]) and [`solve3`].
 
 use super::VariationalSettings;
-use super::lanes::{Lanes, Quat, V3};
-use super::newton::{Eval, advance, analytic_jacobian, coefficients, cramer, evaluate, newton};
+use super::lanes::{Lanes, Pack, Quat, V3, has};
+use super::newton::{Eval, advance, analytic_jacobian, coefficients, cramer, evaluate};
 use crate::sim::so3::{self, Coefficients, Real};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
@@ -30,7 +30,7 @@ pub fn solve_xi(
     settings: &VariationalSettings,
 ) -> NewtonSolve {
     let m = V3::<Lanes<1>>::gather(&[*angmom_body]);
-    let out = newton(
+    let out = Lanes::<1>::newton(
         V3::gather(&[*inertia_body]).scale(Lanes::splat(1.0 / dt_secs)),
         m,
         V3::gather(&[*xi_guess]),
@@ -50,7 +50,7 @@ pub fn solve_xi(
             half_sin_over_theta: k.half_sin_over_theta.0[0],
         },
         iterations: out.iterations[0],
-        converged: out.converged[0],
+        converged: has(out.converged, 0),
     }
 }
 

@@ -2,8 +2,8 @@
 //! `n = 2, 4, 8, ...` variational steps of `h/n` (momentum stays exact).
 
 use super::VariationalSettings;
-use super::lanes::{Lanes, Quat, V3};
-use super::newton::{NewtonOut, advance, newton, predict};
+use super::lanes::{Lanes, Pack, Quat, V3, has};
+use super::newton::{NewtonOut, advance, predict};
 use crate::sim::integrators::StepStats;
 use crate::sim::so3::Real;
 use nalgebra::{UnitQuaternion, Vector3};
@@ -17,8 +17,8 @@ use nalgebra::{UnitQuaternion, Vector3};
 #[cold]
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-pub(super) fn substep_unconverged<const N: usize>(
-    out: &NewtonOut<N>,
+pub(super) fn substep_unconverged<L, const N: usize>(
+    out: &NewtonOut<L, N>,
     start: ([Vector3<f64>; N], [UnitQuaternion<f64>; N]),
     inertia: &[Vector3<f64>; N],
     inv_inertia: &[Vector3<f64>; N],
@@ -31,7 +31,7 @@ pub(super) fn substep_unconverged<const N: usize>(
     stats: &mut StepStats,
 ) {
     for i in 0..N {
-        if out.converged[i] {
+        if has(out.converged, i) {
             stats.add_solve(first_body + i, out.iterations[i], true);
             continue;
         }
@@ -92,9 +92,9 @@ fn substep_body(
             xi = predict(inv_j, m, xi, Lanes::splat(h));
         }
         let threshold = Lanes::splat(settings.newton_tol) * m.amax();
-        let out = newton(j_over_h, m, xi, threshold, settings);
+        let out = Lanes::<1>::newton(j_over_h, m, xi, threshold, settings);
         iterations_max = iterations_max.max(out.iterations[0]);
-        if !out.converged[0] {
+        if !has(out.converged, 0) {
             return None;
         }
         (quat, m) = advance(quat, m, out.xi, &out.eval);

@@ -199,3 +199,50 @@ fn non_finite_body_fails_alone() {
         assert_eq!(bodies.angmom_body[i], reference.angmom_body[i]);
     }
 }
+
+/// Every vector unit this machine has steps the same batch to the same bits (issue 34): 1003
+/// tumbling bodies (lanes of 4 and 8 with a remainder of 3), a few spun hard enough to leave
+/// the series regime and need several Newton updates, 300 steps under gravity.
+#[test]
+fn every_simd_path_steps_the_same_bits() {
+    use crate::sim::simd::{Level, available};
+    let mut inits = crate::sim::workload::free_body_batch(1003);
+    for (i, b) in inits.iter_mut().enumerate().step_by(97) {
+        // |h Ω| ≈ 0.6 rad: outside the series regime, several Newton updates.
+        b.angvel_world = Vector3::new(600.0, -350.0, 120.0 + i as f64);
+    }
+    let loads = Loads::uniform_gravity(Vector3::new(0.0, 0.0, -9.81));
+    let run = |level: Level| {
+        let mut bodies = Bodies::new(&inits);
+        let mut integrator =
+            Variational::new(1e-3, VariationalSettings::default()).with_simd(level);
+        assert_eq!(integrator.simd(), level);
+        integrator.init(&bodies);
+        let mut stats = crate::sim::StepStats::default();
+        for _ in 0..300 {
+            stats = stats.merge(integrator.step(&mut bodies, &loads));
+        }
+        let bits: Vec<u64> = (0..bodies.len())
+            .flat_map(|i| {
+                let q = bodies.world_from_body[i];
+                [q.w, q.i, q.j, q.k]
+                    .into_iter()
+                    .chain(bodies.angmom_body[i].iter().copied())
+                    .chain(bodies.com_world[i].iter().copied())
+                    .chain(bodies.linvel_world[i].iter().copied())
+            })
+            .map(f64::to_bits)
+            .collect();
+        (bits, stats)
+    };
+    let levels = available();
+    let (reference, stats) = run(Level::Sse2);
+    // The hard bodies took the full Newton (more than the one update of the common path).
+    assert!(stats.newton_iters_max > 1, "{stats:?}");
+    assert_eq!(stats.newton_failures, 0);
+    for level in levels {
+        let (bits, level_stats) = run(level);
+        assert_eq!(level_stats, stats, "{}", level.name());
+        assert!(bits == reference, "{} differs from sse2", level.name());
+    }
+}
