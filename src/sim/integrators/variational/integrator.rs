@@ -9,7 +9,7 @@ use super::newton::{NewtonOut, advance, newton_one_update, predict};
 use super::one_body::solve_xi;
 use super::substep::substep_unconverged;
 #[cfg(target_arch = "x86_64")]
-use super::vector::{F64x4x2, F64x8x2};
+use super::vector::{F64x4, F64x8x2};
 use crate::sim::Bodies;
 use crate::sim::guard::Watch;
 use crate::sim::integrators::EnergyFlow;
@@ -199,7 +199,7 @@ impl Variational {
             Level::Avx512 => unsafe { step_blocks_avx512(job) },
             #[cfg(target_arch = "x86_64")]
             Level::Avx2 => unsafe { step_blocks_avx2(job) },
-            _ => step_blocks::<Lanes<LANES>, LANES>(job),
+            _ => step_blocks_portable(job),
         }
     }
 }
@@ -218,12 +218,19 @@ struct Blocks<'a> {
     settings: &'a VariationalSettings,
 }
 
+/// [`step_blocks`] in lanes of [`LANES`] plain doubles (SSE2 on x86-64), out of line as the
+/// other units' functions are.
+#[inline(never)]
+fn step_blocks_portable(job: Blocks) -> (StepStats, bool) {
+    step_blocks::<Lanes<LANES>, LANES>(job)
+}
+
 /// [`step_blocks`] in 4 lanes of AVX registers, compiled for AVX2 (translation and guard
 /// included, vectorized by the compiler for AVX2 with the same rounding).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn step_blocks_avx2(job: Blocks) -> (StepStats, bool) {
-    step_blocks::<F64x4x2, 8>(job)
+    step_blocks::<F64x4, 4>(job)
 }
 
 /// [`step_blocks`] in 8 lanes of AVX-512 registers, compiled for AVX-512F.

@@ -40,6 +40,46 @@ pub(super) trait Pack<const N: usize>: Real + std::fmt::Debug {
         self.abs().lt(Self::splat(f64::INFINITY))
     }
 
+    /// `N` vectors: from the batch's array of structures to a vector of packs (one pack per
+    /// component). Moves bits only.
+    #[inline(always)]
+    fn gather3(v: &[Vector3<f64>; N]) -> V3<Self> {
+        V3 {
+            x: Self::from_array(v.each_ref().map(|v| v.x)),
+            y: Self::from_array(v.each_ref().map(|v| v.y)),
+            z: Self::from_array(v.each_ref().map(|v| v.z)),
+        }
+    }
+    /// [`Pack::gather3`] inverted.
+    #[inline(always)]
+    fn scatter3(c: V3<Self>, v: &mut [Vector3<f64>; N]) {
+        let [x, y, z] = c.arrays();
+        for (i, v) in v.iter_mut().enumerate() {
+            *v = Vector3::new(x[i], y[i], z[i]);
+        }
+    }
+    /// `N` quaternions as a quaternion of packs.
+    #[inline(always)]
+    fn gather4(q: &[UnitQuaternion<f64>; N]) -> Quat<Self> {
+        Quat {
+            w: Self::from_array(q.each_ref().map(|q| q.w)),
+            v: V3 {
+                x: Self::from_array(q.each_ref().map(|q| q.i)),
+                y: Self::from_array(q.each_ref().map(|q| q.j)),
+                z: Self::from_array(q.each_ref().map(|q| q.k)),
+            },
+        }
+    }
+    /// [`Pack::gather4`] inverted (the quaternions stored as given, not renormalised).
+    #[inline(always)]
+    fn scatter4(c: Quat<Self>, q: &mut [UnitQuaternion<f64>; N]) {
+        let w = c.w.to_array();
+        let [x, y, z] = c.v.arrays();
+        for (i, q) in q.iter_mut().enumerate() {
+            *q = UnitQuaternion::new_unchecked(Quaternion::new(w[i], x[i], y[i], z[i]));
+        }
+    }
+
     /// [`newton`] out of line (the rare path of the batched step), compiled with this pack's
     /// instructions.
     fn newton(
@@ -227,11 +267,7 @@ impl<L> V3<L> {
     where
         L: Pack<N>,
     {
-        Self {
-            x: L::from_array(v.each_ref().map(|v| v.x)),
-            y: L::from_array(v.each_ref().map(|v| v.y)),
-            z: L::from_array(v.each_ref().map(|v| v.z)),
-        }
+        L::gather3(v)
     }
     /// The three components as arrays of lanes.
     #[inline(always)]
@@ -254,10 +290,7 @@ impl<L> V3<L> {
     where
         L: Pack<N>,
     {
-        let [x, y, z] = self.arrays();
-        for (i, v) in v.iter_mut().enumerate() {
-            *v = Vector3::new(x[i], y[i], z[i]);
-        }
+        L::scatter3(self, v);
     }
     /// `|v|_∞` per lane.
     #[inline(always)]
@@ -310,24 +343,13 @@ impl<L> Quat<L> {
     where
         L: Pack<N>,
     {
-        Self {
-            w: L::from_array(q.each_ref().map(|q| q.w)),
-            v: V3 {
-                x: L::from_array(q.each_ref().map(|q| q.i)),
-                y: L::from_array(q.each_ref().map(|q| q.j)),
-                z: L::from_array(q.each_ref().map(|q| q.k)),
-            },
-        }
+        L::gather4(q)
     }
     #[inline(always)]
     pub(super) fn scatter<const N: usize>(self, q: &mut [UnitQuaternion<f64>; N])
     where
         L: Pack<N>,
     {
-        let w = self.w.to_array();
-        let [x, y, z] = self.v.arrays();
-        for (i, q) in q.iter_mut().enumerate() {
-            *q = UnitQuaternion::new_unchecked(Quaternion::new(w[i], x[i], y[i], z[i]));
-        }
+        L::scatter4(self, q);
     }
 }

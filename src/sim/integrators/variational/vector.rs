@@ -19,9 +19,10 @@
 #![allow(unsafe_code)]
 
 use super::VariationalSettings;
-use super::lanes::{Pack, V3};
+use super::lanes::{Pack, Quat, V3};
 use super::newton::{NewtonOut, newton};
 use crate::sim::so3::Real;
+use nalgebra::{UnitQuaternion, Vector3};
 use std::arch::x86_64::*;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -32,6 +33,14 @@ pub(super) struct F64x4(__m256d);
 /// 8 bodies' values in one AVX-512 register.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct F64x8(__m512d);
+
+// The transposes read and write the batch's vectors and quaternions as runs of doubles:
+// nalgebra stores a `Vector3<f64>` as `[x, y, z]` and a quaternion as `coords = [i, j, k, w]`
+// (`#[repr(C)]` matrices of `ArrayStorage`, the quaternion and `Unit` transparent over them), with
+// no padding, so an array of `N` of them is `3N` (`4N`) contiguous doubles.
+const _: () = assert!(std::mem::size_of::<Vector3<f64>>() == 24);
+const _: () = assert!(std::mem::size_of::<UnitQuaternion<f64>>() == 32);
+const _: () = assert!(std::mem::align_of::<Vector3<f64>>() == 8);
 
 macro_rules! binops {
     ($t:ident, $add:ident, $sub:ident, $mul:ident, $div:ident) => {
@@ -157,6 +166,80 @@ impl Pack<4> for F64x4 {
             if mask >> i & 1 == 1 { a[i] } else { b[i] }
         }))
     }
+    /// Loads `a = (x0 y0 z0 x1)`, `b = (y1 z1 x2 y2)`, `c = (z2 x3 y3 z3)`; crosses the 128-bit
+    /// halves (`p = (x0 y0 x2 y2)`, `r = (z0 x1 z2 x3)`, `s = (y1 z1 y3 z3)`), then picks within
+    /// them.
+    #[inline(always)]
+    fn gather3(v: &[Vector3<f64>; 4]) -> V3<Self> {
+        let p = v.as_ptr().cast::<f64>();
+        // SAFETY: see the module doc; `v` is 12 contiguous doubles (the layout asserts above).
+        unsafe {
+            let (a, b, c) = (
+                _mm256_loadu_pd(p),
+                _mm256_loadu_pd(p.add(4)),
+                _mm256_loadu_pd(p.add(8)),
+            );
+            let pp = _mm256_permute2f128_pd::<0x30>(a, b);
+            let r = _mm256_permute2f128_pd::<0x21>(a, c);
+            let s = _mm256_permute2f128_pd::<0x30>(b, c);
+            V3 {
+                x: F64x4(_mm256_shuffle_pd::<0b1010>(pp, r)),
+                y: F64x4(_mm256_shuffle_pd::<0b0101>(pp, s)),
+                z: F64x4(_mm256_shuffle_pd::<0b1010>(r, s)),
+            }
+        }
+    }
+    #[inline(always)]
+    fn scatter3(c: V3<Self>, v: &mut [Vector3<f64>; 4]) {
+        let (x, y, z) = (c.x.0, c.y.0, c.z.0);
+        let p = v.as_mut_ptr().cast::<f64>();
+        // SAFETY: see the module doc; `v` is 12 contiguous doubles.
+        unsafe {
+            let pp = _mm256_shuffle_pd::<0b0000>(x, y);
+            let r = _mm256_shuffle_pd::<0b1010>(z, x);
+            let s = _mm256_shuffle_pd::<0b1111>(y, z);
+            _mm256_storeu_pd(p, _mm256_permute2f128_pd::<0x20>(pp, r));
+            _mm256_storeu_pd(p.add(4), _mm256_permute2f128_pd::<0x30>(s, pp));
+            _mm256_storeu_pd(p.add(8), _mm256_permute2f128_pd::<0x31>(r, s));
+        }
+    }
+    /// A 4x4 transpose: pairs of rows interleaved, then 128-bit halves exchanged.
+    #[inline(always)]
+    fn gather4(q: &[UnitQuaternion<f64>; 4]) -> Quat<Self> {
+        let p = q.as_ptr().cast::<f64>();
+        // SAFETY: see the module doc; `q` is 16 contiguous doubles.
+        unsafe {
+            let r: [__m256d; 4] = std::array::from_fn(|i| _mm256_loadu_pd(p.add(4 * i)));
+            let t0 = _mm256_unpacklo_pd(r[0], r[1]);
+            let t1 = _mm256_unpackhi_pd(r[0], r[1]);
+            let t2 = _mm256_unpacklo_pd(r[2], r[3]);
+            let t3 = _mm256_unpackhi_pd(r[2], r[3]);
+            Quat {
+                w: F64x4(_mm256_permute2f128_pd::<0x31>(t1, t3)),
+                v: V3 {
+                    x: F64x4(_mm256_permute2f128_pd::<0x20>(t0, t2)),
+                    y: F64x4(_mm256_permute2f128_pd::<0x20>(t1, t3)),
+                    z: F64x4(_mm256_permute2f128_pd::<0x31>(t0, t2)),
+                },
+            }
+        }
+    }
+    #[inline(always)]
+    fn scatter4(c: Quat<Self>, q: &mut [UnitQuaternion<f64>; 4]) {
+        let (i, j, k, w) = (c.v.x.0, c.v.y.0, c.v.z.0, c.w.0);
+        let p = q.as_mut_ptr().cast::<f64>();
+        // SAFETY: see the module doc; `q` is 16 contiguous doubles.
+        unsafe {
+            let t0 = _mm256_permute2f128_pd::<0x20>(i, k);
+            let t2 = _mm256_permute2f128_pd::<0x31>(i, k);
+            let t1 = _mm256_permute2f128_pd::<0x20>(j, w);
+            let t3 = _mm256_permute2f128_pd::<0x31>(j, w);
+            _mm256_storeu_pd(p, _mm256_unpacklo_pd(t0, t1));
+            _mm256_storeu_pd(p.add(4), _mm256_unpackhi_pd(t0, t1));
+            _mm256_storeu_pd(p.add(8), _mm256_unpacklo_pd(t2, t3));
+            _mm256_storeu_pd(p.add(12), _mm256_unpackhi_pd(t2, t3));
+        }
+    }
     fn newton(
         j_over_h: V3<Self>,
         m: V3<Self>,
@@ -262,6 +345,85 @@ impl Pack<8> for F64x8 {
         // SAFETY: see the module doc. The blend takes its second operand where the mask is set.
         F64x8(unsafe { _mm512_mask_blend_pd(mask as u8, b.0, a.0) })
     }
+    /// Three loads of 8 doubles; each component picked by two two-source permutes (the first
+    /// from the first two registers, the second adding the third's).
+    #[inline(always)]
+    fn gather3(v: &[Vector3<f64>; 8]) -> V3<Self> {
+        let p = v.as_ptr().cast::<f64>();
+        // SAFETY: see the module doc; `v` is 24 contiguous doubles.
+        unsafe {
+            let (a, b, c) = (
+                _mm512_loadu_pd(p),
+                _mm512_loadu_pd(p.add(8)),
+                _mm512_loadu_pd(p.add(16)),
+            );
+            let component = |k: usize| {
+                let ab = _mm512_permutex2var_pd(a, index(&GATHER3[k][0]), b);
+                F64x8(_mm512_permutex2var_pd(ab, index(&GATHER3[k][1]), c))
+            };
+            V3 {
+                x: component(0),
+                y: component(1),
+                z: component(2),
+            }
+        }
+    }
+    #[inline(always)]
+    fn scatter3(c: V3<Self>, v: &mut [Vector3<f64>; 8]) {
+        let (x, y, z) = (c.x.0, c.y.0, c.z.0);
+        let p = v.as_mut_ptr().cast::<f64>();
+        // SAFETY: see the module doc; `v` is 24 contiguous doubles.
+        unsafe {
+            for r in 0..3 {
+                let xy = _mm512_permutex2var_pd(x, index(&SCATTER3[r][0]), y);
+                let out = _mm512_permutex2var_pd(xy, index(&SCATTER3[r][1]), z);
+                _mm512_storeu_pd(p.add(8 * r), out);
+            }
+        }
+    }
+    /// Four loads (two quaternions each); components 0-1 and 2-3 of bodies 0-3 and 4-7 picked
+    /// first, then the halves joined.
+    #[inline(always)]
+    fn gather4(q: &[UnitQuaternion<f64>; 8]) -> Quat<Self> {
+        let p = q.as_ptr().cast::<f64>();
+        // SAFETY: see the module doc; `q` is 32 contiguous doubles.
+        unsafe {
+            let r: [__m512d; 4] = std::array::from_fn(|i| _mm512_loadu_pd(p.add(8 * i)));
+            let (lo, hi) = (index(&QUAT_PAIRS[0]), index(&QUAT_PAIRS[1]));
+            let a = _mm512_permutex2var_pd(r[0], lo, r[1]);
+            let b = _mm512_permutex2var_pd(r[0], hi, r[1]);
+            let c = _mm512_permutex2var_pd(r[2], lo, r[3]);
+            let d = _mm512_permutex2var_pd(r[2], hi, r[3]);
+            let (first, second) = (index(&HALVES[0]), index(&HALVES[1]));
+            Quat {
+                w: F64x8(_mm512_permutex2var_pd(b, second, d)),
+                v: V3 {
+                    x: F64x8(_mm512_permutex2var_pd(a, first, c)),
+                    y: F64x8(_mm512_permutex2var_pd(a, second, c)),
+                    z: F64x8(_mm512_permutex2var_pd(b, first, d)),
+                },
+            }
+        }
+    }
+    #[inline(always)]
+    fn scatter4(c: Quat<Self>, q: &mut [UnitQuaternion<f64>; 8]) {
+        let (i, j, k, w) = (c.v.x.0, c.v.y.0, c.v.z.0, c.w.0);
+        let p = q.as_mut_ptr().cast::<f64>();
+        // SAFETY: see the module doc; `q` is 32 contiguous doubles.
+        unsafe {
+            let (first, second) = (index(&HALVES[0]), index(&HALVES[1]));
+            // Components 0-1 (2-3) of bodies 0-3, then of bodies 4-7.
+            let a = _mm512_permutex2var_pd(i, first, j);
+            let c = _mm512_permutex2var_pd(i, second, j);
+            let b = _mm512_permutex2var_pd(k, first, w);
+            let d = _mm512_permutex2var_pd(k, second, w);
+            let (lo, hi) = (index(&QUAT_ROWS[0]), index(&QUAT_ROWS[1]));
+            _mm512_storeu_pd(p, _mm512_permutex2var_pd(a, lo, b));
+            _mm512_storeu_pd(p.add(8), _mm512_permutex2var_pd(a, hi, b));
+            _mm512_storeu_pd(p.add(16), _mm512_permutex2var_pd(c, lo, d));
+            _mm512_storeu_pd(p.add(24), _mm512_permutex2var_pd(c, hi, d));
+        }
+    }
     fn newton(
         j_over_h: V3<Self>,
         m: V3<Self>,
@@ -273,6 +435,93 @@ impl Pack<8> for F64x8 {
         unsafe { newton_avx512(j_over_h, m, xi, threshold, settings) }
     }
 }
+
+/// A permute's index register.
+#[inline(always)]
+fn index(i: &[i64; 8]) -> __m512i {
+    // SAFETY: see the module doc; `i` is 8 integers.
+    unsafe { _mm512_loadu_epi64(i.as_ptr()) }
+}
+
+/// The two-source permute indices of [`F64x8::gather3`]: for component `k`, lane `b` (body `b`)
+/// takes the double at `3b + k` of the 24 loaded, first from registers 0-1 (indices 0-15),
+/// then the third register's (`8 +` its index) replaces the lanes beyond.
+const GATHER3: [[[i64; 8]; 2]; 3] = {
+    let mut t = [[[0; 8]; 2]; 3];
+    let mut k = 0;
+    while k < 3 {
+        let mut b = 0;
+        while b < 8 {
+            let f = 3 * b + k;
+            if f < 16 {
+                t[k][0][b] = f as i64;
+                t[k][1][b] = b as i64;
+            } else {
+                t[k][1][b] = 8 + (f - 16) as i64;
+            }
+            b += 1;
+        }
+        k += 1;
+    }
+    t
+};
+
+/// [`F64x8::scatter3`]'s indices: output register `r` holds the doubles `8r..8r+8` of the 24,
+/// double `f` being component `f % 3` of body `f / 3`: from `x` and `y` first, then `z`.
+const SCATTER3: [[[i64; 8]; 2]; 3] = {
+    let mut t = [[[0; 8]; 2]; 3];
+    let mut r = 0;
+    while r < 3 {
+        let mut p = 0;
+        while p < 8 {
+            let f = 8 * r + p;
+            let (body, comp) = ((f / 3) as i64, f % 3);
+            t[r][0][p] = if comp == 1 { 8 + body } else { body };
+            t[r][1][p] = if comp == 2 { 8 + body } else { p as i64 };
+            p += 1;
+        }
+        r += 1;
+    }
+    t
+};
+
+/// From two loaded registers (quaternions `2r..2r+4`, 4 doubles each): lane `p` takes component
+/// `p / 4` (`2 + p / 4` for the second table) of quaternion `p % 4`.
+const QUAT_PAIRS: [[i64; 8]; 2] = {
+    let mut t = [[0; 8]; 2];
+    let mut p = 0;
+    while p < 8 {
+        t[0][p] = (4 * (p % 4) + p / 4) as i64;
+        t[1][p] = (4 * (p % 4) + 2 + p / 4) as i64;
+        p += 1;
+    }
+    t
+};
+
+/// The low halves of two registers (`[0..4, 8..12]`), and the high halves (`[4..8, 12..16]`).
+const HALVES: [[i64; 8]; 2] = [[0, 1, 2, 3, 8, 9, 10, 11], [4, 5, 6, 7, 12, 13, 14, 15]];
+
+/// [`F64x8::scatter4`]'s last step: from `a` (components 0-1 of 4 quaternions, `4c + q`) and `b`
+/// (components 2-3), the doubles of quaternions 0-1 (first table) or 2-3 (second) in storage
+/// order.
+const QUAT_ROWS: [[i64; 8]; 2] = {
+    let mut t = [[0; 8]; 2];
+    let mut h = 0;
+    while h < 2 {
+        let mut f = 0;
+        while f < 8 {
+            let (quat, comp) = (2 * h + f / 4, f % 4);
+            t[h][f] = if comp < 2 {
+                (4 * comp + quat) as i64
+            } else {
+                (8 + 4 * (comp - 2) + quat) as i64
+            };
+            f += 1;
+        }
+        h += 1;
+    }
+    t
+};
 
 /// [`newton`] on 8 lanes, compiled for AVX-512F.
 #[target_feature(enable = "avx512f")]
@@ -364,6 +613,56 @@ macro_rules! pair {
                 $name(self.0.max(o.0), self.1.max(o.1))
             }
             #[inline(always)]
+            fn gather3(v: &[Vector3<f64>; $n]) -> V3<Self> {
+                let (lo, hi) = v.split_at($half);
+                let lo = $inner::gather3(lo.try_into().unwrap());
+                let hi = $inner::gather3(hi.try_into().unwrap());
+                V3 {
+                    x: $name(lo.x, hi.x),
+                    y: $name(lo.y, hi.y),
+                    z: $name(lo.z, hi.z),
+                }
+            }
+            #[inline(always)]
+            fn scatter3(c: V3<Self>, v: &mut [Vector3<f64>; $n]) {
+                let (lo, hi) = v.split_at_mut($half);
+                let half = |pick: fn(Self) -> $inner| V3 {
+                    x: pick(c.x),
+                    y: pick(c.y),
+                    z: pick(c.z),
+                };
+                $inner::scatter3(half(|p| p.0), lo.try_into().unwrap());
+                $inner::scatter3(half(|p| p.1), hi.try_into().unwrap());
+            }
+            #[inline(always)]
+            fn gather4(q: &[UnitQuaternion<f64>; $n]) -> Quat<Self> {
+                let (lo, hi) = q.split_at($half);
+                let lo = $inner::gather4(lo.try_into().unwrap());
+                let hi = $inner::gather4(hi.try_into().unwrap());
+                Quat {
+                    w: $name(lo.w, hi.w),
+                    v: V3 {
+                        x: $name(lo.v.x, hi.v.x),
+                        y: $name(lo.v.y, hi.v.y),
+                        z: $name(lo.v.z, hi.v.z),
+                    },
+                }
+            }
+            #[inline(always)]
+            fn scatter4(c: Quat<Self>, q: &mut [UnitQuaternion<f64>; $n]) {
+                let (lo, hi) = q.split_at_mut($half);
+                let half = |pick: fn(Self) -> $inner| Quat {
+                    w: pick(c.w),
+                    v: V3 {
+                        x: pick(c.v.x),
+                        y: pick(c.v.y),
+                        z: pick(c.v.z),
+                    },
+                };
+                $inner::scatter4(half(|p| p.0), lo.try_into().unwrap());
+                $inner::scatter4(half(|p| p.1), hi.try_into().unwrap());
+            }
+            #[inline(always)]
             fn le(self, o: Self) -> u32 {
                 self.0.le(o.0) | self.1.le(o.1) << $half
             }
@@ -408,5 +707,4 @@ macro_rules! pair {
         }
     };
 }
-pair!(F64x4x2, F64x4, 8, 4, newton_avx2_pair, "avx2");
 pair!(F64x8x2, F64x8, 16, 8, newton_avx512_pair, "avx512f");
