@@ -269,20 +269,18 @@ impl TreeSolver {
             };
             let (gl_p, gl_c) = &jac.left[j];
             let (gr_p, gr_c) = &jac.right[j];
-            let y = self.inv_body[b] * gl_c.transpose();
-            let h = s[b].right_of(gr_c);
-            self.d_joint[j] += h * y;
-            self.y_child[j] = y;
-            self.h_child[j] = h;
+            // The products straight into their buffers (`mul_to` is the `*` of nalgebra, the
+            // same operations), no temporaries copied.
+            self.inv_body[b].mul_to(&gl_c.transpose(), &mut self.y_child[j]);
+            self.h_child[j] = s[b].right_of(gr_c);
+            self.d_joint[j] += self.h_child[j] * self.y_child[j];
             if !invert_into(&self.d_joint[j], &mut self.inv_joint[j]) {
                 return false;
             }
-            let inv_j = &self.inv_joint[j];
             if let Some(p) = topo.joint_bodies[j].0 {
                 let hp = s[p].right_of(gr_p);
-                let x = inv_j * hp;
-                self.d_body[p] += gl_p.transpose() * x;
-                self.x_parent[j] = x;
+                self.inv_joint[j].mul_to(&hp, &mut self.x_parent[j]);
+                self.d_body[p] += gl_p.transpose() * self.x_parent[j];
             }
         }
         if jac.extra_right.is_empty() {
