@@ -45,12 +45,17 @@ type Matrix5 = SMatrix<f64, MAX_ROWS, MAX_ROWS>;
 type Vector6 = SVector<f64, 6>;
 
 /// The inverse of a small square matrix by Gauss-Jordan elimination with partial pivoting
-/// (fixed size, unrolled by the compiler: faster here than a general LU and its solves);
-/// `None` when a pivot is zero or not finite.
+/// (fixed size, unrolled by the compiler: faster here than a general LU and its solves),
+/// written to `out`; `false` when a pivot is zero or not finite.
+///
+/// The operations on `inv`, in their order, are those of the plain elimination
+/// (`tests::invert_reference`, compared bit for bit); the working copy `a` is updated only in
+/// the columns right of the pivot: the others are never read again (the pivot search and the
+/// multipliers read column `k` at step `k`).
 #[inline]
-fn invert<const N: usize>(m: &SMatrix<f64, N, N>) -> Option<SMatrix<f64, N, N>> {
+fn invert_into<const N: usize>(m: &SMatrix<f64, N, N>, inv: &mut SMatrix<f64, N, N>) -> bool {
     let mut a = *m;
-    let mut inv = SMatrix::<f64, N, N>::identity();
+    *inv = SMatrix::<f64, N, N>::identity();
     for k in 0..N {
         let mut p = k;
         for i in k + 1..N {
@@ -59,31 +64,44 @@ fn invert<const N: usize>(m: &SMatrix<f64, N, N>) -> Option<SMatrix<f64, N, N>> 
             }
         }
         if p != k {
-            a.swap_rows(k, p);
+            for j in k..N {
+                a.swap((k, j), (p, j));
+            }
             inv.swap_rows(k, p);
         }
         let pivot = a[(k, k)];
         if !(pivot != 0.0 && pivot.is_finite()) {
-            return None;
+            return false;
         }
         let r = 1.0 / pivot;
-        for j in 0..N {
+        for j in k + 1..N {
             a[(k, j)] *= r;
+        }
+        for j in 0..N {
             inv[(k, j)] *= r;
         }
         for i in 0..N {
             if i != k {
                 let f = a[(i, k)];
                 if f != 0.0 {
-                    for j in 0..N {
+                    for j in k + 1..N {
                         a[(i, j)] -= f * a[(k, j)];
+                    }
+                    for j in 0..N {
                         inv[(i, j)] -= f * inv[(k, j)];
                     }
                 }
             }
         }
     }
-    Some(inv)
+    true
+}
+
+/// [`invert_into`] returning the inverse (`None`: singular).
+#[cfg(test)]
+fn invert<const N: usize>(m: &SMatrix<f64, N, N>) -> Option<SMatrix<f64, N, N>> {
+    let mut out = SMatrix::zeros();
+    invert_into(m, &mut out).then_some(out)
 }
 
 /// A body's compliance `S_i = [s_c I, 0; 0, S_rot]` (impulse → displacement).
@@ -154,6 +172,9 @@ pub struct Jacobians<'a> {
 #[derive(Debug, Clone)]
 pub struct TreeSolver {
     topo: Topology,
+    /// Per body: whether no joint has it as parent (its `D_b` stays the identity, whose
+    /// inverse is the identity, bit for bit).
+    leaf: Vec<bool>,
     d_body: Vec<Matrix6>,
     inv_body: Vec<Matrix6>,
     d_joint: Vec<Matrix5>,
@@ -164,10 +185,6 @@ pub struct TreeSolver {
     h_child: Vec<RowJacobian>,
     /// `D_j⁻¹ G_R,jP S_P` (indexed by joint; unused for a joint on the world).
     x_parent: Vec<RowJacobian>,
-    /// `G_L,jP` (copied for the solve phase).
-    gl_parent: Vec<RowJacobian>,
-    /// `G_R,jP S_P`.
-    h_parent: Vec<RowJacobian>,
     b_body: Vec<Vector6>,
     b_joint: Vec<RowValues>,
     y_vec: Vec<Vector6>,
@@ -189,7 +206,14 @@ pub struct TreeSolver {
 impl TreeSolver {
     pub fn new(topo: Topology, extra_rows: usize) -> Self {
         let (nb, nj) = (topo.parent_joint.len(), topo.joint_bodies.len());
+        let mut leaf = vec![true; nb];
+        for &(p, _) in &topo.joint_bodies {
+            if let Some(p) = p {
+                leaf[p] = false;
+            }
+        }
         Self {
+            leaf,
             d_body: vec![Matrix6::identity(); nb],
             inv_body: vec![Matrix6::identity(); nb],
             d_joint: vec![Matrix5::zeros(); nj],
@@ -197,8 +221,6 @@ impl TreeSolver {
             y_child: vec![SMatrix::zeros(); nj],
             h_child: vec![RowJacobian::zeros(); nj],
             x_parent: vec![RowJacobian::zeros(); nj],
-            gl_parent: vec![RowJacobian::zeros(); nj],
-            h_parent: vec![RowJacobian::zeros(); nj],
             b_body: vec![Vector6::zeros(); nb],
             b_joint: vec![RowValues::zeros(); nj],
             y_vec: vec![Vector6::zeros(); nb],
@@ -225,7 +247,6 @@ impl TreeSolver {
     /// complement. `false` when a pivot block is singular or the result is not finite.
     pub fn factor(&mut self, jac: &Jacobians, s: &[Compliance]) -> bool {
         let topo = &self.topo;
-        self.s.copy_from_slice(s);
         for d in &mut self.d_body {
             *d = Matrix6::identity();
         }
@@ -236,36 +257,37 @@ impl TreeSolver {
             }
         }
         for b in (0..topo.parent_joint.len()).rev() {
-            let Some(inv_b) = invert(&self.d_body[b]) else {
+            if self.leaf[b] {
+                // `D_b = I` (no joint adds to it): Gauss-Jordan returns `I` exactly (pivots 1,
+                // no multiplier), and `inv_body[b]` is `I` from `new` on.
+                debug_assert_eq!(self.d_body[b], Matrix6::identity());
+            } else if !invert_into(&self.d_body[b], &mut self.inv_body[b]) {
                 return false;
-            };
-            self.inv_body[b] = inv_b;
+            }
             let Some(j) = topo.parent_joint[b] else {
                 continue;
             };
             let (gl_p, gl_c) = &jac.left[j];
             let (gr_p, gr_c) = &jac.right[j];
-            let y = inv_b * gl_c.transpose();
-            let h = s[b].right_of(gr_c);
-            self.d_joint[j] += h * y;
-            self.y_child[j] = y;
-            self.h_child[j] = h;
-            let Some(inv_j) = invert(&self.d_joint[j]) else {
+            // The products straight into their buffers (`mul_to` is the `*` of nalgebra, the
+            // same operations), no temporaries copied.
+            self.inv_body[b].mul_to(&gl_c.transpose(), &mut self.y_child[j]);
+            self.h_child[j] = s[b].right_of(gr_c);
+            self.d_joint[j] += self.h_child[j] * self.y_child[j];
+            if !invert_into(&self.d_joint[j], &mut self.inv_joint[j]) {
                 return false;
-            };
-            self.inv_joint[j] = inv_j;
+            }
             if let Some(p) = topo.joint_bodies[j].0 {
                 let hp = s[p].right_of(gr_p);
-                let x = inv_j * hp;
-                self.d_body[p] += gl_p.transpose() * x;
-                self.x_parent[j] = x;
-                self.gl_parent[j] = *gl_p;
-                self.h_parent[j] = hp;
+                self.inv_joint[j].mul_to(&hp, &mut self.x_parent[j]);
+                self.d_body[p] += gl_p.transpose() * self.x_parent[j];
             }
         }
         if jac.extra_right.is_empty() {
             return true;
         }
+        // The compliances, for the products with the extra rows (here and in the solve).
+        self.s.copy_from_slice(s);
         // Columns K_tm[:, m] = G_R,t S G_L,mᵀ, then Y_m = K_tt⁻¹ K_tm[:, m].
         let n_extra = jac.extra_right.len();
         for m in 0..n_extra {
@@ -277,7 +299,7 @@ impl TreeSolver {
                 let w = s[*i].apply(&row.transpose());
                 self.add_joint_rows(*i, &w, jac.right, &mut col);
             }
-            self.solve_tree(&mut col);
+            self.solve_tree(jac.left, &mut col);
             self.extra_cols[m] = col;
         }
         // Σ = K_mm − K_mt Y.
@@ -348,7 +370,8 @@ impl TreeSolver {
     }
 
     /// Solves `K_tt x = rhs` in place (tree rows only), after [`TreeSolver::factor`].
-    pub fn solve_tree(&mut self, rhs: &mut [RowValues]) {
+    /// `left` are the left Jacobians the factorisation was given.
+    fn solve_tree(&mut self, left: &[(RowJacobian, RowJacobian)], rhs: &mut [RowValues]) {
         let topo = &self.topo;
         for b in self.b_body.iter_mut() {
             *b = Vector6::zeros();
@@ -363,7 +386,7 @@ impl TreeSolver {
             let x = self.inv_joint[j] * (self.b_joint[j] - self.h_child[j] * y);
             self.b_joint[j] = x;
             if let Some(p) = topo.joint_bodies[j].0 {
-                self.b_body[p] += self.gl_parent[j].transpose() * x;
+                self.b_body[p] += left[j].0.transpose() * x;
             }
         }
         for b in 0..topo.parent_joint.len() {
@@ -385,11 +408,11 @@ impl TreeSolver {
     /// the solution), after a successful [`TreeSolver::factor`].
     pub fn solve(&mut self, jac: &Jacobians, rhs: &mut [RowValues], extra: &mut [f64]) {
         if extra.is_empty() {
-            self.solve_tree(rhs);
+            self.solve_tree(jac.left, rhs);
             return;
         }
         // x_t0 = K_tt⁻¹ r_t; Σ x_m = r_m − K_mt x_t0; x_t = x_t0 − Y x_m.
-        self.solve_tree(rhs);
+        self.solve_tree(jac.left, rhs);
         let x0 = std::mem::take(&mut self.tree_rhs);
         let mut x0 = x0;
         x0.copy_from_slice(rhs);
@@ -469,6 +492,114 @@ mod tests {
 
     fn random_jac(state: &mut u64, rows: usize) -> RowJacobian {
         RowJacobian::from_fn(|r, _| if r < rows { rng(state) } else { 0.0 })
+    }
+
+    /// The plain Gauss-Jordan elimination [`invert`] was written from (every column of the
+    /// working copy updated): the bit-for-bit reference of the faster code.
+    pub(super) fn invert_reference<const N: usize>(
+        m: &SMatrix<f64, N, N>,
+    ) -> Option<SMatrix<f64, N, N>> {
+        let mut a = *m;
+        let mut inv = SMatrix::<f64, N, N>::identity();
+        for k in 0..N {
+            let mut p = k;
+            for i in k + 1..N {
+                if a[(i, k)].abs() > a[(p, k)].abs() {
+                    p = i;
+                }
+            }
+            if p != k {
+                a.swap_rows(k, p);
+                inv.swap_rows(k, p);
+            }
+            let pivot = a[(k, k)];
+            if !(pivot != 0.0 && pivot.is_finite()) {
+                return None;
+            }
+            let r = 1.0 / pivot;
+            for j in 0..N {
+                a[(k, j)] *= r;
+                inv[(k, j)] *= r;
+            }
+            for i in 0..N {
+                if i != k {
+                    let f = a[(i, k)];
+                    if f != 0.0 {
+                        for j in 0..N {
+                            a[(i, j)] -= f * a[(k, j)];
+                            inv[(i, j)] -= f * inv[(k, j)];
+                        }
+                    }
+                }
+            }
+        }
+        Some(inv)
+    }
+
+    /// Bits of every entry (so that `-0.0` and `0.0`, and NaNs, are told apart).
+    pub(super) fn bits<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> Vec<u64> {
+        m.iter().map(|x| x.to_bits()).collect()
+    }
+
+    /// A matrix of the kinds the tree solve meets: dense, sparse with signed zeros, with
+    /// entries of mixed signs and sizes, padded with a diagonal block (a joint's unused rows).
+    fn structured<const N: usize>(st: &mut u64, kind: u32) -> SMatrix<f64, N, N> {
+        SMatrix::from_fn(|i, j| {
+            let x = rng(st);
+            match kind % 5 {
+                0 => x,
+                1 => {
+                    if x.abs() < 0.4 {
+                        if x < 0.0 { -0.0 } else { 0.0 }
+                    } else {
+                        x * 10f64.powi((x * 8.0) as i32)
+                    }
+                }
+                2 => {
+                    if i == j {
+                        x + 2.0f64.copysign(x)
+                    } else if (i + j) % 2 == 0 {
+                        -0.0
+                    } else {
+                        x
+                    }
+                }
+                3 => {
+                    if i >= 5 || j >= 5 {
+                        if i == j {
+                            1.0
+                        } else if x < 0.0 {
+                            -0.0
+                        } else {
+                            0.0
+                        }
+                    } else {
+                        x
+                    }
+                }
+                _ => {
+                    if i == j {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                }
+            }
+        })
+    }
+
+    /// [`invert`] gives the bits of the plain elimination on every kind of block.
+    #[test]
+    fn invert_matches_the_plain_elimination_bit_for_bit() {
+        let mut st = 0x1234_5678_9abc_def1u64;
+        for n in 0..20_000u32 {
+            let m6 = structured::<6>(&mut st, n);
+            let (a, b) = (invert(&m6), invert_reference(&m6));
+            assert_eq!(a.map(|m| bits(&m)), b.map(|m| bits(&m)), "6x6 case {n}");
+            let m7 = structured::<MAX_ROWS>(&mut st, n);
+            let (a, b) = (invert(&m7), invert_reference(&m7));
+            assert_eq!(a.map(|m| bits(&m)), b.map(|m| bits(&m)), "7x7 case {n}");
+        }
     }
 
     /// A branched tree (body 1 has three children), a joint on the world, unused rows and two
