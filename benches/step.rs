@@ -145,6 +145,24 @@ fn step(c: &mut Criterion) {
     group.finish();
 }
 
+/// The variational step of 10 000 bodies on every vector unit this machine has
+/// (`tumble::sim::simd`: the same bits on each; issue 34).
+fn simd(c: &mut Criterion) {
+    let mut group = c.benchmark_group("simd");
+    let n = 10_000;
+    for level in tumble::sim::simd::available() {
+        let mut bodies = Bodies::new(&batch(n));
+        let mut integrator =
+            Variational::new(DT_SECS, VariationalSettings::default()).with_simd(level);
+        integrator.init(&bodies);
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_with_input(BenchmarkId::new(level.name(), n), &n, |b, _| {
+            b.iter(|| integrator.step(black_box(&mut bodies), &Loads::uniform_gravity(gravity())))
+        });
+    }
+    group.finish();
+}
+
 fn peer(c: &mut Criterion) {
     check_same_problem();
     let mut group = c.benchmark_group("peer");
@@ -175,5 +193,5 @@ fn guard(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, step, peer, guard);
+criterion_group!(benches, step, simd, peer, guard);
 criterion_main!(benches);

@@ -205,12 +205,13 @@ fn run_scene(args: &BenchArgs, path: &std::path::Path) -> anyhow::Result<()> {
     let make = || world.integrator(kind, dt, &settings);
     make()?;
     println!(
-        "{} x {} steps of {} ({bodies} bodies, {} articulated models, {}, dt = {dt} s), no recording",
+        "{} x {} steps of {} ({bodies} bodies, {} articulated models, {}, dt = {dt} s), no recording, vector unit {} (TUMBLE_SIMD caps it)",
         args.repeats,
         args.steps,
         path.display(),
         world.mechanisms.len(),
-        kind.name()
+        kind.name(),
+        crate::sim::simd::active().name(),
     );
     if let Some(secs) = args.errors_over {
         if !(secs.is_finite() && secs > 0.0) {
