@@ -20,6 +20,7 @@ import numpy as np
 def build(n, seed=1):
     rng = np.random.default_rng(seed)
     spec = mujoco.MjSpec()
+    spec.memory = 512 << 20  # the arena for 10 000 free bodies (the default is too small)
     spec.option.timestep = 0.001
     spec.option.gravity = [0.0, 0.0, 0.0]
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER
