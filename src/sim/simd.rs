@@ -79,3 +79,21 @@ pub fn active() -> Level {
         }
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_parse_back_and_units_are_ordered() {
+        for level in Level::ALL {
+            assert_eq!(Level::parse(level.name()), Some(level));
+        }
+        assert_eq!(Level::parse("avx"), None);
+        assert!(Level::Sse2 < Level::Avx2 && Level::Avx2 < Level::Avx512);
+        let units = available();
+        assert_eq!(units.first(), Some(&Level::Sse2));
+        assert_eq!(units.last(), Some(&detected()));
+        assert!(active() <= detected());
+    }
+}

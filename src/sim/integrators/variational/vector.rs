@@ -708,3 +708,134 @@ macro_rules! pair {
     };
 }
 pair!(F64x8x2, F64x8, 16, 8, newton_avx512_pair, "avx512f");
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::simd::{Level, available};
+    use nalgebra::Quaternion;
+
+    /// Distinct values for every component of every body: a transpose that swaps two lanes or two
+    /// components is seen.
+    fn vectors<const N: usize>() -> [Vector3<f64>; N] {
+        std::array::from_fn(|b| Vector3::new(b as f64, 100.0 + b as f64, 200.0 + b as f64))
+    }
+    fn quaternions<const N: usize>() -> [UnitQuaternion<f64>; N] {
+        std::array::from_fn(|b| {
+            let b = b as f64;
+            UnitQuaternion::new_unchecked(Quaternion::new(300.0 + b, b, 100.0 + b, 200.0 + b))
+        })
+    }
+
+    /// Gathers and scatters `N` vectors and quaternions through pack `L` and checks every lane
+    /// against the batch's values, then that scattering gives the batch back.
+    fn round_trip<L: Pack<N>, const N: usize>() {
+        let v = vectors::<N>();
+        let g = L::gather3(&v);
+        let (x, y, z) = (g.x.to_array(), g.y.to_array(), g.z.to_array());
+        for b in 0..N {
+            assert_eq!(
+                [x[b], y[b], z[b]],
+                [v[b].x, v[b].y, v[b].z],
+                "vector lane {b}"
+            );
+        }
+        let mut back = [Vector3::zeros(); N];
+        L::scatter3(g, &mut back);
+        assert_eq!(back, v);
+        let q = quaternions::<N>();
+        let g = L::gather4(&q);
+        let (w, i, j, k) = (
+            g.w.to_array(),
+            g.v.x.to_array(),
+            g.v.y.to_array(),
+            g.v.z.to_array(),
+        );
+        for b in 0..N {
+            assert_eq!(
+                [w[b], i[b], j[b], k[b]],
+                [q[b].w, q[b].i, q[b].j, q[b].k],
+                "quaternion lane {b}"
+            );
+        }
+        let mut back = [UnitQuaternion::identity(); N];
+        L::scatter4(g, &mut back);
+        assert_eq!(back.map(|q| q.coords), q.map(|q| q.coords));
+    }
+
+    /// Each operation against `f64`'s, lane by lane, on values that tell the cases apart: signed
+    /// zeros (abs, negation, max's tie), NaN (comparisons false, max takes the second), infinities.
+    fn operations<L: Pack<N>, const N: usize>() {
+        let pool = [
+            0.0,
+            -0.0,
+            1.5,
+            -2.25,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            3.0e-300,
+            -7.0,
+            1.5,
+        ];
+        for shift in 0..pool.len() {
+            let a: [f64; N] = std::array::from_fn(|i| pool[(i + shift) % pool.len()]);
+            let b: [f64; N] = std::array::from_fn(|i| pool[(3 * i + 2 * shift + 1) % pool.len()]);
+            let (pa, pb) = (L::from_array(a), L::from_array(b));
+            let bits = |x: [f64; N]| x.map(f64::to_bits);
+            let lanes = |f: &dyn Fn(f64, f64) -> f64| bits(std::array::from_fn(|i| f(a[i], b[i])));
+            assert_eq!(bits((pa + pb).to_array()), lanes(&|x, y| x + y));
+            assert_eq!(bits((pa - pb).to_array()), lanes(&|x, y| x - y));
+            assert_eq!(bits((pa * pb).to_array()), lanes(&|x, y| x * y));
+            assert_eq!(bits((pa / pb).to_array()), lanes(&|x, y| x / y));
+            assert_eq!(bits((-pa).to_array()), lanes(&|x, _| -x));
+            assert_eq!(bits(pa.abs().to_array()), lanes(&|x, _| x.abs()));
+            assert_eq!(
+                bits(pa.max(pb).to_array()),
+                lanes(&|x, y| if x > y { x } else { y })
+            );
+            assert_eq!(bits(L::splat(a[0]).to_array()), bits([a[0]; N]));
+            let mask = |f: &dyn Fn(f64, f64) -> bool| {
+                (0..N).fold(0u32, |m, i| m | u32::from(f(a[i], b[i])) << i)
+            };
+            assert_eq!(pa.le(pb), mask(&|x, y| x <= y));
+            assert_eq!(pa.lt(pb), mask(&|x, y| x < y));
+            assert_eq!(pa.ne(pb), mask(&|x, y| x < y || x > y));
+            assert_eq!(pa.finite(), mask(&|x, _| x.is_finite()));
+            let pick = 0b1011_0110_1001_1010u32 >> shift;
+            let chosen: [f64; N] =
+                std::array::from_fn(|i| if pick >> i & 1 == 1 { a[i] } else { b[i] });
+            assert_eq!(bits(L::select(pick, pa, pb).to_array()), bits(chosen));
+        }
+    }
+
+    #[test]
+    fn packs_move_and_round_as_the_portable_lanes() {
+        let levels = available();
+        if levels.contains(&Level::Avx2) {
+            // SAFETY: the CPU has AVX2 (detected).
+            unsafe { avx2_checks() };
+        }
+        if levels.contains(&Level::Avx512) {
+            // SAFETY: the CPU has AVX-512F (detected).
+            unsafe { avx512_checks() };
+        }
+        // The portable lanes against the same checks.
+        round_trip::<super::super::lanes::Lanes<4>, 4>();
+        operations::<super::super::lanes::Lanes<4>, 4>();
+    }
+
+    #[target_feature(enable = "avx2")]
+    fn avx2_checks() {
+        round_trip::<F64x4, 4>();
+        operations::<F64x4, 4>();
+    }
+
+    #[target_feature(enable = "avx512f")]
+    fn avx512_checks() {
+        round_trip::<F64x8, 8>();
+        operations::<F64x8, 8>();
+        round_trip::<F64x8x2, 16>();
+        operations::<F64x8x2, 16>();
+    }
+}
