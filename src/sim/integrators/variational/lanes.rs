@@ -175,7 +175,7 @@ impl<const N: usize> Pack<N> for Lanes<N> {
     }
     #[inline(always)]
     fn ne(self, o: Self) -> u32 {
-        mask::<N>(|i| self.0[i] < o.0[i] || self.0[i] > o.0[i])
+        mask::<N>(|i| (self.0[i] != o.0[i]) & !self.0[i].is_nan() & !o.0[i].is_nan())
     }
     #[inline(always)]
     fn select(mask: u32, a: Self, b: Self) -> Self {
