@@ -1,7 +1,7 @@
 //! A batch split into contiguous partitions, stepped side by side (`--threads`).
 //!
 //! Free bodies do not interact, and every integrator steps each body from that body's state
-//! alone (the variational step's 4-body lanes round exactly as one body does,
+//! alone (the variational step's packs of 4 or 16 bodies round exactly as one body does,
 //! `batched_lanes_match_one_body_steps_bit_for_bit`), so a body's trajectory is the same bits
 //! however the batch is cut: partition `k` of `n` holds bodies `[k·c, (k+1)·c)`, `c = ⌈N/n⌉`,
 //! with its own integrator instance and [`Guard`], and the partitions are stepped on a rayon
@@ -810,7 +810,7 @@ mod tests {
     }
 
     /// Every integrator: 3 partitions step the same bits as one batch (free bodies, per-body
-    /// steps), including a remainder partition that is not a multiple of the 4-body lanes.
+    /// steps), including a remainder partition that is not a multiple of the packs' widths.
     #[test]
     fn partitions_step_the_same_bits_as_one_batch() {
         let inits = free_body_batch(1003);

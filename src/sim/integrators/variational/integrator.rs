@@ -1,5 +1,5 @@
 //! [`Variational`], the [`Integrator`] over a batch: its state (the per-body `ξ`), the stepping
-//! of a range block by block (rotation in lanes of [`LANES`] bodies, then translation, then the
+//! of a range block by block (rotation in packs of bodies on the machine's vector unit, then translation, then the
 //! guard's test), and the step of one lane group ([`step_bodies`]: predict, Newton, rotate,
 //! substep when needed).
 
@@ -147,8 +147,8 @@ impl Variational {
     /// [`Variational::step_range`], block by block of [`BLOCK_BODIES`] bodies (rotation, then
     /// translation), and with `watch` the guard's per-body test of each block right after its
     /// step, while its state is in cache; returns the statistics and whether any body is
-    /// suspect. Every body steps from its own state alone (the 4-body lanes round as one body
-    /// does), and the blocks start at `range.start` in multiples of [`LANES`], so the lanes
+    /// suspect. Every body steps from its own state alone (the packs of every vector unit round
+    /// as one body does), and the blocks start at `range.start` in multiples of every pack's width, so the lanes
     /// and the bits are those of one pass over the range.
     pub fn step_range_watched(
         &mut self,
