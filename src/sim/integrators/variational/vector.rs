@@ -823,6 +823,13 @@ mod tests {
             // SAFETY: the CPU has AVX-512F (detected).
             unsafe { avx512_checks() };
         }
+        // The masks' full sets (a wrong one only slows the step: every group would leave the
+        // one-update path for the full Newton loop, whose bits are the same).
+        use super::super::lanes::Lanes;
+        assert_eq!(<Lanes<1> as Pack<1>>::ALL, 0b1);
+        assert_eq!(<Lanes<4> as Pack<4>>::ALL, 0b1111);
+        assert_eq!(<F64x8x2 as Pack<16>>::ALL, 0xffff);
+        assert_eq!(<Lanes<32> as Pack<32>>::ALL, u32::MAX);
         // The portable lanes against the same checks.
         round_trip::<super::super::lanes::Lanes<4>, 4>();
         operations::<super::super::lanes::Lanes<4>, 4>();
