@@ -9,14 +9,7 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 rounds="${ROUNDS:-3}"
 steps="${STEPS:-1000}"
-venv=target/benchenv
-req=scripts/bench_requirements.txt
-if [ ! -f "$venv/.installed" ] || ! cmp -s "$req" "$venv/.installed"; then
-  rm -rf "$venv"
-  python3 -m venv "$venv" >&2
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$req" >&2
-  cp "$req" "$venv/.installed"
-fi
+source scripts/benchenv.sh
 cargo build --release --quiet --bin tumble
 T=target/release/tumble
 flags=$(grep -m1 '^flags' /proc/cpuinfo)

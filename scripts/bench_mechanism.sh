@@ -15,14 +15,7 @@ secs="${SECS:-100}"
 timed="${TIMED_STEPS:-10000}"
 cases="${CASES:-double_pendulum,chain7,chain3_free}"
 dts="${DTS:-0.001,0.01}"
-venv=target/benchenv
-req=scripts/bench_requirements.txt
-if [ ! -f "$venv/.installed" ] || ! cmp -s "$req" "$venv/.installed"; then
-  rm -rf "$venv"
-  python3 -m venv "$venv" >&2
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$req" >&2
-  cp "$req" "$venv/.installed"
-fi
+source scripts/benchenv.sh
 cargo build --release --quiet
 T=target/release/tumble
 work="$(mktemp -d)"

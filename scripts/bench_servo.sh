@@ -15,14 +15,7 @@ secs="${SECS:-10}"
 timed="${TIMED_STEPS:-5000}"
 kps="${KPS:-10,100,1000,10000,100000}"
 dts="${DTS:-0.001,0.01}"
-venv=target/benchenv
-req=scripts/bench_requirements.txt
-if [ ! -f "$venv/.installed" ] || ! cmp -s "$req" "$venv/.installed"; then
-  rm -rf "$venv"
-  python3 -m venv "$venv" >&2
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$req" >&2
-  cp "$req" "$venv/.installed"
-fi
+source scripts/benchenv.sh
 cargo build --release --quiet
 repo="$PWD"
 T="$repo/target/release/tumble"

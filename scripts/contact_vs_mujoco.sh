@@ -22,14 +22,7 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 repo="$PWD"
 integrators="${INTEGRATORS:-euler,implicitfast,implicitfast:elliptic:noslip}"
 out="${OUT:-$repo/target/contact_vs_mujoco.csv}"
-venv=target/benchenv
-req=scripts/bench_requirements.txt
-if [ ! -f "$venv/.installed" ] || ! cmp -s "$req" "$venv/.installed"; then
-  rm -rf "$venv"
-  python3 -m venv "$venv" >&2
-  "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$req" >&2
-  cp "$req" "$venv/.installed"
-fi
+source scripts/benchenv.sh
 if [ $# -ge 1 ]; then
   T="$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"
 else

@@ -118,12 +118,62 @@ impl Real for F64x4 {
 }
 
 impl F64x4 {
-    /// The lanes of a comparison's result as a mask.
+    /// The lanes where comparison `P` holds, as a mask.
     #[inline(always)]
-    fn bits(v: __m256d) -> u32 {
+    fn cmp<const P: i32>(self, o: Self) -> u32 {
         // SAFETY: see the module doc.
-        (unsafe { _mm256_movemask_pd(v) }) as u32
+        (unsafe { _mm256_movemask_pd(_mm256_cmp_pd::<P>(self.0, o.0)) }) as u32
     }
+}
+
+/// [`Pack`]'s comparisons through the pack's `cmp::<predicate>`, the ordered non-signalling forms
+/// (false for NaN).
+macro_rules! comparisons {
+    () => {
+        #[inline(always)]
+        fn le(self, o: Self) -> u32 {
+            self.cmp::<_CMP_LE_OQ>(o)
+        }
+        #[inline(always)]
+        fn lt(self, o: Self) -> u32 {
+            self.cmp::<_CMP_LT_OQ>(o)
+        }
+        #[inline(always)]
+        fn ne(self, o: Self) -> u32 {
+            self.cmp::<_CMP_NEQ_OQ>(o)
+        }
+    };
+}
+
+/// [`Pack::newton`] calling `$outlined`, and `$outlined`: [`newton`] on `$pack`, out of line and
+/// compiled for `$feature`.
+macro_rules! outlined_newton {
+    (method $n:literal, $outlined:ident) => {
+        fn newton(
+            j_over_h: V3<Self>,
+            m: V3<Self>,
+            xi: V3<Self>,
+            threshold: Self,
+            settings: &VariationalSettings,
+        ) -> NewtonOut<Self, $n> {
+            // SAFETY: see the module doc (only the dispatched path makes this pack).
+            unsafe { $outlined(j_over_h, m, xi, threshold, settings) }
+        }
+    };
+    (function $pack:ident, $n:literal, $outlined:ident, $feature:literal) => {
+        /// [`newton`] on this pack, compiled for its unit.
+        #[target_feature(enable = $feature)]
+        #[inline(never)]
+        fn $outlined(
+            j_over_h: V3<$pack>,
+            m: V3<$pack>,
+            xi: V3<$pack>,
+            threshold: $pack,
+            settings: &VariationalSettings,
+        ) -> NewtonOut<$pack, $n> {
+            newton(j_over_h, m, xi, threshold, settings)
+        }
+    };
 }
 
 impl Pack<4> for F64x4 {
@@ -144,21 +194,7 @@ impl Pack<4> for F64x4 {
         // SAFETY: see the module doc. `vmaxpd a, b` is `if a > b { a } else { b }`.
         F64x4(unsafe { _mm256_max_pd(self.0, o.0) })
     }
-    #[inline(always)]
-    fn le(self, o: Self) -> u32 {
-        // SAFETY: see the module doc.
-        Self::bits(unsafe { _mm256_cmp_pd::<_CMP_LE_OQ>(self.0, o.0) })
-    }
-    #[inline(always)]
-    fn lt(self, o: Self) -> u32 {
-        // SAFETY: see the module doc.
-        Self::bits(unsafe { _mm256_cmp_pd::<_CMP_LT_OQ>(self.0, o.0) })
-    }
-    #[inline(always)]
-    fn ne(self, o: Self) -> u32 {
-        // SAFETY: see the module doc.
-        Self::bits(unsafe { _mm256_cmp_pd::<_CMP_NEQ_OQ>(self.0, o.0) })
-    }
+    comparisons!();
     #[inline(always)]
     fn select(mask: u32, a: Self, b: Self) -> Self {
         let (a, b) = (a.to_array(), b.to_array());
@@ -240,30 +276,9 @@ impl Pack<4> for F64x4 {
             _mm256_storeu_pd(p.add(12), _mm256_unpackhi_pd(t2, t3));
         }
     }
-    fn newton(
-        j_over_h: V3<Self>,
-        m: V3<Self>,
-        xi: V3<Self>,
-        threshold: Self,
-        settings: &VariationalSettings,
-    ) -> NewtonOut<Self, 4> {
-        // SAFETY: see the module doc (only the AVX2 path makes an `F64x4`).
-        unsafe { newton_avx2(j_over_h, m, xi, threshold, settings) }
-    }
+    outlined_newton!(method 4, newton_avx2);
 }
-
-/// [`newton`] on 4 lanes, compiled for AVX2.
-#[target_feature(enable = "avx2")]
-#[inline(never)]
-fn newton_avx2(
-    j_over_h: V3<F64x4>,
-    m: V3<F64x4>,
-    xi: V3<F64x4>,
-    threshold: F64x4,
-    settings: &VariationalSettings,
-) -> NewtonOut<F64x4, 4> {
-    newton(j_over_h, m, xi, threshold, settings)
-}
+outlined_newton!(function F64x4, 4, newton_avx2, "avx2");
 
 // ---- AVX-512F: 8 lanes ----
 
@@ -325,21 +340,7 @@ impl Pack<8> for F64x8 {
         // SAFETY: see the module doc. `vmaxpd a, b` is `if a > b { a } else { b }`.
         F64x8(unsafe { _mm512_max_pd(self.0, o.0) })
     }
-    #[inline(always)]
-    fn le(self, o: Self) -> u32 {
-        // SAFETY: see the module doc.
-        u32::from(unsafe { _mm512_cmp_pd_mask::<_CMP_LE_OQ>(self.0, o.0) })
-    }
-    #[inline(always)]
-    fn lt(self, o: Self) -> u32 {
-        // SAFETY: see the module doc.
-        u32::from(unsafe { _mm512_cmp_pd_mask::<_CMP_LT_OQ>(self.0, o.0) })
-    }
-    #[inline(always)]
-    fn ne(self, o: Self) -> u32 {
-        // SAFETY: see the module doc.
-        u32::from(unsafe { _mm512_cmp_pd_mask::<_CMP_NEQ_OQ>(self.0, o.0) })
-    }
+    comparisons!();
     #[inline(always)]
     fn select(mask: u32, a: Self, b: Self) -> Self {
         // SAFETY: see the module doc. The blend takes its second operand where the mask is set.
@@ -424,15 +425,16 @@ impl Pack<8> for F64x8 {
             _mm512_storeu_pd(p.add(24), _mm512_permutex2var_pd(c, hi, d));
         }
     }
-    fn newton(
-        j_over_h: V3<Self>,
-        m: V3<Self>,
-        xi: V3<Self>,
-        threshold: Self,
-        settings: &VariationalSettings,
-    ) -> NewtonOut<Self, 8> {
-        // SAFETY: see the module doc (only the AVX-512 path makes an `F64x8`).
-        unsafe { newton_avx512(j_over_h, m, xi, threshold, settings) }
+    outlined_newton!(method 8, newton_avx512);
+}
+outlined_newton!(function F64x8, 8, newton_avx512, "avx512f");
+
+impl F64x8 {
+    /// The lanes where comparison `P` holds, as a mask.
+    #[inline(always)]
+    fn cmp<const P: i32>(self, o: Self) -> u32 {
+        // SAFETY: see the module doc.
+        u32::from(unsafe { _mm512_cmp_pd_mask::<P>(self.0, o.0) })
     }
 }
 
@@ -522,19 +524,6 @@ const QUAT_ROWS: [[i64; 8]; 2] = {
     }
     t
 };
-
-/// [`newton`] on 8 lanes, compiled for AVX-512F.
-#[target_feature(enable = "avx512f")]
-#[inline(never)]
-fn newton_avx512(
-    j_over_h: V3<F64x8>,
-    m: V3<F64x8>,
-    xi: V3<F64x8>,
-    threshold: F64x8,
-    settings: &VariationalSettings,
-) -> NewtonOut<F64x8, 8> {
-    newton(j_over_h, m, xi, threshold, settings)
-}
 
 // ---- Two registers per value: two independent dependency chains ----
 
@@ -681,30 +670,9 @@ macro_rules! pair {
                     $inner::select(mask >> $half, a.1, b.1),
                 )
             }
-            fn newton(
-                j_over_h: V3<Self>,
-                m: V3<Self>,
-                xi: V3<Self>,
-                threshold: Self,
-                settings: &VariationalSettings,
-            ) -> NewtonOut<Self, $n> {
-                // SAFETY: see the module doc (only the dispatched path makes this pack).
-                unsafe { $newton(j_over_h, m, xi, threshold, settings) }
-            }
+            outlined_newton!(method $n, $newton);
         }
-
-        /// [`newton`] on this pack, compiled for its unit.
-        #[target_feature(enable = $feature)]
-        #[inline(never)]
-        fn $newton(
-            j_over_h: V3<$name>,
-            m: V3<$name>,
-            xi: V3<$name>,
-            threshold: $name,
-            settings: &VariationalSettings,
-        ) -> NewtonOut<$name, $n> {
-            newton(j_over_h, m, xi, threshold, settings)
-        }
+        outlined_newton!(function $name, $n, $newton, $feature);
     };
 }
 pair!(F64x8x2, F64x8, 16, 8, newton_avx512_pair, "avx512f");
