@@ -608,17 +608,10 @@ pub fn polish(rows: &mut [Row], bodies: &mut Responses, seeds: &[usize]) -> bool
         .map(|(i, row)| (find(&mut parent, local(row.a)), i))
         .collect();
     island_rows.sort_unstable();
-    let members: Vec<usize> = island_rows.iter().map(|&(_, i)| i).collect();
     let mut all = true;
-    let mut start = 0;
-    while start < members.len() {
-        let root = island_rows[start].0;
-        let len = island_rows[start..]
-            .iter()
-            .position(|&(r, _)| r != root)
-            .unwrap_or(members.len() - start);
-        all &= polish_island(rows, bodies, &members[start..start + len]);
-        start += len;
+    for island in island_rows.chunk_by(|x, y| x.0 == y.0) {
+        let members: Vec<usize> = island.iter().map(|&(_, i)| i).collect();
+        all &= polish_island(rows, bodies, &members);
     }
     all
 }
