@@ -32,9 +32,11 @@ impl Level {
         }
     }
 
-    /// The level named `name` (as [`Level::name`] writes it).
+    /// The level named `name` (as [`Level::name`] writes it, in any case: `AVX512` too).
     pub fn parse(name: &str) -> Option<Level> {
-        Level::ALL.into_iter().find(|l| l.name() == name)
+        Level::ALL
+            .into_iter()
+            .find(|l| l.name().eq_ignore_ascii_case(name))
     }
 }
 
@@ -59,12 +61,14 @@ pub fn available() -> Vec<Level> {
 }
 
 /// The unit the step uses: [`detected`], capped by `TUMBLE_SIMD` when it names a level (read
-/// once per process; an unknown name is ignored with a warning on stderr).
+/// once per process; unset or empty: no cap; an unknown name is ignored with a warning on
+/// stderr, as a tuning knob's typo should not stop a run).
 pub fn active() -> Level {
     static ACTIVE: OnceLock<Level> = OnceLock::new();
     *ACTIVE.get_or_init(|| {
         let top = detected();
         match std::env::var("TUMBLE_SIMD") {
+            Ok(name) if name.trim().is_empty() => top,
             Ok(name) => match Level::parse(name.trim()) {
                 Some(cap) => cap.min(top),
                 None => {
@@ -90,6 +94,9 @@ mod tests {
             assert_eq!(Level::parse(level.name()), Some(level));
         }
         assert_eq!(Level::parse("avx"), None);
+        assert_eq!(Level::parse("AVX512"), Some(Level::Avx512));
+        assert_eq!(Level::parse("Avx2"), Some(Level::Avx2));
+        assert_eq!(Level::parse(""), None);
         assert!(Level::Sse2 < Level::Avx2 && Level::Avx2 < Level::Avx512);
         let units = available();
         assert_eq!(units.first(), Some(&Level::Sse2));
