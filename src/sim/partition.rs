@@ -506,13 +506,20 @@ impl<'a> Partitions<'a> {
                     self.parts.iter_mut().map(|p| &mut p.bodies).collect();
                 let mut step_loads = loads.clone();
                 step_loads.set_time((step - 1) as f64 * dt);
-                contact.start(&mut bodies, &self.starts, dt, &step_loads, alpha);
+                contact.start(
+                    &mut bodies,
+                    &self.starts,
+                    dt,
+                    &step_loads,
+                    alpha,
+                    self.pool.as_ref(),
+                );
             }
             self.step_parts(step - 1, step, loads);
             {
                 let mut bodies: Vec<&mut Bodies> =
                     self.parts.iter_mut().map(|p| &mut p.bodies).collect();
-                contact.end(&mut bodies, &self.starts);
+                contact.end(&mut bodies, &self.starts, self.pool.as_ref());
             }
             self.contact = Some(contact);
             if self.parts.iter().any(|p| p.stop.is_some()) {

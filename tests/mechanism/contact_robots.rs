@@ -404,3 +404,71 @@ fn robots_in_contact_step_the_same_bits_on_any_thread_count() {
     assert!(touching >= 40, "{touching}");
     assert!(one == three, "the same bits on 1 and 3 threads");
 }
+
+/// A 1 kg, 0.1 m cube.
+const CUBE: &str = r#"<?xml version="1.0"?>
+<robot name="cube">
+  <link name="c">
+    <inertial><mass value="1.0"/><inertia ixx="0.0016666666666667" ixy="0" ixz="0" iyy="0.0016666666666667" iyz="0" izz="0.0016666666666667"/></inertial>
+    <collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision>
+  </link>
+</robot>
+"#;
+
+/// Enough contacts for the solve to run its islands on the pool
+/// ([`tumble::sim::contact::islands::MIN_ROWS_ON_POOL`] rows): 150 cubes and 20 hinged pairs
+/// dropped onto the ground and onto each other step to the same bits on one thread (the islands
+/// one after another) and on two and three (batches of islands side by side, each on a copy of
+/// its bodies).
+#[test]
+fn islands_solved_side_by_side_step_the_same_bits() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("hinge2.urdf"), HINGE2).unwrap();
+    std::fs::write(dir.path().join("cube.urdf"), CUBE).unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(
+        &path,
+        "[sim]\ndt = 0.002\nduration = 1.0\ngravity = [0.0, 0.0, -9.81]\n\
+         [ground]\nheight = 0.0\nfriction = 0.8\n\
+         [[model]]\nurdf = \"hinge2.urdf\"\nbodies = \"articulated\"\ncopies = 20\nseed = 7\n\
+         position = { uniform = [[-1.5, -1.5, 0.3], [1.5, 1.5, 0.6]] }\n\
+         rpy = { uniform = [[-0.5, -0.5, 0.0], [0.5, 0.5, 3.0]] }\ncollisions = \"urdf\"\n\
+         [[model]]\nurdf = \"cube.urdf\"\ncopies = 150\nseed = 11\n\
+         position = { uniform = [[-1.5, -1.5, 0.06], [1.5, 1.5, 0.5]] }\n\
+         rpy = { uniform = [[-0.3, -0.3, 0.0], [0.3, 0.3, 3.0]] }\ncollisions = \"urdf\"\n",
+    )
+    .unwrap();
+    let run = |threads: usize| {
+        let mut sim = load(&path, threads).2;
+        let mut touching = 0;
+        for _ in 0..400 {
+            sim.advance(1).unwrap();
+            touching = touching.max(sim.partitions().contacts().len());
+        }
+        let summary = sim.summary();
+        assert_eq!(summary.stopped, None, "{summary:?}");
+        let view = sim.view();
+        let state: Vec<[u64; 7]> = (0..view.len())
+            .map(|i| {
+                let p = view.world_from_body(i);
+                let t = p.translation.vector;
+                let q = p.rotation.coords;
+                [t.x, t.y, t.z, q.x, q.y, q.z, q.w].map(f64::to_bits)
+            })
+            .collect();
+        let work = sim.partitions().contact_work().to_bits();
+        (touching, state, work)
+    };
+    let (touching, one, work_one) = run(1);
+    eprintln!("up to {touching} contacts");
+    // Resting cubes hold 4 contacts each: measured 602 at most.
+    assert!(
+        touching >= tumble::sim::contact::islands::MIN_ROWS_ON_POOL,
+        "{touching} contacts: too few for the pool"
+    );
+    for threads in [2, 3] {
+        let (_, other, work) = run(threads);
+        assert!(one == other, "the same bits on 1 and {threads} threads");
+        assert_eq!(work_one, work, "the contact work on {threads} threads");
+    }
+}

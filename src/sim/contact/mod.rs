@@ -16,6 +16,7 @@
 //! `scene/` and handed over here as plain data.
 
 pub mod broad;
+pub mod islands;
 pub mod narrow;
 pub mod phase;
 pub mod robots;

@@ -184,6 +184,7 @@ impl ContactPhase {
         dt_secs: f64,
         loads: &Loads,
         alpha: f64,
+        pool: Option<&rayon::ThreadPool>,
     ) {
         let h = dt_secs;
         let gravity = *loads.gravity();
@@ -223,6 +224,7 @@ impl ContactPhase {
             &mut self.responses,
             self.rel_tol,
             self.max_sweeps,
+            pool,
         );
         self.work += self.apply(parts, starts);
         // Which contacts close at the end of the step: those the end projection holds.
@@ -243,7 +245,12 @@ impl ContactPhase {
     /// resting on the ground would carry the velocity `g h / 2` of the step's second half, and
     /// an impact would not end at the contact (`docs/contact.md`). A robot's velocities are
     /// its projected ones, its response `M_c⁻¹` at the new poses.
-    pub fn end(&mut self, parts: &mut [&mut Bodies], starts: &[usize]) {
+    pub fn end(
+        &mut self,
+        parts: &mut [&mut Bodies],
+        starts: &[usize],
+        pool: Option<&rayon::ThreadPool>,
+    ) {
         let locate = |i: usize| locate(starts, i);
         self.end_rows.clear();
         // The slots the closing rows act on, for the robots' columns.
@@ -334,6 +341,7 @@ impl ContactPhase {
             &mut self.responses,
             self.rel_tol,
             self.max_sweeps,
+            pool,
         );
         self.stats.sweeps += end_stats.sweeps;
         self.stats.converged &= end_stats.converged;

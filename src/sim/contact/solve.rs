@@ -20,7 +20,9 @@
 //! from the normal row. The sweeps repeat until no impulse changes by more than the
 //! tolerance times the largest impulse.
 
+use super::islands;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use std::ops::Range;
 
 /// One body's response to impulses, and the velocity change they made so far.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -422,11 +424,15 @@ const SWEEPS_PER_POLISH: u32 = 10;
 /// the rows ask for (`|u_free|`, `|b_n|`): redundant contacts — the four corners of a face,
 /// a robot's feet — share their impulses in many ways, and the sweeps drift among them long
 /// after every velocity is right. At most `max_sweeps` sweeps.
+///
+/// With `pool` and at least [`islands::MIN_ROWS_ON_POOL`] rows, the islands are solved on the
+/// pool's threads ([`islands::solve_on_pool`]): the same bits.
 pub fn solve(
     rows: &mut [Row],
     bodies: &mut Responses,
     rel_tol: f64,
     max_sweeps: u32,
+    pool: Option<&rayon::ThreadPool>,
 ) -> SolveStats {
     let mut stats = SolveStats {
         sweeps: 0,
@@ -451,6 +457,7 @@ pub fn solve(
     let roots: Vec<usize> = (0..parent.len()).map(|i| find(&mut parent, i)).collect();
     // The keys are unique (one row per contact `source`): an unstable sort gives the same order.
     rows.sort_unstable_by_key(|r| (roots[r.a], r.source));
+    let mut islands: Vec<Range<usize>> = Vec::new();
     let mut start = 0;
     while start < rows.len() {
         let key = roots[rows[start].a];
@@ -458,16 +465,21 @@ pub fn solve(
             .iter()
             .position(|r| roots[r.a] != key)
             .unwrap_or(rows.len() - start);
-        let island = solve_island(
-            &mut rows[start..start + len],
-            bodies,
-            &seeds,
-            rel_tol,
-            max_sweeps,
-        );
-        stats.sweeps = stats.sweeps.max(island.sweeps);
-        stats.converged &= island.converged;
+        islands.push(start..start + len);
         start += len;
+    }
+    match pool {
+        Some(pool) if rows.len() >= islands::MIN_ROWS_ON_POOL && islands.len() > 1 => {
+            stats =
+                islands::solve_on_pool(rows, &islands, bodies, &seeds, rel_tol, max_sweeps, pool);
+        }
+        _ => {
+            for island in islands {
+                let island = solve_island(&mut rows[island], bodies, &seeds, rel_tol, max_sweeps);
+                stats.sweeps = stats.sweeps.max(island.sweeps);
+                stats.converged &= island.converged;
+            }
+        }
     }
     rows.sort_unstable_by_key(|r| r.source);
     stats
@@ -489,8 +501,8 @@ fn union(parent: &mut [usize], a: usize, b: usize) {
     parent[hi] = lo;
 }
 
-/// [`solve`] on one island's rows.
-fn solve_island(
+/// [`solve`] on one island's rows (`seeds`: per body of `bodies`, its island seed).
+pub(super) fn solve_island(
     rows: &mut [Row],
     bodies: &mut Responses,
     seeds: &[usize],
