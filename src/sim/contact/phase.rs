@@ -18,6 +18,7 @@ use crate::sim::integrators::VariationalSettings;
 use crate::sim::loads::Loads;
 use crate::sim::mechanism::constrained::Impulse6;
 use nalgebra::{DMatrix, DVector, Isometry3, Matrix3, Translation3, UnitQuaternion, Vector3};
+use rayon::prelude::*;
 
 /// A contact whose gap at the end of the step is at most this, or at most the distance
 /// gravity moves a body in one step (`|g| h²`: the linear prediction of a turning body's
@@ -26,6 +27,10 @@ const CLOSED_M: f64 = 1e-9;
 
 /// The fastest a penetration is pushed out, m/s (see [`ContactPhase::start`]'s targets).
 const PUSH_OUT_M_PER_S: f64 = 1.0;
+
+/// Fewest contacts whose rows are set up side by side on the stepping pool (below it the
+/// threads' meeting costs more than the set-up).
+const MIN_ROWS_ON_POOL: usize = 512;
 
 /// A contact's identity from one step to the next: its colliders and touching features.
 type Key = (u32, u32, u64);
@@ -88,6 +93,8 @@ pub struct ContactPhase {
     robot_touches: Vec<bool>,
     /// Per slot: whether one of the step's rows acts on it.
     slot_touches: Vec<bool>,
+    /// Rows set up before their warm starts ([`ContactPhase::build_rows`], the end's rows).
+    candidates: Vec<Option<Row>>,
 }
 
 /// Whom a narrow-phase contact is between: colliders `a` and `b` (`GROUND` for the ground).
@@ -136,6 +143,7 @@ impl ContactPhase {
         Ok(Self {
             robot_touches: vec![false; robots.len()],
             slot_touches: vec![false; slot_body.len()],
+            candidates: Vec::new(),
             robots,
             slot_robot,
             settings,
@@ -214,9 +222,9 @@ impl ContactPhase {
                 Some((r, local)) => Response::member(r, local),
             });
         }
-        self.find_contacts(h);
+        self.find_contacts(h, pool);
         self.robot_groups(parts, true);
-        self.build_rows();
+        self.build_rows(pool);
         self.predict_robots(parts, starts, h, loads);
         self.free_velocities(h, &gravity);
         self.stats = solve::solve(
@@ -297,45 +305,25 @@ impl ContactPhase {
                 }
             }
         }
-        for (i, row) in self.rows.iter().enumerate() {
-            if !self.closing[i] {
-                continue;
-            }
-            // The arms of the start: where the contact is relative to the centres of mass
-            // (for a ball, exactly where it is at the end; for a face, to O(h ω)).
-            let point_velocity = |slot: usize, r: &Vector3<f64>| {
-                let (v, w) = velocities[slot];
-                v + w.cross(r)
-            };
-            let mut rel = point_velocity(row.a, &row.r_a);
-            if let Some(b) = row.b {
-                rel -= point_velocity(b, &row.r_b);
-            }
-            let u_free = row.frame.transpose() * rel;
-            // An impact that ends exactly at the end of the step leaves with the restitution
-            // here (one that ends inside the step left in the start solve's target).
-            let approach = -u_free.x;
-            let target_n = if row.restitution > 0.0 && approach > self.bounce_min {
-                row.restitution * approach
-            } else {
-                0.0
-            }
-            .max(row.leave_n);
-            let mut end = Row {
-                source: i,
-                u_free,
-                target_n,
-                lambda: Vector3::zeros(),
-                ..*row
-            };
-            if end.prepare(&self.responses) {
-                let key = &self.keys[row.source];
-                if let Ok(k) = self.previous.binary_search_by(|p| p.0.cmp(key)) {
-                    end.warm_start(&self.previous[k].2, &mut self.responses);
-                }
-                self.end_rows.push(end);
-            }
+        // The closing rows set up side by side (as the start's, [`ContactPhase::build_rows`]),
+        // then warm-started in their order.
+        let mut candidates = std::mem::take(&mut self.candidates);
+        candidates.clear();
+        let this = &*self;
+        let make = |i: usize| this.end_row(i, &velocities);
+        match pool {
+            Some(pool) if self.rows.len() >= MIN_ROWS_ON_POOL => pool
+                .install(|| candidates.par_extend((0..this.rows.len()).into_par_iter().map(make))),
+            _ => candidates.extend((0..this.rows.len()).map(make)),
         }
+        for mut end in candidates.drain(..).flatten() {
+            let key = &self.keys[self.rows[end.source].source];
+            if let Ok(k) = self.previous.binary_search_by(|p| p.0.cmp(key)) {
+                end.warm_start(&self.previous[k].2, &mut self.responses);
+            }
+            self.end_rows.push(end);
+        }
+        self.candidates = candidates;
         let end_stats = solve::solve(
             &mut self.end_rows,
             &mut self.responses,
@@ -451,7 +439,7 @@ impl ContactPhase {
     }
 
     /// The contacts at the start of the step within reach of the step's motion.
-    fn find_contacts(&mut self, h: f64) {
+    fn find_contacts(&mut self, h: f64, pool: Option<&rayon::ThreadPool>) {
         let _ = h;
         self.raw.clear();
         self.keys.clear();
@@ -503,7 +491,7 @@ impl ContactPhase {
                     radius_m: self.prepared[c].radius_m + slot.motion_m + MARGIN_M,
                 });
             }
-            self.sweep.pairs(&self.bounds, &mut self.pairs);
+            self.sweep.pairs(&self.bounds, &mut self.pairs, pool);
             let pairs = std::mem::take(&mut self.pairs);
             for &(i, j) in &pairs {
                 let (ci, cj) = (
@@ -546,63 +534,115 @@ impl ContactPhase {
     /// One row per contact: its frame, arms and friction, warm-started from the last step's
     /// impulse on the same contact (projected into its cone); the free velocities and targets
     /// follow ([`ContactPhase::free_velocities`]).
-    fn build_rows(&mut self) {
+    ///
+    /// The rows' set-up (frame, Delassus block, its inverse and eigen-decomposition) reads the
+    /// bodies' masses and inertias only, not the impulses the warm starts add: with `pool` and
+    /// at least [`MIN_ROWS_ON_POOL`] contacts it runs side by side, then the warm starts in the
+    /// contacts' order. The same bits.
+    fn build_rows(&mut self, pool: Option<&rayon::ThreadPool>) {
         self.rows.clear();
-        for (source, ((raw, between), key)) in self
-            .raw
-            .iter()
-            .zip(&self.between)
-            .zip(&self.keys)
-            .enumerate()
-        {
-            let ca = between.a as usize;
-            let sa = self.collider_slot[ca];
-            let r_a = raw.point_a - self.slots[sa].com;
-            let collider_a = &self.model.colliders[ca];
-            let (b, r_b, mu, e) = if between.b == GROUND {
-                let g = self.model.ground.as_ref().expect("ground contact");
-                (
-                    None,
-                    Vector3::zeros(),
-                    combine_friction(collider_a.friction, g.friction),
-                    combine_restitution(collider_a.restitution, g.restitution),
-                )
-            } else {
-                let cb = between.b as usize;
-                let sb = self.collider_slot[cb];
-                let collider_b = &self.model.colliders[cb];
-                (
-                    Some(sb),
-                    raw.point_b - self.slots[sb].com,
-                    combine_friction(collider_a.friction, collider_b.friction),
-                    combine_restitution(collider_a.restitution, collider_b.restitution),
-                )
-            };
-            let mut row = Row {
-                source,
-                a: sa,
-                b,
-                r_a,
-                r_b,
-                frame: contact_frame(&raw.normal),
-                u_free: Vector3::zeros(),
-                target_n: 0.0,
-                mu,
-                restitution: e,
-                leave_n: 0.0,
-                w: Matrix3::zeros(),
-                w_inv: Matrix3::zeros(),
-                tangent_eigen: Default::default(),
-                lambda: Vector3::zeros(),
-            };
-            if !row.prepare(&self.responses) {
-                continue;
-            }
+        let mut candidates = std::mem::take(&mut self.candidates);
+        candidates.clear();
+        let this = &*self;
+        let make = |source: usize| this.start_row(source);
+        match pool {
+            Some(pool) if self.raw.len() >= MIN_ROWS_ON_POOL => pool
+                .install(|| candidates.par_extend((0..this.raw.len()).into_par_iter().map(make))),
+            _ => candidates.extend((0..this.raw.len()).map(make)),
+        }
+        for mut row in candidates.drain(..).flatten() {
+            let key = &self.keys[row.source];
             if let Ok(k) = self.previous.binary_search_by(|p| p.0.cmp(key)) {
                 row.warm_start(&self.previous[k].1, &mut self.responses);
             }
             self.rows.push(row);
         }
+        self.candidates = candidates;
+    }
+
+    /// The row of contact `source` at the start of the step, set up ([`Row::prepare`]);
+    /// `None` when the bodies cannot move along its normal.
+    fn start_row(&self, source: usize) -> Option<Row> {
+        let (raw, between) = (&self.raw[source], &self.between[source]);
+        let ca = between.a as usize;
+        let sa = self.collider_slot[ca];
+        let r_a = raw.point_a - self.slots[sa].com;
+        let collider_a = &self.model.colliders[ca];
+        let (b, r_b, mu, e) = if between.b == GROUND {
+            let g = self.model.ground.as_ref().expect("ground contact");
+            (
+                None,
+                Vector3::zeros(),
+                combine_friction(collider_a.friction, g.friction),
+                combine_restitution(collider_a.restitution, g.restitution),
+            )
+        } else {
+            let cb = between.b as usize;
+            let sb = self.collider_slot[cb];
+            let collider_b = &self.model.colliders[cb];
+            (
+                Some(sb),
+                raw.point_b - self.slots[sb].com,
+                combine_friction(collider_a.friction, collider_b.friction),
+                combine_restitution(collider_a.restitution, collider_b.restitution),
+            )
+        };
+        let mut row = Row {
+            source,
+            a: sa,
+            b,
+            r_a,
+            r_b,
+            frame: contact_frame(&raw.normal),
+            u_free: Vector3::zeros(),
+            target_n: 0.0,
+            mu,
+            restitution: e,
+            leave_n: 0.0,
+            w: Matrix3::zeros(),
+            w_inv: Matrix3::zeros(),
+            tangent_eigen: Default::default(),
+            lambda: Vector3::zeros(),
+        };
+        row.prepare(&self.responses).then_some(row)
+    }
+
+    /// The end projection's row of start row `i` if it closes, set up ([`Row::prepare`]) at
+    /// the bodies' end `velocities` (per slot, linear and angular); `None` for a row that does
+    /// not close or whose bodies cannot move along its normal. Its `source` is `i`.
+    fn end_row(&self, i: usize, velocities: &[(Vector3<f64>, Vector3<f64>)]) -> Option<Row> {
+        if !self.closing[i] {
+            return None;
+        }
+        let row = &self.rows[i];
+        // The arms of the start: where the contact is relative to the centres of mass
+        // (for a ball, exactly where it is at the end; for a face, to O(h ω)).
+        let point_velocity = |slot: usize, r: &Vector3<f64>| {
+            let (v, w) = velocities[slot];
+            v + w.cross(r)
+        };
+        let mut rel = point_velocity(row.a, &row.r_a);
+        if let Some(b) = row.b {
+            rel -= point_velocity(b, &row.r_b);
+        }
+        let u_free = row.frame.transpose() * rel;
+        // An impact that ends exactly at the end of the step leaves with the restitution
+        // here (one that ends inside the step left in the start solve's target).
+        let approach = -u_free.x;
+        let target_n = if row.restitution > 0.0 && approach > self.bounce_min {
+            row.restitution * approach
+        } else {
+            0.0
+        }
+        .max(row.leave_n);
+        let mut end = Row {
+            source: i,
+            u_free,
+            target_n,
+            lambda: Vector3::zeros(),
+            ..*row
+        };
+        end.prepare(&self.responses).then_some(end)
     }
 
     /// Each row's free velocity over the step (the two material points' predicted
