@@ -525,6 +525,40 @@ const QUAT_ROWS: [[i64; 8]; 2] = {
     t
 };
 
+/// Whether every index of a two-source permute (`vpermt2pd`) names one of its 16 lanes. The
+/// instruction reads only an index's low 4 bits, so an index off by a multiple of 16 would still
+/// pick the intended lane: checked here, at compile time, so that the tables say what they mean.
+const fn lanes_in_range(row: &[i64; 8]) -> bool {
+    let mut i = 0;
+    while i < 8 {
+        if row[i] < 0 || row[i] >= 16 {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
+const _: () = {
+    let mut k = 0;
+    while k < 3 {
+        let mut s = 0;
+        while s < 2 {
+            assert!(lanes_in_range(&GATHER3[k][s]));
+            assert!(lanes_in_range(&SCATTER3[k][s]));
+            s += 1;
+        }
+        k += 1;
+    }
+    let mut h = 0;
+    while h < 2 {
+        assert!(lanes_in_range(&QUAT_PAIRS[h]));
+        assert!(lanes_in_range(&HALVES[h]));
+        assert!(lanes_in_range(&QUAT_ROWS[h]));
+        h += 1;
+    }
+};
+
 // ---- Two registers per value: two independent dependency chains ----
 
 /// Two registers of a unit stepped as one pack of twice the lanes: each operation is two
