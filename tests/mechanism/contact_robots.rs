@@ -357,6 +357,35 @@ fn solo12_stands_on_its_servos_for_ten_seconds() {
     assert!(imbalance <= 1e-6, "{imbalance:e}");
 }
 
+/// `steps` steps of the scene file `path` on `threads` threads, which must not stop: its
+/// partitions, the most contacts of a step, every body's pose as bits, the contact work's bits.
+fn run_bits(
+    path: &std::path::Path,
+    threads: usize,
+    steps: usize,
+) -> (usize, usize, Vec<[u64; 7]>, u64) {
+    let mut sim = load(path, threads).2;
+    let parts = sim.partitions().parts.len();
+    let mut touching = 0;
+    for _ in 0..steps {
+        sim.advance(1).unwrap();
+        touching = touching.max(sim.partitions().contacts().len());
+    }
+    let summary = sim.summary();
+    assert_eq!(summary.stopped, None, "{summary:?}");
+    let view = sim.view();
+    let poses = (0..view.len())
+        .map(|i| {
+            let p = view.world_from_body(i);
+            let t = p.translation.vector;
+            let q = p.rotation.coords;
+            [t.x, t.y, t.z, q.x, q.y, q.z, q.w].map(f64::to_bits)
+        })
+        .collect();
+    let work = sim.partitions().contact_work().to_bits();
+    (parts, touching, poses, work)
+}
+
 /// Twenty hinged pairs dropped tilted onto the ground (and onto each other) step to the same
 /// bits on one thread and on three (five partitions, cut between the pairs): the contact phase
 /// runs on the whole batch in one order, each robot's prediction on its own state.
@@ -375,29 +404,8 @@ fn robots_in_contact_step_the_same_bits_on_any_thread_count() {
          angvel = { uniform = [[-2.0, -2.0, -2.0], [2.0, 2.0, 2.0]] }\ncollisions = \"urdf\"\n",
     )
     .unwrap();
-    let run = |threads: usize| {
-        let mut sim = load(&path, threads).2;
-        let parts = sim.partitions().parts.len();
-        let mut touching = 0;
-        for _ in 0..1000 {
-            sim.advance(1).unwrap();
-            touching = touching.max(sim.partitions().contacts().len());
-        }
-        let summary = sim.summary();
-        assert_eq!(summary.stopped, None, "{summary:?}");
-        let view = sim.view();
-        let poses: Vec<[u64; 7]> = (0..view.len())
-            .map(|i| {
-                let p = view.world_from_body(i);
-                let t = p.translation.vector;
-                let q = p.rotation.coords;
-                [t.x, t.y, t.z, q.x, q.y, q.z, q.w].map(f64::to_bits)
-            })
-            .collect();
-        (parts, touching, poses)
-    };
-    let (parts1, touching, one) = run(1);
-    let (parts3, _, three) = run(3);
+    let (parts1, touching, one, _) = run_bits(&path, 1, 1000);
+    let (parts3, _, three, _) = run_bits(&path, 3, 1000);
     eprintln!("{parts1} and {parts3} partitions, up to {touching} contacts");
     assert_eq!(parts1, 1);
     assert!(parts3 > 1, "{parts3}");
@@ -438,28 +446,7 @@ fn islands_solved_side_by_side_step_the_same_bits() {
          rpy = { uniform = [[-0.3, -0.3, 0.0], [0.3, 0.3, 3.0]] }\ncollisions = \"urdf\"\n",
     )
     .unwrap();
-    let run = |threads: usize| {
-        let mut sim = load(&path, threads).2;
-        let mut touching = 0;
-        for _ in 0..400 {
-            sim.advance(1).unwrap();
-            touching = touching.max(sim.partitions().contacts().len());
-        }
-        let summary = sim.summary();
-        assert_eq!(summary.stopped, None, "{summary:?}");
-        let view = sim.view();
-        let state: Vec<[u64; 7]> = (0..view.len())
-            .map(|i| {
-                let p = view.world_from_body(i);
-                let t = p.translation.vector;
-                let q = p.rotation.coords;
-                [t.x, t.y, t.z, q.x, q.y, q.z, q.w].map(f64::to_bits)
-            })
-            .collect();
-        let work = sim.partitions().contact_work().to_bits();
-        (touching, state, work)
-    };
-    let (touching, one, work_one) = run(1);
+    let (_, touching, one, work_one) = run_bits(&path, 1, 400);
     eprintln!("up to {touching} contacts");
     // Resting cubes hold 4 contacts each: measured 602 at most.
     assert!(
@@ -467,7 +454,7 @@ fn islands_solved_side_by_side_step_the_same_bits() {
         "{touching} contacts: too few for the pool"
     );
     for threads in [2, 3] {
-        let (_, other, work) = run(threads);
+        let (_, _, other, work) = run_bits(&path, threads, 400);
         assert!(one == other, "the same bits on 1 and {threads} threads");
         assert_eq!(work_one, work, "the contact work on {threads} threads");
     }

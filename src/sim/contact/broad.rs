@@ -163,6 +163,26 @@ mod tests {
         assert_eq!(pairs, expected);
     }
 
+    /// The smallest batches: none or one collider has no pair; two have theirs exactly when
+    /// their boxes overlap.
+    #[test]
+    fn two_colliders_pair_when_their_boxes_overlap() {
+        let b = |x: f64| Bound {
+            centre: Vector3::new(x, 0.0, 0.0),
+            radius_m: 0.5,
+        };
+        let mut sweep = Sweep::default();
+        let mut pairs = vec![(7, 7)];
+        sweep.pairs(&[], &mut pairs, None);
+        assert!(pairs.is_empty());
+        sweep.pairs(&[b(0.0)], &mut pairs, None);
+        assert!(pairs.is_empty());
+        sweep.pairs(&[b(0.0), b(0.9)], &mut pairs, None);
+        assert_eq!(pairs, vec![(0, 1)]);
+        sweep.pairs(&[b(1.1), b(0.0)], &mut pairs, None);
+        assert!(pairs.is_empty());
+    }
+
     /// Past [`MIN_COLLIDERS_ON_POOL`] colliders, on a pool of 1, 2 and 3 threads (runs of the
     /// sorted colliders side by side): exactly the pairs brute force finds.
     #[test]
