@@ -9,7 +9,8 @@
 //! (every ordering by body inside an island's solve, the polish's islands and their roots, is
 //! then the same), and its robots' groups (moved, not copied); the batches are solved on the
 //! pool, island by island as the serial loop does, and their results written back. The
-//! recordings are byte-identical for every thread count (`tests/reliability/contact_threads.rs`).
+//! recordings are byte-identical for every thread count
+//! (`islands_solved_side_by_side_step_the_same_bits` in `tests/mechanism/contact_robots.rs`).
 
 use super::solve::{Responses, Row, SolveStats, solve_island};
 use rayon::prelude::*;
