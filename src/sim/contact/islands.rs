@@ -53,8 +53,8 @@ pub fn solve_on_pool(
     let batch_count = (pool.current_num_threads() * BATCHES_PER_THREAD).max(1);
     let target_rows = rows.len().div_ceil(batch_count).max(1);
     let mut batches: Vec<Batch> = Vec::with_capacity(batch_count + 1);
+    // The islands are consecutive from row 0: each batch's rows are the head of the rest.
     let mut rest: &mut [Row] = rows;
-    let mut taken = 0;
     let mut k = 0;
     while k < islands.len() {
         // Consecutive islands until the batch holds `target_rows` rows (at least one island).
@@ -65,7 +65,7 @@ pub fn solve_on_pool(
             end = islands[k].end;
             k += 1;
         }
-        let (head, tail) = std::mem::take(&mut rest).split_at_mut(end - taken);
+        let (head, tail) = std::mem::take(&mut rest).split_at_mut(end - start);
         rest = tail;
         batches.push(gather(
             head,
@@ -76,7 +76,6 @@ pub fn solve_on_pool(
             bodies,
             seeds,
         ));
-        taken = end;
     }
     pool.install(|| {
         batches.par_iter_mut().with_max_len(1).for_each(|batch| {
