@@ -164,7 +164,7 @@ mod tests {
     }
 
     /// The smallest batches: none or one collider has no pair; two have theirs exactly when
-    /// their boxes overlap.
+    /// their boxes overlap, touching included.
     #[test]
     fn two_colliders_pair_when_their_boxes_overlap() {
         let b = |x: f64| Bound {
@@ -181,6 +181,9 @@ mod tests {
         assert_eq!(pairs, vec![(0, 1)]);
         sweep.pairs(&[b(1.1), b(0.0)], &mut pairs, None);
         assert!(pairs.is_empty());
+        // Boxes that just touch (one's upper bound is the other's lower, exactly) overlap.
+        sweep.pairs(&[b(1.0), b(0.0)], &mut pairs, None);
+        assert_eq!(pairs, vec![(0, 1)]);
     }
 
     /// Past [`MIN_COLLIDERS_ON_POOL`] colliders, on a pool of 1, 2 and 3 threads (runs of the
