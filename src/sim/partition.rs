@@ -488,8 +488,7 @@ impl<'a> Partitions<'a> {
 
     /// [`Partitions::advance`] with contact: step by step, the contact phase over the whole
     /// batch (on this thread, in one order, its independent parts on the pool: the same bits for
-    /// every thread count), then every
-    /// partition's step.
+    /// every thread count), then every partition's step.
     fn advance_in_contact(&mut self, from: u64, to: u64, loads: &Loads) -> Window {
         for part in &mut self.parts {
             part.stats.clear();
