@@ -30,6 +30,7 @@
 
 use super::super::coords::{CompoundChain, decompose};
 use super::super::drive::StepEffort;
+use super::super::drive::{ActuatorKind, JointDrive};
 use super::super::rows::{BodyPose, Row6};
 use super::super::{CoordinateKind, Mechanism};
 use super::assembly::{parent_pose, relative};
@@ -51,6 +52,24 @@ pub struct DriveRows {
     pub(super) grad_next: Vec<(Row6, Row6)>,
     /// The step's effort at the current iterate.
     pub(super) effort: Vec<StepEffort>,
+    /// Per drive: whether its row does not depend on the iterate ([`time_only`]): its effort
+    /// is taken once per attempt and `θ_{k+1}`, `∇θ(q_{k+1})` once, at the commit.
+    pub(super) time_only: Vec<bool>,
+}
+
+/// Whether a drive's step effort depends on time alone: a motor (`τ = u(t)`, clamped) without
+/// damping, on a hinge or a slider. Its row then reads `ν = (h/2) τ̄(t_k, t_{k+1})` with `c = 0`
+/// (a zero right row) whatever the iterate, so Newton's iterations need neither `θ_{k+1}` nor
+/// `∇θ(q_{k+1})` (an `atan2` and a gradient per drive and iteration): they are read once, at
+/// the solved end pose, for the end impulses and the work. A compound stage is left out (its
+/// gradient can fail, which must fail the attempt, not the commit).
+pub(super) fn time_only(model: &Mechanism, drive: &JointDrive) -> bool {
+    let motor = matches!(
+        drive.actuator.as_ref().map(|a| &a.kind),
+        Some(ActuatorKind::Motor { .. })
+    );
+    let kind = &model.coordinates[drive.coordinate].kind;
+    motor && drive.damping == 0.0 && !matches!(kind, CoordinateKind::Compound { .. })
 }
 
 impl DriveRows {
@@ -72,6 +91,7 @@ impl DriveRows {
             theta_next: vec![0.0; n],
             grad_next: vec![(Row6::zeros(), Row6::zeros()); n],
             effort: vec![StepEffort::default(); n],
+            time_only: model.drives.iter().map(|d| time_only(model, d)).collect(),
         }
     }
 }
@@ -97,12 +117,17 @@ impl DriveWork {
 }
 
 impl Workspace {
-    /// The drive rows at the start of the step: `θ_k` and `∇θ(q_k)` into `G(q_k)`.
-    pub(super) fn drive_rows_start(&mut self, model: &Mechanism) -> Result<(), Failure> {
+    /// The drive rows at the start of the step: `θ_k` and `∇θ(q_k)` into `G(q_k)`, and the
+    /// effort of the time-only drives ([`time_only`]).
+    pub(super) fn drive_rows_start(&mut self, model: &Mechanism, h: f64) -> Result<(), Failure> {
         for (k, d) in model.drives.iter().enumerate() {
             let (j, row) = self.drives.slot[k];
             let (theta, ga, gb) = self.coordinate_gradient(model, &self.pose_k, d.coordinate)?;
             self.drives.theta_k[k] = theta;
+            if self.drives.time_only[k] {
+                // No damping: `θ_{k+1}` enters only `0 · θ̇`; taken at `θ_k`.
+                self.drives.effort[k] = d.step_effort(self.time0_secs, h, theta, theta);
+            }
             let (jp, jc) = &mut self.jac_k[j];
             jp.set_row(row, &ga);
             jc.set_row(row, &gb);
@@ -123,6 +148,22 @@ impl Workspace {
         let t0 = self.time0_secs;
         for (k, d) in model.drives.iter().enumerate() {
             let (j, row) = self.drives.slot[k];
+            if self.drives.time_only[k] {
+                // `c = 0`: the right row stays the zeros the joint's evaluation wrote, the
+                // diagonal 1; only the residual and its test.
+                let effort = &self.drives.effort[k];
+                let nu = self.lambda[j][row];
+                let r = nu - 0.5 * h * effort.effort.total();
+                self.constraint_residual[j][row] = r;
+                self.solver.free_row_diag[j][row] = 1.0;
+                let child = model.joints[j].child;
+                let scale = nu
+                    .abs()
+                    .max(0.5 * h.abs() * effort.magnitude)
+                    .max(self.impulse_scale[child]);
+                ratio = ratio.max(relative(r.abs(), tol * scale));
+                continue;
+            }
             let (theta, ga, gb) = self.coordinate_gradient(model, &self.pose_next, d.coordinate)?;
             let effort = d.step_effort(t0, h, self.drives.theta_k[k], theta);
             let nu = self.lambda[j][row];
@@ -189,6 +230,15 @@ impl Workspace {
         let first = model.first_body;
         for (k, d) in model.drives.iter().enumerate() {
             let (j, row) = self.drives.slot[k];
+            if self.drives.time_only[k] {
+                // Hinge and slider gradients do not fail.
+                if let Ok((theta, ga, gb)) =
+                    self.coordinate_gradient(model, &self.pose_next, d.coordinate)
+                {
+                    self.drives.theta_next[k] = theta;
+                    self.drives.grad_next[k] = (ga, gb);
+                }
+            }
             let nu = self.lambda[j][row];
             let (ga, gb) = &self.drives.grad_next[k];
             let joint = &model.joints[j];

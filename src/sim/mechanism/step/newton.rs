@@ -68,7 +68,7 @@ impl Workspace {
             self.mimic_jac_k[m] = row;
         }
         self.coord_next = scratch;
-        if let Err(f) = self.drive_rows_start(model) {
+        if let Err(f) = self.drive_rows_start(model, h) {
             return Err((f, 0));
         }
         if let Err(f) = self.stop_rows_start(model, bodies) {
