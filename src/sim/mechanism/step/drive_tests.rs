@@ -374,3 +374,99 @@ fn a_time_only_motor_steps_the_bits_of_the_general_row() {
     assert!(work.abs() > 0.05, "{work}");
     assert!(deferred == general, "the time-only path changed the bits");
 }
+
+/// The pendulum's workspace with both poses at the body's pose, the drive's start row taken at
+/// `h`, the drive impulse `ν = nu` and the child's largest torque impulse `impulse_scale`.
+fn drive_row_workspace(
+    drive: JointDrive,
+    h: f64,
+    nu: f64,
+    impulse_scale: f64,
+) -> (Mechanism, Workspace) {
+    let (model, bodies) = driven(0.7, drive);
+    let mut ws = MechanismState::new(&model).ws;
+    let pose = BodyPose {
+        rot: bodies.world_from_body[0].to_rotation_matrix().into_inner(),
+        com: bodies.com_world[0],
+    };
+    ws.pose_k[0] = pose;
+    ws.pose_next[0] = pose;
+    ws.time0_secs = 0.0;
+    ws.drive_rows_start(&model, h).unwrap();
+    let (j, row) = ws.drives.slot[0];
+    ws.lambda[j][row] = nu;
+    ws.impulse_scale[0] = impulse_scale;
+    (model, ws)
+}
+
+/// An undamped motor's row at an iterate, by hand: residual `r = ν − (h/2) τ̄`, diagonal 1, and
+/// the convergence ratio `|r| / (tol · max(|ν|, (h/2)|τ̄|, impulse scale))`, each of the three
+/// scales the largest in turn.
+#[test]
+fn an_undamped_motor_row_reads_its_residual_against_its_scale() {
+    let (h, tol) = (0.01, 1e-9);
+    // τ̄ = 2 N m: (h/2) τ̄ = 0.01.
+    for (nu, impulse_scale, scale) in [(0.5, 0.02, 0.5), (0.004, 0.002, 0.01), (0.004, 0.3, 0.3)] {
+        let (model, mut ws) =
+            drive_row_workspace(motor(Signal::Constant(2.0)), h, nu, impulse_scale);
+        assert!(ws.drives.time_only[0]);
+        let ratio = ws.drive_rows_end(&model, h, tol).unwrap();
+        let (j, row) = ws.drives.slot[0];
+        let r = nu - 0.01;
+        assert_eq!(ws.constraint_residual[j][row], r);
+        assert_eq!(ws.solver.free_row_diag[j][row], 1.0);
+        let expected = r.abs() / (tol * scale);
+        assert!(
+            (ratio - expected).abs() <= 1e-12 * expected,
+            "{ratio} {expected}"
+        );
+    }
+}
+
+/// A stiff servo's row (`c = (h/4) kp + kd/2 = 7.5 ≥ 1`) divided by `c`: right row `∇θ(q_{k+1})`,
+/// diagonal `1/c`, residual `r/c` with `r = ν − (h/2) kp (r_target − θ)` at `θ_k = θ_{k+1}`.
+#[test]
+fn a_stiff_servo_row_is_divided_by_its_slope() {
+    let (h, tol, kp, kd) = (0.01, 1e-9, 1000.0, 10.0);
+    let servo = JointDrive {
+        coordinate: 0,
+        actuator: Some(Actuator {
+            kind: ActuatorKind::Position {
+                target: Signal::Constant(0.8),
+                kp,
+                kd,
+            },
+            effort_limit: None,
+        }),
+        damping: 0.0,
+    };
+    let nu = 0.3;
+    let (model, mut ws) = drive_row_workspace(servo, h, nu, 0.0);
+    assert!(!ws.drives.time_only[0]);
+    ws.drive_rows_end(&model, h, tol).unwrap();
+    let (j, row) = ws.drives.slot[0];
+    let c = 0.25 * h * kp + 0.5 * kd;
+    // τ̄ = kp (0.8 − 0.7) = 100 N m; r = 0.3 − 0.5 = −0.2.
+    let r = nu - 0.5 * h * kp * (0.8 - 0.7);
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-300);
+    assert!(
+        close(ws.constraint_residual[j][row], r / c),
+        "{}",
+        ws.constraint_residual[j][row]
+    );
+    assert!(close(ws.solver.free_row_diag[j][row], 1.0 / c));
+    let (_, ga, gb) = model.coordinates[0]
+        .kind
+        .gradient(&BodyPose::identity(), &ws.pose_next[0], 0.7)
+        .unwrap();
+    // The hinge's unit gradient (about the y axis): a unit torque row each side.
+    assert!(
+        (gb.norm() - 1.0).abs() < 1e-12 && (ga.norm() - 1.0).abs() < 1e-12,
+        "{ga} {gb}"
+    );
+    let (jp, jc) = &ws.jac_next[j];
+    for col in 0..6 {
+        assert!((jp[(row, col)] - ga[col]).abs() <= 1e-15, "{jp}");
+        assert!((jc[(row, col)] - gb[col]).abs() <= 1e-15, "{jc}");
+    }
+}
