@@ -470,3 +470,46 @@ fn a_stiff_servo_row_is_divided_by_its_slope() {
         assert!((jc[(row, col)] - gb[col]).abs() <= 1e-15, "{jc}");
     }
 }
+
+/// A damped servo's convergence ratio at an iterate, by hand: `|r| / (tol · scale + floor)`,
+/// `scale = max(|ν|, (h/2) magnitude, impulse scale)`, and the floor of `θ`'s round-off through
+/// the slope, `(h/2) |slope| · 8 ε (max |c_child| + length scale)`, alone when `tol = 0`.
+#[test]
+fn a_damped_servo_row_reads_its_residual_against_its_scale_and_floor() {
+    let (h, kp, kd, b) = (0.01, 1000.0, 10.0, 2.0);
+    let servo = JointDrive {
+        coordinate: 0,
+        actuator: Some(Actuator {
+            kind: ActuatorKind::Position {
+                target: Signal::Constant(0.8),
+                kp,
+                kd,
+            },
+            effort_limit: None,
+        }),
+        damping: b,
+    };
+    // At θ_k = θ_{k+1} = 0.7: τ̄ = kp (0.8 − 0.7) = 100 N m, (h/2) τ̄ = 0.5; slope
+    // −b/h − kp/2 − kd/h = −1700; magnitude b·140 + kp (0.8 + 0.7) + kd·140 = 3180, (h/2)·that
+    // = 15.9 (140 = (|θ_k| + |θ_{k+1}|)/h).
+    let slope = 1700.0;
+    for (nu, impulse_scale, tol, scale) in [
+        (40.0, 0.0, 1e-9, 40.0),
+        (0.3, 0.0, 1e-9, 15.9),
+        (0.3, 50.0, 1e-9, 50.0),
+        (0.3, 0.0, 0.0, 15.9),
+    ] {
+        let (model, mut ws) = drive_row_workspace(servo.clone(), h, nu, impulse_scale);
+        let ratio = ws.drive_rows_end(&model, h, tol).unwrap();
+        let com = ws.pose_next[0].com.amax();
+        // The rod's centre 1 m from the pivot at 0.7 rad: max(sin, cos) 0.7.
+        assert!((com - 0.7f64.cos()).abs() < 1e-12, "{com}");
+        let floor = 0.5 * h * slope * 8.0 * f64::EPSILON * (com + model.length_scale);
+        let r: f64 = nu - 0.5;
+        let expected = r.abs() / (tol * scale + floor);
+        assert!(
+            (ratio - expected).abs() <= 1e-9 * expected,
+            "{ratio} {expected} ({nu}, {tol})"
+        );
+    }
+}
