@@ -366,3 +366,71 @@ fn laikago_runs_with_its_mass_from_its_vhacd_meshes() {
     assert!(bodies >= 12, "{bodies}");
     assert!(open.abs() / scale < 1e-2, "{open} of {scale}");
 }
+
+/// A welded solo12 with a 0.5 N m sine motor on each of its 12 joints (phases 0.7 rad apart),
+/// its URDF limits on: 4 s at 2 ms with no Newton failure and no substep. Newton's start that
+/// undamped motors keep (the previous steps' `ξ`, extrapolated: `step/newton.rs`) runs it; the
+/// momenta's start, tried for issue 34 (docs/mechanisms.md), failed at step 426 here, not
+/// converging even in 1024 substeps.
+#[test]
+fn solo12_with_a_sine_motor_on_every_joint_runs_four_seconds() {
+    let info = common::run_py(
+        "pin_composite.py",
+        &[
+            Path::new("solo_description/robots/solo12.urdf"),
+            Path::new("zero"),
+        ],
+    );
+    let urdf = std::path::PathBuf::from(info["urdf"].as_str().unwrap());
+    // …/share/example-robot-data/robots/solo_description/robots/solo12.urdf
+    let robots = urdf.ancestors().nth(3).unwrap().to_path_buf();
+    let mut text = format!(
+        "[sim]\ndt = 0.002\nduration = 4.0\nintegrator = \"variational\"\n\
+         [[model]]\nurdf = {:?}\nbodies = \"articulated\"\nbase = \"fixed\"\npackage_paths = [{:?}]\n",
+        urdf.display().to_string(),
+        robots.display().to_string()
+    );
+    let mut k = 0;
+    for leg in ["FL", "FR", "HL", "HR"] {
+        for joint in ["HAA", "HFE", "KFE"] {
+            text += &format!(
+                "[[model.actuator]]\njoint = \"{leg}_{joint}\"\nkind = \"motor\"\n\
+                 effort = {{ sine = {{ amplitude = 0.5, frequency_hz = 1.0, phase = {:.1} }} }}\n",
+                0.7 * f64::from(k)
+            );
+            k += 1;
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Scene::parse(&text, &dir.path().join("solo_motors.toml")).unwrap();
+    let world = scene.build().unwrap();
+    assert_eq!(world.mechanisms.len(), 1);
+    let gravity: Vector3<f64> = scene.gravity();
+    let mut bodies = Bodies::new(&world.bodies);
+    let mut integrator = world
+        .integrator(
+            scene.integrator(),
+            scene.sim.dt,
+            &scene.variational_settings(),
+        )
+        .unwrap();
+    integrator.init(&bodies);
+    let (mut failures, mut substepped) = (0u64, 0u64);
+    let start = bodies.world_from_body[bodies.len() - 1];
+    let mut loads = Loads::uniform_gravity(gravity);
+    for step in 0..2000 {
+        // The motors read the time from the loads.
+        loads.set_time(f64::from(step) * scene.sim.dt);
+        let stats = integrator.step(&mut bodies, &loads);
+        failures += u64::from(stats.newton_failures);
+        substepped += u64::from(stats.substepped);
+    }
+    // The motors move the legs: the last link turned, measured 3.13 rad.
+    let end = bodies.world_from_body[bodies.len() - 1];
+    let turned = start.angle_to(&end);
+    eprintln!(
+        "solo12 with motors: {failures} failures, {substepped} substepped, last link turned {turned:.3} rad"
+    );
+    assert_eq!((failures, substepped), (0, 0));
+    assert!(turned > 0.1, "{turned}");
+}
