@@ -370,7 +370,7 @@ fn laikago_runs_with_its_mass_from_its_vhacd_meshes() {
 /// A welded solo12 with a 0.5 N m sine motor on each of its 12 joints (phases 0.7 rad apart),
 /// its URDF limits on: 4 s at 2 ms with no Newton failure and no substep. Newton's start that
 /// undamped motors keep (the previous steps' `ξ`, extrapolated: `step/newton.rs`) runs it; the
-/// momenta's start, tried for issue 34 (docs/mechanisms.md), failed at step 426 here, not
+/// momenta's start, tried for issue 34 (docs/mechanisms.md), failed here at t = 0.85 s, not
 /// converging even in 1024 substeps.
 #[test]
 fn solo12_with_a_sine_motor_on_every_joint_runs_four_seconds() {
@@ -405,32 +405,14 @@ fn solo12_with_a_sine_motor_on_every_joint_runs_four_seconds() {
     let scene = Scene::parse(&text, &dir.path().join("solo_motors.toml")).unwrap();
     let world = scene.build().unwrap();
     assert_eq!(world.mechanisms.len(), 1);
-    let gravity: Vector3<f64> = scene.gravity();
-    let mut bodies = Bodies::new(&world.bodies);
-    let mut integrator = world
-        .integrator(
-            scene.integrator(),
-            scene.sim.dt,
-            &scene.variational_settings(),
-        )
-        .unwrap();
-    integrator.init(&bodies);
-    let (mut failures, mut substepped) = (0u64, 0u64);
-    let start = bodies.world_from_body[bodies.len() - 1];
-    let mut loads = Loads::uniform_gravity(gravity);
-    for step in 0..2000 {
-        // The motors read the time from the loads.
-        loads.set_time(f64::from(step) * scene.sim.dt);
-        let stats = integrator.step(&mut bodies, &loads);
-        failures += u64::from(stats.newton_failures);
-        substepped += u64::from(stats.substepped);
-    }
-    // The motors move the legs: the last link turned, measured 3.13 rad.
-    let end = bodies.world_from_body[bodies.len() - 1];
-    let turned = start.angle_to(&end);
+    let s = common::run_scene_parts(&scene, &world, 1, &scene.run_settings(), vec![]);
+    let work = s.energy_flow.input_work;
     eprintln!(
-        "solo12 with motors: {failures} failures, {substepped} substepped, last link turned {turned:.3} rad"
+        "solo12 with motors: {:?}, motors' work {work:.3} J",
+        s.stats
     );
-    assert_eq!((failures, substepped), (0, 0));
-    assert!(turned > 0.1, "{turned}");
+    assert_eq!(s.steps, 2000);
+    assert_eq!((s.stats.newton_failures, s.stats.substepped), (0, 0));
+    // The motors move the legs: measured input work 546.5 J (the limits take most of it).
+    assert!(work.abs() > 10.0, "{work}");
 }

@@ -59,6 +59,23 @@ fn motor(effort: Signal) -> JointDrive {
     }
 }
 
+/// A position servo on the pendulum's hinge, `τ = kp (target − θ) − kd θ̇`, with joint damping
+/// `damping`.
+fn position_servo(target: f64, kp: f64, kd: f64, damping: f64) -> JointDrive {
+    JointDrive {
+        coordinate: 0,
+        actuator: Some(Actuator {
+            kind: ActuatorKind::Position {
+                target: Signal::Constant(target),
+                kp,
+                kd,
+            },
+            effort_limit: None,
+        }),
+        damping,
+    }
+}
+
 /// Runs `steps` steps of `h` without gravity; returns the worst |θ − exact(t)|.
 fn run(
     model: &Mechanism,
@@ -147,18 +164,7 @@ fn a_stiff_servo_settles_at_its_target() {
     let h = 1e-2;
     let kp = 100.0 * I_PIVOT / (h * h);
     let kd = 2.0 * (kp * I_PIVOT).sqrt();
-    let servo = JointDrive {
-        coordinate: 0,
-        actuator: Some(Actuator {
-            kind: ActuatorKind::Position {
-                target: Signal::Constant(0.8),
-                kp,
-                kd,
-            },
-            effort_limit: None,
-        }),
-        damping: 0.0,
-    };
+    let servo = position_servo(0.8, kp, kd, 0.0);
     let (model, mut bodies) = driven(0.0, servo);
     let mut state = MechanismState::new(&model);
     let mut warm = Warm::new(&model);
@@ -298,18 +304,7 @@ fn only_undamped_motors_are_time_only() {
         damping: 0.1,
     };
     assert!(!super::drives::time_only(&model, &damper));
-    let servo = JointDrive {
-        coordinate: 0,
-        actuator: Some(Actuator {
-            kind: ActuatorKind::Position {
-                target: Signal::Constant(0.2),
-                kp: 50.0,
-                kd: 1.0,
-            },
-            effort_limit: None,
-        }),
-        damping: 0.0,
-    };
+    let servo = position_servo(0.2, 50.0, 1.0, 0.0);
     assert!(!super::drives::time_only(&model, &servo));
 }
 
@@ -428,18 +423,7 @@ fn an_undamped_motor_row_reads_its_residual_against_its_scale() {
 #[test]
 fn a_stiff_servo_row_is_divided_by_its_slope() {
     let (h, tol, kp, kd) = (0.01, 1e-9, 1000.0, 10.0);
-    let servo = JointDrive {
-        coordinate: 0,
-        actuator: Some(Actuator {
-            kind: ActuatorKind::Position {
-                target: Signal::Constant(0.8),
-                kp,
-                kd,
-            },
-            effort_limit: None,
-        }),
-        damping: 0.0,
-    };
+    let servo = position_servo(0.8, kp, kd, 0.0);
     let nu = 0.3;
     let (model, mut ws) = drive_row_workspace(servo, h, nu, 0.0);
     assert!(!ws.drives.time_only[0]);
@@ -477,18 +461,7 @@ fn a_stiff_servo_row_is_divided_by_its_slope() {
 #[test]
 fn a_damped_servo_row_reads_its_residual_against_its_scale_and_floor() {
     let (h, kp, kd, b) = (0.01, 1000.0, 10.0, 2.0);
-    let servo = JointDrive {
-        coordinate: 0,
-        actuator: Some(Actuator {
-            kind: ActuatorKind::Position {
-                target: Signal::Constant(0.8),
-                kp,
-                kd,
-            },
-            effort_limit: None,
-        }),
-        damping: b,
-    };
+    let servo = position_servo(0.8, kp, kd, b);
     // At θ_k = θ_{k+1} = 0.7: τ̄ = kp (0.8 − 0.7) = 100 N m, (h/2) τ̄ = 0.5; slope
     // −b/h − kp/2 − kd/h = −1700; magnitude b·140 + kp (0.8 + 0.7) + kd·140 = 3180, (h/2)·that
     // = 15.9 (140 = (|θ_k| + |θ_{k+1}|)/h).
