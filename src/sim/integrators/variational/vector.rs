@@ -814,6 +814,20 @@ mod tests {
         }
     }
 
+    /// The permute tables' compile-time check accepts the 16 lanes and refuses an index off by
+    /// 16 either way (what `vpermt2pd` alone would not notice), wherever it sits in the row.
+    #[test]
+    fn lanes_in_range_refuses_indices_outside_the_16_lanes() {
+        assert!(lanes_in_range(&[0, 1, 2, 3, 12, 13, 14, 15]));
+        for at in 0..8 {
+            for bad in [16, 17, -1, -16] {
+                let mut row = [3; 8];
+                row[at] = bad;
+                assert!(!lanes_in_range(&row), "{row:?}");
+            }
+        }
+    }
+
     #[test]
     fn packs_move_and_round_as_the_portable_lanes() {
         let levels = available();
