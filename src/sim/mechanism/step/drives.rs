@@ -156,11 +156,7 @@ impl Workspace {
                 let r = nu - 0.5 * h * effort.effort.total();
                 self.constraint_residual[j][row] = r;
                 self.solver.free_row_diag[j][row] = 1.0;
-                let child = model.joints[j].child;
-                let scale = nu
-                    .abs()
-                    .max(0.5 * h.abs() * effort.magnitude)
-                    .max(self.impulse_scale[child]);
+                let scale = self.drive_scale(model, j, nu, h, effort);
                 ratio = ratio.max(relative(r.abs(), tol * scale));
                 continue;
             }
@@ -191,14 +187,26 @@ impl Workspace {
             let child = model.joints[j].child;
             let theta_roundoff =
                 8.0 * f64::EPSILON * (self.pose_next[child].com.amax() + model.length_scale);
-            let scale = nu
-                .abs()
-                .max(0.5 * h.abs() * effort.magnitude)
-                .max(self.impulse_scale[child]);
+            let scale = self.drive_scale(model, j, nu, h, &effort);
             let floor = 0.5 * h.abs() * effort.slope.abs() * theta_roundoff;
             ratio = ratio.max(relative(r.abs(), tol * scale + floor));
         }
         Ok(ratio)
+    }
+
+    /// The size a drive row's residual is measured against: the impulse `ν`, its terms
+    /// ([`StepEffort::magnitude`]) and the largest torque impulse on joint `joint`'s child.
+    fn drive_scale(
+        &self,
+        model: &Mechanism,
+        joint: usize,
+        nu: f64,
+        h: f64,
+        effort: &StepEffort,
+    ) -> f64 {
+        nu.abs()
+            .max(0.5 * h.abs() * effort.magnitude)
+            .max(self.impulse_scale[model.joints[joint].child])
     }
 
     /// `θ` and `∇θ` (parent, child) of coordinate `coordinate` at `poses`, unwrapped near the
