@@ -15,6 +15,7 @@ mod driven;
 mod driven_hostile;
 mod forces;
 mod hostile;
+mod joint_space;
 mod limits;
 mod mechanism;
 mod pinocchio_driven;

@@ -35,6 +35,7 @@ pub mod constrained;
 pub mod coords;
 pub mod drive;
 pub mod init;
+pub mod joint_space;
 pub mod project;
 pub mod rows;
 pub mod step;

@@ -10,6 +10,7 @@
 //! Other integrators have no constrained form: [`Articulated::new`] refuses them.
 
 use super::Mechanism;
+use super::joint_space::{self, TreeModel, TreeState, TreeWarm};
 use super::step::{self, MechanismState, Warm};
 use crate::sim::Bodies;
 use crate::sim::integrators::composition::{triple_jump, yoshida6_solution_a};
@@ -39,11 +40,65 @@ pub struct UnsupportedIntegrator {
     pub integrator: &'static str,
 }
 
+/// Which step a mechanism takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Coordinates {
+    /// Joint coordinates ([`super::joint_space`]) for every mechanism that is a tree of hinges
+    /// and sliders, the maximal step for the others (the default).
+    Joint,
+    /// The maximal-coordinate step ([`super::step`]) for every mechanism.
+    Maximal,
+}
+
+impl Coordinates {
+    /// The default, or `Maximal` when the environment sets `TUMBLE_ARTICULATED=maximal` (to
+    /// measure the two steps side by side with one binary).
+    pub fn from_env() -> Self {
+        match std::env::var("TUMBLE_ARTICULATED") {
+            Ok(v) if v.eq_ignore_ascii_case("maximal") => Coordinates::Maximal,
+            _ => Coordinates::Joint,
+        }
+    }
+}
+
+enum Stepping {
+    Maximal {
+        state: MechanismState,
+        /// One warm start per distinct substep size.
+        warm: Vec<Warm>,
+    },
+    Joint {
+        state: Box<TreeState>,
+        warm: Vec<TreeWarm>,
+    },
+}
+
 struct MechanismSlot {
     model: Arc<Mechanism>,
-    state: MechanismState,
-    /// One warm start per distinct substep size.
-    warm: Vec<Warm>,
+    stepping: Stepping,
+}
+
+impl MechanismSlot {
+    fn new(model: &Arc<Mechanism>, stages: usize, coordinates: Coordinates) -> Self {
+        let tree = match coordinates {
+            Coordinates::Joint => TreeModel::of(model).ok(),
+            Coordinates::Maximal => None,
+        };
+        let stepping = match tree {
+            Some(tree) => Stepping::Joint {
+                warm: (0..stages).map(|_| TreeWarm::new(&tree)).collect(),
+                state: Box::new(TreeState::new(model, tree)),
+            },
+            None => Stepping::Maximal {
+                state: MechanismState::new(model),
+                warm: (0..stages).map(|_| Warm::new(model)).collect(),
+            },
+        };
+        Self {
+            model: Arc::clone(model),
+            stepping,
+        }
+    }
 }
 
 /// Free bodies and mechanisms stepped together (see the module doc).
@@ -68,6 +123,25 @@ impl Articulated {
         settings: &VariationalSettings,
         mechanisms: &[Arc<Mechanism>],
         body_count: usize,
+    ) -> Result<Self, UnsupportedIntegrator> {
+        Self::with_coordinates(
+            kind,
+            dt_secs,
+            settings,
+            mechanisms,
+            body_count,
+            Coordinates::from_env(),
+        )
+    }
+
+    /// [`Articulated::new`] with the step chosen by `coordinates`.
+    pub fn with_coordinates(
+        kind: IntegratorKind,
+        dt_secs: f64,
+        settings: &VariationalSettings,
+        mechanisms: &[Arc<Mechanism>],
+        body_count: usize,
+        coordinates: Coordinates,
     ) -> Result<Self, UnsupportedIntegrator> {
         let gammas: Vec<f64> = match kind {
             IntegratorKind::Variational => vec![1.0],
@@ -120,11 +194,7 @@ impl Articulated {
             .collect();
         let mechanisms = sorted
             .into_iter()
-            .map(|m| MechanismSlot {
-                state: MechanismState::new(m),
-                warm: stage_dt.iter().map(|_| Warm::new(m)).collect(),
-                model: Arc::clone(m),
-            })
+            .map(|m| MechanismSlot::new(m, stage_dt.len(), coordinates))
             .collect();
         Ok(Self {
             name: kind.name(),
@@ -154,9 +224,14 @@ impl Integrator for Articulated {
             }
         }
         for slot in &mut self.mechanisms {
-            slot.state = MechanismState::new(&slot.model);
-            for w in &mut slot.warm {
-                *w = Warm::new(&slot.model);
+            let stages = self.stage_dt.len();
+            let coordinates = match slot.stepping {
+                Stepping::Joint { .. } => Coordinates::Joint,
+                Stepping::Maximal { .. } => Coordinates::Maximal,
+            };
+            *slot = MechanismSlot::new(&slot.model, stages, coordinates);
+            if let Stepping::Joint { state, .. } = &mut slot.stepping {
+                state.init(&slot.model, bodies);
             }
         }
     }
@@ -172,15 +247,27 @@ impl Integrator for Articulated {
                 stats = stats.merge(stages[k].step_range(bodies, range.clone(), loads));
             }
             for slot in &mut self.mechanisms {
-                stats = stats.merge(step::step(
-                    &slot.model,
-                    &mut slot.state,
-                    &mut slot.warm[k],
-                    bodies,
-                    self.stage_dt[k],
-                    loads,
-                    &self.settings,
-                ));
+                let h = self.stage_dt[k];
+                stats = stats.merge(match &mut slot.stepping {
+                    Stepping::Maximal { state, warm } => step::step(
+                        &slot.model,
+                        state,
+                        &mut warm[k],
+                        bodies,
+                        h,
+                        loads,
+                        &self.settings,
+                    ),
+                    Stepping::Joint { state, warm } => joint_space::step(
+                        &slot.model,
+                        state,
+                        &mut warm[k],
+                        bodies,
+                        h,
+                        loads,
+                        &self.settings,
+                    ),
+                });
             }
             let t = stage_loads.time_secs() + self.stage_dt[k];
             stage_loads.set_time(t);
@@ -199,10 +286,13 @@ impl Integrator for Articulated {
             .flat_map(|(_, stages)| stages.iter())
             .fold(EnergyFlow::default(), |a, s| a + s.energy_flow());
         self.mechanisms.iter().fold(free, |a, slot| {
-            let ws = &slot.state.ws;
+            let (drive, load) = match &slot.stepping {
+                Stepping::Maximal { state, .. } => (&state.ws.drive_work, &state.ws.load_work),
+                Stepping::Joint { state, .. } => (&state.drive_work, &state.load_work),
+            };
             a + EnergyFlow {
-                input_work: ws.drive_work.actuators + ws.load_work.work,
-                dissipated: ws.drive_work.dissipated(),
+                input_work: drive.actuators + load.work,
+                dissipated: drive.dissipated(),
                 ..Default::default()
             }
         })

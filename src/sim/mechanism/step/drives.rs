@@ -63,7 +63,7 @@ pub struct DriveRows {
 /// `∇θ(q_{k+1})` (an `atan2` and a gradient per drive and iteration): they are read once, at
 /// the solved end pose, for the end impulses and the work. A compound stage is left out (its
 /// gradient can fail, which must fail the attempt, not the commit).
-pub(super) fn time_only(model: &Mechanism, drive: &JointDrive) -> bool {
+pub(crate) fn time_only(model: &Mechanism, drive: &JointDrive) -> bool {
     let motor = matches!(
         drive.actuator.as_ref().map(|a| &a.kind),
         Some(ActuatorKind::Motor { .. })

@@ -48,6 +48,7 @@ mod warm;
 mod workspace;
 
 pub use drives::DriveWork;
+pub(crate) use drives::time_only;
 pub use stops::StopRows;
 pub use warm::Warm;
 pub use workspace::Workspace;

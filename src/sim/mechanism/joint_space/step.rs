@@ -1,0 +1,760 @@
+//! One step of a tree in joint coordinates: the discrete Euler-Lagrange equations of the
+//! restricted discrete Lagrangian (see [`super`]), solved by a simplified Newton iteration
+//! whose matrix, `M(q_k) + h diag(c)`, is factorised once per step ([`super::aba`]).
+//!
+//! Unknowns: the joints' `θ_{k+1}` and, for a floating root, `ξ_0` (`R_0' = R_0 exp(ξ_0)`) and
+//! `Δc_0`. Residual at an iterate (generalized momentum, one entry per coordinate):
+//!
+//! ```text
+//! r(q') = Σ_i J_i(q_k)ᵀ (μ_i⁺(q_k, q') − μ_i) − (h/2) τ̄(θ_k, θ')
+//! ```
+//!
+//! with `μ_i = (p_i, M_i)` the momenta the batch carries (the last step's end momenta, plus
+//! whatever kicked them since: applied loads, contact), the body's post-momentum of the
+//! free-body discrete Lagrangian (`ξ_i = log(R_iᵀ R_i')`, `Δc_i = c_i' − c_i`):
+//!
+//! ```text
+//! p_i⁺ = m_i (Δc_i / h − α h g),        M_i⁺ = T(ξ_i)⁻ᵀ J_i ξ_i / h = (I + ½ ξ^ + D ξ^²) J_i ξ_i / h
+//! p_i⁻ = m_i (Δc_i / h + (1 − α) h g),  M_i⁻ = exp(ξ_i)ᵀ M_i⁺ = (I − ½ ξ^ + D ξ^²) J_i ξ_i / h
+//! ```
+//!
+//! (`T(ξ) = exp(ξ) T(−ξ)`; `D` of `crate::sim::so3::d_coefficient`), and `J_iᵀ` applied by one
+//! pass from the leaves ([`super::kinematics::JointAxis::force`]). The update solves
+//! `(M + h diag c) δq = −h r`, `c_j = −(h/2) ∂τ̄_j/∂θ'_j ≥ 0` the drive's implicit stiffness and
+//! damping (a stiff servo stays stable at any `h² kp / I`), refactorised only when a drive's
+//! slope changes (an effort limit reached or left).
+//!
+//! Stopping rule (Hairer & Wanner, *Solving ODEs II*, §IV.8, for simplified Newton): with the
+//! update norm `‖δq‖` scaled per coordinate by its tolerance (`newton_tol` rad for angles,
+//! `newton_tol · L` m for lengths, each with the round-off of its value) and the observed
+//! contraction `ρ = ‖δq_n‖ / ‖δq_{n−1}‖`, the iterate is accepted when `ρ/(1−ρ) ‖δq_n‖ ≤ 1`
+//! (the remaining error predicted below the tolerance), or `‖δq_1‖ ≤ 1`. `ρ ≥ 1` fails.
+//!
+//! At the accepted iterate, the end momenta `μ_i⁻` are written to the batch with the drives'
+//! end impulses `(h/2) τ̄` (a couple along a hinge's axis, a force pair along a slider's), the
+//! poses from forward kinematics. For a floating root the residual of its own six equations
+//! (the total momentum's change, by discrete Noether) is taken off the root's end momentum, so
+//! the total linear and angular momentum of a free-floating tree are exact to round-off
+//! whatever the tolerance; the step then solves the discrete equations with a start impulse
+//! and the opposite end impulse, both of the size of the Newton residual.
+//!
+//! Guards, as for the maximal step: a warm start that fails is retried cold (no increment),
+//! then the step is split in `2, 4, …, max_substeps` substeps.
+
+use super::aba::{Factor, spatial_inertia};
+use super::kinematics::{JointAxis, Pose, forward};
+use super::model::{TreeJointKind, TreeModel};
+use crate::sim::Bodies;
+use crate::sim::integrators::{StepStats, VariationalSettings};
+use crate::sim::loads::{KickLedger, Loads};
+use crate::sim::mechanism::Mechanism;
+use crate::sim::mechanism::drive::StepEffort;
+use crate::sim::mechanism::step::{DriveWork, Failure};
+use crate::sim::so3::d_coefficient;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3, Vector6};
+
+/// Warm start of one step size: the last two accepted increments (joints, root `ξ_0`, `Δc_0`)
+/// and the last contraction observed.
+#[derive(Debug, Clone)]
+pub struct TreeWarm {
+    dtheta: Vec<f64>,
+    dtheta_prev: Vec<f64>,
+    root: [Vector3<f64>; 2],
+    root_prev: [Vector3<f64>; 2],
+    valid: bool,
+    history: bool,
+}
+
+impl TreeWarm {
+    pub fn new(tree: &TreeModel) -> Self {
+        let n = tree.joints.len();
+        Self {
+            dtheta: vec![0.0; n],
+            dtheta_prev: vec![0.0; n],
+            root: [Vector3::zeros(); 2],
+            root_prev: [Vector3::zeros(); 2],
+            valid: false,
+            history: false,
+        }
+    }
+
+    fn push(&mut self, dtheta: &[f64], root: [Vector3<f64>; 2]) {
+        self.history = self.valid;
+        std::mem::swap(&mut self.dtheta, &mut self.dtheta_prev);
+        std::mem::swap(&mut self.root, &mut self.root_prev);
+        self.dtheta.copy_from_slice(dtheta);
+        self.root = root;
+        self.valid = true;
+    }
+
+    fn scale(&mut self, factor: f64) {
+        self.history = false;
+        self.dtheta.iter_mut().for_each(|d| *d *= factor);
+        self.root.iter_mut().for_each(|r| *r *= factor);
+    }
+}
+
+/// One body's saved state (for the substep guard).
+type Saved = (
+    UnitQuaternion<f64>,
+    Vector3<f64>,
+    Vector3<f64>,
+    Vector3<f64>,
+);
+
+/// The state of a tree between steps (`θ_k`, the poses at `q_k`) and the step's buffers.
+#[derive(Debug, Clone)]
+pub struct TreeState {
+    pub tree: TreeModel,
+    /// `θ_k` per joint (rad or m): carried from step to step, never read back from the poses.
+    pub theta: Vec<f64>,
+    poses: Vec<Pose>,
+    axes: Vec<JointAxis>,
+    world: Pose,
+    theta_next: Vec<f64>,
+    root_xi: Vector3<f64>,
+    root_dc: Vector3<f64>,
+    poses_next: Vec<Pose>,
+    axes_next: Vec<JointAxis>,
+    /// Per body: `ξ_i` at the iterate, and the momenta read at the start (`p`, `M`).
+    xi: Vec<Vector3<f64>>,
+    momenta: Vec<(Vector3<f64>, Vector3<f64>)>,
+    /// Per body: the subtree's wrench `(n_o, f)`.
+    wrench: Vec<(Vector3<f64>, Vector3<f64>)>,
+    inertia: Vec<nalgebra::Matrix6<f64>>,
+    factor: Factor,
+    diag: Vec<f64>,
+    residual: Vec<f64>,
+    delta: Vec<f64>,
+    /// Per joint: the index of its drive in `MechanismModel::drives`.
+    drive_of_joint: Vec<Option<usize>>,
+    /// Per joint: the drive's step effort at the iterate.
+    effort: Vec<StepEffort>,
+    /// Per joint: whether the drive's effort depends on time alone (an undamped motor).
+    time_only: Vec<bool>,
+    time0_secs: f64,
+    pub drive_work: DriveWork,
+    pub load_work: KickLedger,
+    saved: Vec<Saved>,
+    saved_theta: Vec<f64>,
+}
+
+type Attempt = Result<u32, (Failure, u32)>;
+
+impl TreeState {
+    pub fn new(mechanism: &Mechanism, tree: TreeModel) -> Self {
+        let nb = mechanism.body_count;
+        let nj = tree.joints.len();
+        let mut drive_of_joint = vec![None; nj];
+        let mut time_only = vec![false; nj];
+        for (k, d) in mechanism.drives.iter().enumerate() {
+            let j = tree.coordinate_joint[d.coordinate];
+            drive_of_joint[j] = Some(k);
+            time_only[j] = crate::sim::mechanism::step::time_only(mechanism, d);
+        }
+        let identity = Pose::new(UnitQuaternion::identity(), Vector3::zeros());
+        Self {
+            theta: mechanism
+                .joints
+                .iter()
+                .enumerate()
+                .map(|(j, _)| mechanism.coordinates[tree.joints[j].coordinate].initial)
+                .collect(),
+            poses: vec![identity; nb],
+            axes: vec![JointAxis::default(); nj],
+            world: Pose::of_body(&mechanism.world_pose),
+            theta_next: vec![0.0; nj],
+            root_xi: Vector3::zeros(),
+            root_dc: Vector3::zeros(),
+            poses_next: vec![identity; nb],
+            axes_next: vec![JointAxis::default(); nj],
+            xi: vec![Vector3::zeros(); nb],
+            momenta: vec![(Vector3::zeros(), Vector3::zeros()); nb],
+            wrench: vec![(Vector3::zeros(), Vector3::zeros()); nb],
+            inertia: vec![nalgebra::Matrix6::zeros(); nb],
+            factor: Factor::new(&tree, nb),
+            diag: vec![0.0; nj],
+            residual: vec![0.0; tree.dofs()],
+            delta: vec![0.0; tree.dofs()],
+            drive_of_joint,
+            effort: vec![StepEffort::default(); nj],
+            time_only,
+            time0_secs: 0.0,
+            drive_work: DriveWork::default(),
+            load_work: KickLedger::default(),
+            saved: Vec::new(),
+            saved_theta: vec![0.0; nj],
+            tree,
+        }
+    }
+
+    /// Reads `q` from the batch's poses (each angle on the branch nearest the coordinate's
+    /// current value, the start value at first); the step starts from where forward
+    /// kinematics places the bodies at `q` (the batch's poses to round-off), and the first
+    /// step writes them.
+    pub fn init(&mut self, mechanism: &Mechanism, bodies: &Bodies) {
+        let first = mechanism.first_body;
+        let body_pose = |i: usize| crate::sim::mechanism::BodyPose {
+            rot: bodies.world_from_body[first + i]
+                .to_rotation_matrix()
+                .into_inner(),
+            com: bodies.com_world[first + i],
+        };
+        for (j, joint) in self.tree.joints.iter().enumerate() {
+            let a = match joint.parent {
+                Some(p) => body_pose(p),
+                None => mechanism.world_pose,
+            };
+            let b = body_pose(joint.child);
+            let c = &mechanism.coordinates[joint.coordinate];
+            if let Some(v) = c.kind.value(&a, &b, self.theta[j]) {
+                self.theta[j] = v;
+            }
+        }
+        let root = Pose::new(bodies.world_from_body[first], bodies.com_world[first]);
+        forward(
+            &self.tree,
+            &self.world,
+            &root,
+            &self.theta,
+            &mut self.poses,
+            &mut self.axes,
+        );
+    }
+
+    /// The joints' positions `θ_k` in coordinate order.
+    pub fn coordinates(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        self.tree
+            .joints
+            .iter()
+            .zip(&self.theta)
+            .map(|(j, t)| (j.coordinate, *t))
+    }
+}
+
+/// Advances the tree by `h` between the applied loads' trapezoid kicks (see the module doc).
+pub fn step(
+    mechanism: &Mechanism,
+    state: &mut TreeState,
+    warm: &mut TreeWarm,
+    bodies: &mut Bodies,
+    h: f64,
+    loads: &Loads,
+    settings: &VariationalSettings,
+) -> StepStats {
+    let t0 = loads.time_secs();
+    let range = mechanism.bodies();
+    let kicked = loads.loads_any(&range);
+    if kicked {
+        state.load_work.begin();
+        loads.kick(bodies, &range, t0, 0.5 * h, &mut state.load_work);
+    }
+    state.time0_secs = t0;
+    let stats = step_unforced(mechanism, state, warm, bodies, h, loads, settings);
+    if kicked {
+        state.load_work.end();
+        loads.kick(bodies, &range, t0 + h, 0.5 * h, &mut state.load_work);
+    }
+    stats
+}
+
+fn step_unforced(
+    mechanism: &Mechanism,
+    st: &mut TreeState,
+    warm: &mut TreeWarm,
+    bodies: &mut Bodies,
+    h: f64,
+    loads: &Loads,
+    settings: &VariationalSettings,
+) -> StepStats {
+    let mut stats = StepStats::default();
+    let first = st.attempt(
+        mechanism,
+        bodies,
+        h,
+        loads,
+        settings,
+        warm.valid.then_some(&*warm),
+    );
+    let outcome = match first {
+        Err((_, it)) if warm.valid => {
+            stats.newton_iters_max = it;
+            st.attempt(mechanism, bodies, h, loads, settings, None)
+        }
+        other => other,
+    };
+    match outcome {
+        Ok(it) => {
+            stats.newton_iters_max = stats.newton_iters_max.max(it);
+            st.commit(mechanism, bodies, h, loads, settings, warm);
+        }
+        Err((_, it)) => {
+            stats.newton_iters_max = stats.newton_iters_max.max(it);
+            if !settings.substep {
+                st.commit(mechanism, bodies, h, loads, settings, warm);
+                warm.valid = false;
+                stats.add_solve(mechanism.first_body, it, false);
+                return stats;
+            }
+            split(mechanism, st, warm, bodies, h, loads, settings, &mut stats);
+            st.time0_secs = loads.time_secs();
+        }
+    }
+    stats
+}
+
+/// The substep guard: `n = 2, 4, …` steps of `h/n`, the first split at which every substep
+/// converges kept.
+#[allow(clippy::too_many_arguments)]
+#[cold]
+fn split(
+    mechanism: &Mechanism,
+    st: &mut TreeState,
+    warm: &mut TreeWarm,
+    bodies: &mut Bodies,
+    h: f64,
+    loads: &Loads,
+    settings: &VariationalSettings,
+    stats: &mut StepStats,
+) {
+    st.save(mechanism, bodies);
+    let work = st.drive_work;
+    stats.substepped += 1;
+    let mut n = 2u32;
+    while n <= settings.max_substeps {
+        let hs = h / f64::from(n);
+        let mut sub_warm = TreeWarm::new(&st.tree);
+        let mut ok = true;
+        for s in 0..n {
+            st.time0_secs = loads.time_secs() + f64::from(s) * hs;
+            let start = sub_warm.valid.then_some(&sub_warm);
+            let mut result = st.attempt(mechanism, bodies, hs, loads, settings, start);
+            if result.is_err() && sub_warm.valid {
+                result = st.attempt(mechanism, bodies, hs, loads, settings, None);
+            }
+            match result {
+                Ok(it) => {
+                    stats.newton_iters_max = stats.newton_iters_max.max(it);
+                    st.commit(mechanism, bodies, hs, loads, settings, &mut sub_warm);
+                }
+                Err(_) => {
+                    ok = false;
+                    break;
+                }
+            }
+        }
+        if ok {
+            stats.substep_factor_max = stats.substep_factor_max.max(n);
+            sub_warm.scale(f64::from(n));
+            *warm = sub_warm;
+            return;
+        }
+        st.restore(mechanism, bodies);
+        st.drive_work = work;
+        n *= 2;
+    }
+    stats.substep_factor_max = stats.substep_factor_max.max(settings.max_substeps);
+    warm.valid = false;
+    stats.add_solve(mechanism.first_body, settings.newton_max_iters, false);
+}
+
+/// `log(q)` for a unit quaternion: the rotation vector of the shorter way.
+#[inline]
+fn log_quaternion(q: &Quaternion<f64>) -> Vector3<f64> {
+    let (w, v) = if q.w < 0.0 {
+        (-q.w, -q.imag())
+    } else {
+        (q.w, q.imag())
+    };
+    let s = v.norm();
+    // 2 atan2(s, w) / s, by series where s ≪ w (relative error below 1e-17 for s < 1e-4 w).
+    let k = if s < 1e-4 * w {
+        let x = s / w;
+        (2.0 / w) * (1.0 - x * x / 3.0)
+    } else {
+        2.0 * s.atan2(w) / s
+    };
+    v * k
+}
+
+impl TreeState {
+    fn save(&mut self, mechanism: &Mechanism, bodies: &Bodies) {
+        self.saved.clear();
+        for i in mechanism.bodies() {
+            self.saved.push((
+                bodies.world_from_body[i],
+                bodies.com_world[i],
+                bodies.linvel_world[i],
+                bodies.angmom_body[i],
+            ));
+        }
+        self.saved_theta.copy_from_slice(&self.theta);
+    }
+
+    fn restore(&mut self, mechanism: &Mechanism, bodies: &mut Bodies) {
+        for (k, i) in mechanism.bodies().enumerate() {
+            let s = self.saved[k];
+            bodies.world_from_body[i] = s.0;
+            bodies.com_world[i] = s.1;
+            bodies.linvel_world[i] = s.2;
+            bodies.angmom_body[i] = s.3;
+        }
+        self.theta.copy_from_slice(&self.saved_theta);
+        let root = Pose::new(self.saved[0].0, self.saved[0].1);
+        forward(
+            &self.tree,
+            &self.world,
+            &root,
+            &self.theta,
+            &mut self.poses,
+            &mut self.axes,
+        );
+    }
+
+    /// The step's drive efforts at the iterate `θ'` (all but the time-only ones), and whether
+    /// any slope changed from `diag` (a refactorisation is due).
+    fn drive_efforts(&mut self, mechanism: &Mechanism, h: f64) -> bool {
+        let mut changed = false;
+        for (j, d) in self.drive_of_joint.iter().enumerate() {
+            let Some(k) = *d else { continue };
+            if self.time_only[j] {
+                continue;
+            }
+            let e = mechanism.drives[k].step_effort(
+                self.time0_secs,
+                h,
+                self.theta[j],
+                self.theta_next[j],
+            );
+            let a = -0.5 * h * h * e.slope;
+            if a != self.diag[j] {
+                self.diag[j] = a;
+                changed = true;
+            }
+            self.effort[j] = e;
+        }
+        changed
+    }
+
+    /// Fills the factorisation's inertias and twists at `q_k` and factorises.
+    fn factor_at_start(&mut self) -> bool {
+        self.factor.articulated.copy_from_slice(&self.inertia);
+        self.factor
+            .factor(&self.tree, &self.diag, &self.poses[0].rot)
+    }
+
+    /// One attempt at the step from `warm` (or from no increment): the Newton iterations
+    /// (see the module doc); the accepted iterate is left in `theta_next`, `root_*`,
+    /// `poses_next`, `xi`.
+    fn attempt(
+        &mut self,
+        mechanism: &Mechanism,
+        bodies: &Bodies,
+        h: f64,
+        loads: &Loads,
+        settings: &VariationalSettings,
+        warm: Option<&TreeWarm>,
+    ) -> Attempt {
+        let first = mechanism.first_body;
+        let nb = self.tree.base_dofs();
+        let o = self.poses[0].com;
+        let alpha = settings.potential.alpha();
+        let g = *loads.gravity();
+        for (i, pose) in self.poses.iter().enumerate() {
+            let gi = first + i;
+            self.inertia[i] = spatial_inertia(pose, &bodies.inertia_body[gi], bodies.mass[gi], &o);
+            self.momenta[i] = (
+                bodies.linvel_world[gi] * bodies.mass[gi],
+                bodies.angmom_body[gi],
+            );
+        }
+        for (j, joint) in self.tree.joints.iter().enumerate() {
+            let (w, v) = self.axes[j].twist(joint.kind, &o);
+            self.factor.twist[j] = Vector6::new(w.x, w.y, w.z, v.x, v.y, v.z);
+        }
+        // The predictor: the last increments extrapolated (2 Δq_k − Δq_{k−1}), or none.
+        match warm {
+            Some(w) => {
+                let x = if w.history { 2.0 } else { 1.0 };
+                let y = if w.history { 1.0 } else { 0.0 };
+                for j in 0..self.theta.len() {
+                    self.theta_next[j] = self.theta[j] + x * w.dtheta[j] - y * w.dtheta_prev[j];
+                }
+                self.root_xi = w.root[0] * x - w.root_prev[0] * y;
+                self.root_dc = w.root[1] * x - w.root_prev[1] * y;
+            }
+            None => {
+                self.theta_next.copy_from_slice(&self.theta);
+                self.root_xi = Vector3::zeros();
+                self.root_dc = Vector3::zeros();
+            }
+        }
+        let t0 = self.time0_secs;
+        for (j, d) in self.drive_of_joint.iter().enumerate() {
+            match *d {
+                Some(k) if self.time_only[j] => {
+                    self.effort[j] =
+                        mechanism.drives[k].step_effort(t0, h, self.theta[j], self.theta[j]);
+                    self.diag[j] = 0.0;
+                }
+                _ => self.diag[j] = 0.0,
+            }
+        }
+        self.drive_efforts(mechanism, h);
+        if !self.factor_at_start() {
+            return Err((Failure::Singular, 0));
+        }
+        let tol = settings.newton_tol;
+        let length = mechanism.length_scale;
+        let mut previous = f64::INFINITY;
+        for it in 1..=settings.newton_max_iters {
+            self.forward_next();
+            self.residuals(mechanism, bodies, h, alpha, &g, &o);
+            if self.drive_efforts(mechanism, h) && !self.factor_at_start() {
+                return Err((Failure::Singular, it));
+            }
+            for (j, d) in self.drive_of_joint.iter().enumerate() {
+                if d.is_some() {
+                    self.residual[nb + j] -= 0.5 * h * self.effort[j].effort.total();
+                }
+            }
+            if self.residual.iter().any(|r| !r.is_finite()) {
+                return Err((Failure::NonFinite, it));
+            }
+            for r in self.residual.iter_mut() {
+                *r *= -h;
+            }
+            self.factor
+                .solve(&self.tree, &self.residual, &mut self.delta);
+            // Apply, and the scaled norm.
+            let mut norm: f64 = 0.0;
+            if self.tree.floating {
+                let dxi = Vector3::new(self.delta[0], self.delta[1], self.delta[2]);
+                let dc = Vector3::new(self.delta[3], self.delta[4], self.delta[5]);
+                self.root_xi += dxi;
+                self.root_dc += dc;
+                let c_floor = 8.0 * f64::EPSILON * self.poses[0].com.amax();
+                norm = norm
+                    .max(dxi.amax() / tol)
+                    .max(dc.amax() / (tol * length + c_floor));
+            }
+            for (j, joint) in self.tree.joints.iter().enumerate() {
+                let d = self.delta[nb + j];
+                self.theta_next[j] += d;
+                let scale = match joint.kind {
+                    TreeJointKind::Hinge => tol + 4.0 * f64::EPSILON * self.theta_next[j].abs(),
+                    TreeJointKind::Slider => {
+                        tol * length + 4.0 * f64::EPSILON * self.theta_next[j].abs()
+                    }
+                };
+                norm = norm.max(d.abs() / scale);
+            }
+            if !norm.is_finite() {
+                return Err((Failure::NonFinite, it));
+            }
+            if norm <= 1.0 {
+                return Ok(it);
+            }
+            if it > 1 {
+                let rate = norm / previous;
+                if rate >= 1.0 {
+                    return Err((Failure::Diverging, it));
+                }
+                if rate / (1.0 - rate) * norm <= 1.0 {
+                    return Ok(it);
+                }
+            }
+            previous = norm;
+        }
+        Err((Failure::NotConverged, settings.newton_max_iters))
+    }
+
+    /// Forward kinematics at the iterate.
+    fn forward_next(&mut self) {
+        let root = if self.tree.floating {
+            let p = &self.poses[0];
+            Pose::new(
+                p.quat * crate::sim::so3::exp_quaternion(&self.root_xi),
+                p.com + self.root_dc,
+            )
+        } else {
+            self.poses[0]
+        };
+        forward(
+            &self.tree,
+            &self.world,
+            &root,
+            &self.theta_next,
+            &mut self.poses_next,
+            &mut self.axes_next,
+        );
+    }
+
+    /// `ξ_i` at the iterate and the residual `Σ J_iᵀ (μ_i⁺ − μ_i)` (no drive term).
+    fn residuals(
+        &mut self,
+        mechanism: &Mechanism,
+        bodies: &Bodies,
+        h: f64,
+        alpha: f64,
+        g: &Vector3<f64>,
+        o: &Vector3<f64>,
+    ) {
+        let first = mechanism.first_body;
+        let inv_h = 1.0 / h;
+        for i in 0..self.poses.len() {
+            let gi = first + i;
+            let (p0, p1) = (&self.poses[i], &self.poses_next[i]);
+            let xi = if i == 0 && self.tree.floating {
+                self.root_xi
+            } else {
+                log_quaternion(&(p0.quat.conjugate() * p1.quat).into_inner())
+            };
+            self.xi[i] = xi;
+            let m = bodies.mass[gi];
+            let y = bodies.inertia_body[gi].component_mul(&xi) * inv_h;
+            let xy = xi.cross(&y);
+            let d = d_coefficient(xi.norm_squared());
+            let m_plus = y + xy * 0.5 + xi.cross(&xy) * d;
+            let p_plus = ((p1.com - p0.com) * inv_h - g * (alpha * h)) * m;
+            let (p, mb) = &self.momenta[i];
+            let dp = p_plus - p;
+            let dm = m_plus - mb;
+            self.wrench[i] = (p0.rot * dm + (p0.com - o).cross(&dp), dp);
+        }
+        let nb = self.tree.base_dofs();
+        for (j, joint) in self.tree.joints.iter().enumerate().rev() {
+            let (n, f) = self.wrench[joint.child];
+            self.residual[nb + j] = self.axes[j].force(joint.kind, o, &n, &f);
+            if let Some(p) = joint.parent {
+                self.wrench[p].0 += n;
+                self.wrench[p].1 += f;
+            }
+        }
+        if self.tree.floating {
+            let (n, f) = self.wrench[0];
+            let t = self.poses[0].rot.transpose() * n;
+            self.residual[..3].copy_from_slice(t.as_slice());
+            self.residual[3..6].copy_from_slice(f.as_slice());
+        }
+    }
+
+    /// Writes the accepted iterate into the batch (see the module doc) and the warm start.
+    fn commit(
+        &mut self,
+        mechanism: &Mechanism,
+        bodies: &mut Bodies,
+        h: f64,
+        loads: &Loads,
+        settings: &VariationalSettings,
+        warm: &mut TreeWarm,
+    ) {
+        let first = mechanism.first_body;
+        let alpha = settings.potential.alpha();
+        let g = *loads.gravity();
+        let o = self.poses[0].com;
+        self.forward_next();
+        let inv_h = 1.0 / h;
+        if self.tree.floating {
+            // The root's translation equations are linear in `Δc_0`: shifting the whole tree
+            // by `δ` changes their residual `Σ (p_i⁺ − p_i)` by `m δ / h`. Solved exactly, so
+            // the centre of mass moves with the total momentum it carries.
+            let (mut f, mut mass) = (Vector3::zeros(), 0.0);
+            for i in 0..self.poses.len() {
+                let m = bodies.mass[first + i];
+                let dc = self.poses_next[i].com - self.poses[i].com;
+                f += (dc * inv_h - g * (alpha * h)) * m - self.momenta[i].0;
+                mass += m;
+            }
+            let shift = f * (-h / mass);
+            self.root_dc += shift;
+            for p in self.poses_next.iter_mut() {
+                p.com += shift;
+            }
+            for a in self.axes_next.iter_mut() {
+                a.point += shift;
+            }
+        }
+        let mut total = (Vector3::zeros(), Vector3::zeros());
+        for i in 0..self.poses.len() {
+            let gi = first + i;
+            let (p0, p1) = (&self.poses[i], &self.poses_next[i]);
+            let xi = if i == 0 && self.tree.floating {
+                self.root_xi
+            } else {
+                log_quaternion(&(p0.quat.conjugate() * p1.quat).into_inner())
+            };
+            let m = bodies.mass[gi];
+            let y = bodies.inertia_body[gi].component_mul(&xi) * inv_h;
+            let xy = xi.cross(&y);
+            let d = d_coefficient(xi.norm_squared());
+            let x2y = xi.cross(&xy) * d;
+            let velocity = (p1.com - p0.com) * inv_h;
+            if self.tree.floating {
+                // μ⁺ − μ: the root equations' residual, summed (world, about o).
+                let m_plus = y + xy * 0.5 + x2y;
+                let p_plus = (velocity - g * (alpha * h)) * m;
+                let (p, mb) = &self.momenta[i];
+                let dp = p_plus - p;
+                total.0 += p0.rot * (m_plus - mb) + (p0.com - o).cross(&dp);
+                total.1 += dp;
+            }
+            bodies.world_from_body[gi] = UnitQuaternion::new_normalize(p1.quat.into_inner());
+            bodies.com_world[gi] = p1.com;
+            bodies.angmom_body[gi] = y - xy * 0.5 + x2y;
+            bodies.linvel_world[gi] = velocity + g * ((1.0 - alpha) * h);
+        }
+        if self.tree.floating {
+            let (n, f) = total;
+            let root = &self.poses_next[0];
+            let torque = root.rot.transpose() * ((root.com - o).cross(&f) - n);
+            bodies.angmom_body[first] += torque;
+            bodies.linvel_world[first] -= f / bodies.mass[first];
+        }
+        // The drives' end impulses and work.
+        for (j, d) in self.drive_of_joint.iter().enumerate() {
+            if d.is_none() {
+                continue;
+            }
+            let joint = &self.tree.joints[j];
+            let e = &self.effort[j];
+            let nu = 0.5 * h * e.effort.total();
+            let axis = &self.axes_next[j];
+            let child = &self.poses_next[joint.child];
+            let gc = first + joint.child;
+            match joint.kind {
+                TreeJointKind::Hinge => {
+                    bodies.angmom_body[gc] += child.rot.transpose() * (axis.axis * nu);
+                    if let Some(p) = joint.parent {
+                        let parent = &self.poses_next[p];
+                        bodies.angmom_body[first + p] -= parent.rot.transpose() * (axis.axis * nu);
+                    }
+                }
+                TreeJointKind::Slider => {
+                    let force = axis.axis * nu;
+                    bodies.linvel_world[gc] += force / bodies.mass[gc];
+                    bodies.angmom_body[gc] +=
+                        child.rot.transpose() * (axis.point - child.com).cross(&force);
+                    if let Some(p) = joint.parent {
+                        let parent = &self.poses_next[p];
+                        let gp = first + p;
+                        bodies.linvel_world[gp] -= force / bodies.mass[gp];
+                        bodies.angmom_body[gp] -=
+                            parent.rot.transpose() * (axis.point - parent.com).cross(&force);
+                    }
+                }
+            }
+            let dtheta = self.theta_next[j] - self.theta[j];
+            self.drive_work.actuators += e.effort.actuator * dtheta;
+            self.drive_work.damping -= e.effort.damping * dtheta;
+        }
+        for j in 0..self.theta.len() {
+            self.delta[j] = self.theta_next[j] - self.theta[j];
+        }
+        let nj = self.theta.len();
+        warm.push(&self.delta[..nj], [self.root_xi, self.root_dc]);
+        std::mem::swap(&mut self.theta, &mut self.theta_next);
+        std::mem::swap(&mut self.poses, &mut self.poses_next);
+        std::mem::swap(&mut self.axes, &mut self.axes_next);
+    }
+}

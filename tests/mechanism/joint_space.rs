@@ -1,0 +1,156 @@
+//! The joint-space step (`sim::mechanism::joint_space`) against the maximal-coordinate step:
+//! both solve the discrete Euler-Lagrange equations of one discrete Lagrangian (the maximal
+//! one with the joints as constraints, the joint-space one on the constraints' manifold), so
+//! over a short horizon their poses agree to the Newton tolerance times the steps taken.
+
+use std::sync::Arc;
+use tumble::scene::Scene;
+use tumble::sim::mechanism::stepper::{Articulated, Coordinates};
+use tumble::sim::{Bodies, Integrator, Loads};
+
+/// The bundled scene `name` stepped `steps` times with `coordinates` at Newton tolerance `tol`.
+fn run(name: &str, steps: usize, coordinates: Coordinates, tol: Option<f64>) -> Bodies {
+    let path = format!("{}/models/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+    let scene = Scene::load(std::path::Path::new(&path)).unwrap();
+    let world = scene.build().unwrap();
+    let mut settings = scene.variational_settings();
+    if let Some(t) = tol {
+        settings.newton_tol = t;
+    }
+    let mechanisms: Vec<Arc<_>> = world.mechanisms.clone();
+    let mut bodies = Bodies::new(&world.bodies);
+    let mut stepper = Articulated::with_coordinates(
+        scene.integrator(),
+        scene.sim.dt,
+        &settings,
+        &mechanisms,
+        bodies.len(),
+        coordinates,
+    )
+    .unwrap();
+    stepper.init(&bodies);
+    let mut loads: Loads = world.loads(scene.gravity());
+    for k in 0..steps {
+        loads.set_time(k as f64 * scene.sim.dt);
+        let stats = stepper.step(&mut bodies, &loads);
+        assert_eq!(stats.newton_failures, 0, "{name}: step {k}");
+    }
+    bodies
+}
+
+/// The largest difference of any body's centre of mass (m) and rotation (rad) between two
+/// batches.
+fn difference(a: &Bodies, b: &Bodies) -> (f64, f64) {
+    let mut out = (0.0f64, 0.0f64);
+    for i in 0..a.len() {
+        out.0 = out.0.max((a.com_world[i] - b.com_world[i]).amax());
+        out.1 = out
+            .1
+            .max(a.world_from_body[i].angle_to(&b.world_from_body[i]));
+    }
+    out
+}
+
+/// Both steps at the default tolerance, and each against itself at `1e-15`: the joint-space
+/// step's own Newton error, the maximal one's, and the two tight solutions' difference.
+pub fn max_difference(name: &str, steps: usize) -> [(f64, f64); 3] {
+    let j = run(name, steps, Coordinates::Joint, None);
+    let m = run(name, steps, Coordinates::Maximal, None);
+    let jt = run(name, steps, Coordinates::Joint, Some(1e-15));
+    let mt = run(name, steps, Coordinates::Maximal, Some(1e-15));
+    let out = [
+        difference(&j, &jt),
+        difference(&m, &mt),
+        difference(&jt, &mt),
+    ];
+    eprintln!(
+        "{name}: {steps} steps; joint vs its tight run {:.1e} m {:.1e} rad; maximal vs its tight run {:.1e} m {:.1e} rad; the tight runs {:.1e} m {:.1e} rad",
+        out[0].0, out[0].1, out[1].0, out[1].1, out[2].0, out[2].1
+    );
+    out
+}
+
+#[test]
+fn the_joint_space_step_follows_the_maximal_step() {
+    for name in [
+        "double_pendulum",
+        "chain7",
+        "chain7_driven",
+        "chain3_free",
+        "satellite_arm",
+        "cart_pole",
+        "arm_servo",
+        "arm_motors",
+    ] {
+        let [_, _, (dc, dr)] = max_difference(name, 200);
+        assert!(dc < 1e-9 && dr < 1e-9, "{name}: {dc:e} m, {dr:e} rad");
+    }
+}
+
+/// The total linear and angular momentum (about the world origin) the batch carries.
+fn totals(bodies: &Bodies) -> (nalgebra::Vector3<f64>, nalgebra::Vector3<f64>) {
+    let mut p = nalgebra::Vector3::zeros();
+    let mut l = nalgebra::Vector3::zeros();
+    for i in 0..bodies.len() {
+        let pi = bodies.linvel_world[i] * bodies.mass[i];
+        p += pi;
+        l += bodies.com_world[i].cross(&pi) + bodies.world_from_body[i] * bodies.angmom_body[i];
+    }
+    (p, l)
+}
+
+#[test]
+fn a_free_floating_tree_keeps_its_momenta_to_round_off() {
+    let path = format!("{}/models/chain3_free.toml", env!("CARGO_MANIFEST_DIR"));
+    let scene = Scene::load(std::path::Path::new(&path)).unwrap();
+    let world = scene.build().unwrap();
+    let loads = world.loads(scene.gravity());
+    let mut bodies = Bodies::new(&world.bodies);
+    let mut stepper = Articulated::with_coordinates(
+        scene.integrator(),
+        scene.sim.dt,
+        &scene.variational_settings(),
+        &world.mechanisms,
+        bodies.len(),
+        if std::env::var("MAXIMAL").is_ok() {
+            Coordinates::Maximal
+        } else {
+            Coordinates::Joint
+        },
+    )
+    .unwrap();
+    stepper.init(&bodies);
+    let (p0, l0) = totals(&bodies);
+    let mut frames = tumble::simulation::FrameBuilder::new(&world);
+    frames.frame(&bodies, &loads, 0, scene.sim.dt);
+    let mut reported0 = Vec::new();
+    frames.conserved_angmom(&mut reported0, &|_| false);
+    let mut reported = Vec::new();
+    let (mut dp, mut dl, mut dr) = (0.0f64, 0.0f64, 0.0f64);
+    for k in 0..2000 {
+        stepper.step(&mut bodies, &loads);
+        let (p, l) = totals(&bodies);
+        dp = dp.max((p - p0).norm() / p0.norm());
+        dl = dl.max((l - l0).norm() / l0.norm());
+        let f = frames.frame(&bodies, &loads, k + 1, scene.sim.dt);
+        if k % 400 == 0 {
+            let mut pr = nalgebra::Vector3::zeros();
+            let mut lr = nalgebra::Vector3::zeros();
+            for i in 0..bodies.len() {
+                let pi = f.bodies[i].linvel_world * bodies.mass[i];
+                pr += pi;
+                lr += bodies.com_world[i].cross(&pi) + f.bodies[i].angmom_world;
+            }
+            let (p, l) = totals(&bodies);
+            eprintln!(
+                "step {k}: Δp {:.2e} ΔL {:.2e} (reported - raw)",
+                (pr - p).norm(),
+                (lr - l).norm()
+            );
+        }
+        frames.conserved_angmom(&mut reported, &|_| false);
+        dr = dr.max((reported[0] - reported0[0]).norm() / reported0[0].norm());
+    }
+    eprintln!("chain3_free: |Δp|/|p| {dp:.2e}, |ΔL|/|L| {dl:.2e}, reported {dr:.2e}");
+    assert!(dp < 1e-13 && dl < 1e-13, "{dp:e} {dl:e}");
+}
