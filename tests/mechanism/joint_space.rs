@@ -30,11 +30,17 @@ fn run(name: &str, steps: usize, coordinates: Coordinates, tol: Option<f64>) -> 
     .unwrap();
     stepper.init(&bodies);
     let mut loads: Loads = world.loads(scene.gravity());
+    let mut updates = 0u64;
     for k in 0..steps {
         loads.set_time(k as f64 * scene.sim.dt);
         let stats = stepper.step(&mut bodies, &loads);
         assert_eq!(stats.newton_failures, 0, "{name}: step {k}");
+        updates += u64::from(stats.newton_iters_max);
     }
+    eprintln!(
+        "{name} {coordinates:?} tol {tol:?}: {:.2} updates per step",
+        updates as f64 / steps as f64
+    );
     bodies
 }
 
@@ -132,25 +138,14 @@ fn a_free_floating_tree_keeps_its_momenta_to_round_off() {
         let (p, l) = totals(&bodies);
         dp = dp.max((p - p0).norm() / p0.norm());
         dl = dl.max((l - l0).norm() / l0.norm());
-        let f = frames.frame(&bodies, &loads, k + 1, scene.sim.dt);
-        if k % 400 == 0 {
-            let mut pr = nalgebra::Vector3::zeros();
-            let mut lr = nalgebra::Vector3::zeros();
-            for i in 0..bodies.len() {
-                let pi = f.bodies[i].linvel_world * bodies.mass[i];
-                pr += pi;
-                lr += bodies.com_world[i].cross(&pi) + f.bodies[i].angmom_world;
-            }
-            let (p, l) = totals(&bodies);
-            eprintln!(
-                "step {k}: Δp {:.2e} ΔL {:.2e} (reported - raw)",
-                (pr - p).norm(),
-                (lr - l).norm()
-            );
-        }
+        frames.frame(&bodies, &loads, k + 1, scene.sim.dt);
         frames.conserved_angmom(&mut reported, &|_| false);
         dr = dr.max((reported[0] - reported0[0]).norm() / reported0[0].norm());
     }
     eprintln!("chain3_free: |Δp|/|p| {dp:.2e}, |ΔL|/|L| {dl:.2e}, reported {dr:.2e}");
-    assert!(dp < 1e-13 && dl < 1e-13, "{dp:e} {dl:e}");
+    // Measured: 6.3e-16, 1.2e-15 (raw), 1.2e-14 (reported, about the centre of mass).
+    assert!(
+        dp < 1e-13 && dl < 1e-13 && dr < 1e-13,
+        "{dp:e} {dl:e} {dr:e}"
+    );
 }

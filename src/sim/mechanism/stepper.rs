@@ -44,26 +44,27 @@ pub struct UnsupportedIntegrator {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Coordinates {
     /// Joint coordinates ([`super::joint_space`]) for every mechanism that is a tree of hinges
-    /// and sliders, the maximal step for the others (the default).
+    /// and sliders, the maximal step for the others.
     Joint,
-    /// The maximal-coordinate step ([`super::step`]) for every mechanism.
+    /// The maximal-coordinate step ([`super::step`]) for every mechanism (the default).
     Maximal,
 }
 
 impl Coordinates {
-    /// The default, or `Maximal` when the environment sets `TUMBLE_ARTICULATED=maximal` (to
-    /// measure the two steps side by side with one binary).
+    /// The default, `Maximal`, or `Joint` when the environment sets `TUMBLE_ARTICULATED=joint`.
+    /// The joint-space step is opt-in until its Newton iteration is as robust as the maximal
+    /// one's on whips and large steps (docs/mechanisms.md, "The joint-space step").
     pub fn from_env() -> Self {
         match std::env::var("TUMBLE_ARTICULATED") {
-            Ok(v) if v.eq_ignore_ascii_case("maximal") => Coordinates::Maximal,
-            _ => Coordinates::Joint,
+            Ok(v) if v.eq_ignore_ascii_case("joint") => Coordinates::Joint,
+            _ => Coordinates::Maximal,
         }
     }
 }
 
 enum Stepping {
     Maximal {
-        state: MechanismState,
+        state: Box<MechanismState>,
         /// One warm start per distinct substep size.
         warm: Vec<Warm>,
     },
@@ -90,7 +91,7 @@ impl MechanismSlot {
                 state: Box::new(TreeState::new(model, tree)),
             },
             None => Stepping::Maximal {
-                state: MechanismState::new(model),
+                state: Box::new(MechanismState::new(model)),
                 warm: (0..stages).map(|_| Warm::new(model)).collect(),
             },
         };

@@ -26,8 +26,12 @@
 //! Taken today: mechanisms whose joints are hinges and sliders (continuous, revolute,
 //! prismatic), with any drives and damping, fixed or floating base. Mechanisms with joint
 //! limits or friction, mimic rows or compound joints stay on the maximal step
-//! ([`model::NotATree`]); so does every mechanism when `TUMBLE_ARTICULATED=maximal` is set
-//! ([`super::stepper::Articulated`]).
+//! ([`model::NotATree`]). Opt-in (`TUMBLE_ARTICULATED=joint`, or
+//! [`super::stepper::Coordinates::Joint`]): its simplified Newton iteration (the matrix at
+//! `q_k`) contracts by about `h |ω|` per update, so whips and large steps take many updates
+//! or substeps where the maximal step's full Newton takes one; a full Newton matrix in the
+//! same linear-time elimination (left twists at `q_k`, right twists at `q_{k+1}`) is the
+//! next step.
 
 mod aba;
 mod kinematics;

@@ -42,7 +42,7 @@
 //! then the step is split in `2, 4, …, max_substeps` substeps.
 
 use super::aba::{Factor, spatial_inertia};
-use super::kinematics::{JointAxis, Pose, forward};
+use super::kinematics::{HalfAngles, JointAxis, Pose, forward};
 use super::model::{TreeJointKind, TreeModel};
 use crate::sim::Bodies;
 use crate::sim::integrators::{StepStats, VariationalSettings};
@@ -53,44 +53,67 @@ use crate::sim::mechanism::step::{DriveWork, Failure};
 use crate::sim::so3::d_coefficient;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3, Vector6};
 
-/// Warm start of one step size: the last two accepted increments (joints, root `ξ_0`, `Δc_0`)
-/// and the last contraction observed.
+/// Warm start of one step size: the last three accepted increments (joints, root `ξ_0`,
+/// `Δc_0`), newest first, and the last contraction of the Newton iteration observed.
 #[derive(Debug, Clone)]
 pub struct TreeWarm {
-    dtheta: Vec<f64>,
-    dtheta_prev: Vec<f64>,
-    root: [Vector3<f64>; 2],
-    root_prev: [Vector3<f64>; 2],
-    valid: bool,
-    history: bool,
+    dtheta: [Vec<f64>; 3],
+    root: [[Vector3<f64>; 2]; 3],
+    /// How many of the increments are set (0: no warm start).
+    depth: usize,
+    /// `ρ` of the last step that measured one.
+    rate: f64,
 }
+
+/// The extrapolation of the last `depth` increments to the next one: constant, linear,
+/// quadratic (errors O(h²), O(h³), O(h⁴) of the increment).
+const EXTRAPOLATION: [[f64; 3]; 3] = [[1.0, 0.0, 0.0], [2.0, -1.0, 0.0], [3.0, -3.0, 1.0]];
 
 impl TreeWarm {
     pub fn new(tree: &TreeModel) -> Self {
         let n = tree.joints.len();
         Self {
-            dtheta: vec![0.0; n],
-            dtheta_prev: vec![0.0; n],
-            root: [Vector3::zeros(); 2],
-            root_prev: [Vector3::zeros(); 2],
-            valid: false,
-            history: false,
+            dtheta: std::array::from_fn(|_| vec![0.0; n]),
+            root: [[Vector3::zeros(); 2]; 3],
+            depth: 0,
+            rate: 1.0,
         }
     }
 
-    fn push(&mut self, dtheta: &[f64], root: [Vector3<f64>; 2]) {
-        self.history = self.valid;
-        std::mem::swap(&mut self.dtheta, &mut self.dtheta_prev);
-        std::mem::swap(&mut self.root, &mut self.root_prev);
-        self.dtheta.copy_from_slice(dtheta);
-        self.root = root;
-        self.valid = true;
+    fn valid(&self) -> bool {
+        self.depth > 0
     }
 
+    fn invalidate(&mut self) {
+        self.depth = 0;
+    }
+
+    fn push(&mut self, dtheta: &[f64], root: [Vector3<f64>; 2]) {
+        self.dtheta.rotate_right(1);
+        self.root.rotate_right(1);
+        self.dtheta[0].copy_from_slice(dtheta);
+        self.root[0] = root;
+        self.depth = (self.depth + 1).min(3);
+    }
+
+    /// Keeps only the newest increment, times `factor` (a substepped step's last substep
+    /// scaled to the full step).
     fn scale(&mut self, factor: f64) {
-        self.history = false;
-        self.dtheta.iter_mut().for_each(|d| *d *= factor);
-        self.root.iter_mut().for_each(|r| *r *= factor);
+        self.depth = self.depth.min(1);
+        self.dtheta[0].iter_mut().for_each(|d| *d *= factor);
+        self.root[0].iter_mut().for_each(|r| *r *= factor);
+    }
+
+    /// The predicted increment of joint `j`.
+    fn joint(&self, j: usize) -> f64 {
+        let w = &EXTRAPOLATION[self.depth - 1];
+        w[0] * self.dtheta[0][j] + w[1] * self.dtheta[1][j] + w[2] * self.dtheta[2][j]
+    }
+
+    /// The predicted root increment (`ξ_0`, `Δc_0`).
+    fn root(&self, k: usize) -> Vector3<f64> {
+        let w = &EXTRAPOLATION[self.depth - 1];
+        self.root[0][k] * w[0] + self.root[1][k] * w[1] + self.root[2][k] * w[2]
     }
 }
 
@@ -137,9 +160,33 @@ pub struct TreeState {
     pub load_work: KickLedger,
     saved: Vec<Saved>,
     saved_theta: Vec<f64>,
+    /// The last contraction measured.
+    rate: f64,
+    /// The largest position coordinate of the tree's bodies at `q_k` (m).
+    c_max: f64,
+    /// Per joint, `(sin, cos)(θ/2)` at `θ_k` and at the iterate.
+    half: Vec<(f64, f64)>,
+    half_next: Vec<(f64, f64)>,
 }
 
 type Attempt = Result<u32, (Failure, u32)>;
+
+/// The simplified Newton iteration converges linearly (its matrix is the one at `q_k`):
+/// it is allowed this many times `newton_max_iters` updates (a step of `h |ω| ≈ 0.3` contracts
+/// by about 0.1 per update: 15 updates to round-off).
+const ITERATION_FACTOR: u32 = 4;
+
+/// The iteration stops when the error it predicts is below this fraction of the tolerance
+/// (simplified Newton converges linearly: the last update's size says little of the
+/// remaining error, the contraction does). Small, so that two runs that differ by round-off
+/// stop at iterates that differ by little more than round-off.
+const KAPPA: f64 = 1e-2;
+
+/// An update this many targets large that no longer shrinks is taken as round-off.
+const ROUNDOFF_NORM: f64 = 100.0;
+
+/// The smallest contraction a step assumes from the last one.
+const MIN_RATE: f64 = 1e-4;
 
 impl TreeState {
     pub fn new(mechanism: &Mechanism, tree: TreeModel) -> Self {
@@ -184,6 +231,10 @@ impl TreeState {
             load_work: KickLedger::default(),
             saved: Vec::new(),
             saved_theta: vec![0.0; nj],
+            rate: 1.0,
+            c_max: 0.0,
+            half: vec![(0.0, 1.0); nj],
+            half_next: vec![(0.0, 1.0); nj],
             tree,
         }
     }
@@ -217,8 +268,10 @@ impl TreeState {
             &self.world,
             &root,
             &self.theta,
+            HalfAngles::Exact,
             &mut self.poses,
             &mut self.axes,
+            &mut self.half,
         );
     }
 
@@ -274,10 +327,10 @@ fn step_unforced(
         h,
         loads,
         settings,
-        warm.valid.then_some(&*warm),
+        warm.valid().then_some(&*warm),
     );
     let outcome = match first {
-        Err((_, it)) if warm.valid => {
+        Err((_, it)) if warm.valid() => {
             stats.newton_iters_max = it;
             st.attempt(mechanism, bodies, h, loads, settings, None)
         }
@@ -292,7 +345,7 @@ fn step_unforced(
             stats.newton_iters_max = stats.newton_iters_max.max(it);
             if !settings.substep {
                 st.commit(mechanism, bodies, h, loads, settings, warm);
-                warm.valid = false;
+                warm.invalidate();
                 stats.add_solve(mechanism.first_body, it, false);
                 return stats;
             }
@@ -327,9 +380,9 @@ fn split(
         let mut ok = true;
         for s in 0..n {
             st.time0_secs = loads.time_secs() + f64::from(s) * hs;
-            let start = sub_warm.valid.then_some(&sub_warm);
+            let start = sub_warm.valid().then_some(&sub_warm);
             let mut result = st.attempt(mechanism, bodies, hs, loads, settings, start);
-            if result.is_err() && sub_warm.valid {
+            if result.is_err() && sub_warm.valid() {
                 result = st.attempt(mechanism, bodies, hs, loads, settings, None);
             }
             match result {
@@ -354,7 +407,7 @@ fn split(
         n *= 2;
     }
     stats.substep_factor_max = stats.substep_factor_max.max(settings.max_substeps);
-    warm.valid = false;
+    warm.invalidate();
     stats.add_solve(mechanism.first_body, settings.newton_max_iters, false);
 }
 
@@ -367,10 +420,16 @@ fn log_quaternion(q: &Quaternion<f64>) -> Vector3<f64> {
         (q.w, q.imag())
     };
     let s = v.norm();
-    // 2 atan2(s, w) / s, by series where s ≪ w (relative error below 1e-17 for s < 1e-4 w).
-    let k = if s < 1e-4 * w {
+    // 2 atan2(s, w) / s = (2/w) atan(x)/x with x = s/w, by series where x ≤ 0.05 (the first
+    // omitted term, x¹⁴/15, is below 5e-20 there).
+    let k = if s <= 0.05 * w {
         let x = s / w;
-        (2.0 / w) * (1.0 - x * x / 3.0)
+        let x2 = x * x;
+        (2.0 / w)
+            * (1.0
+                + x2 * (-1.0 / 3.0
+                    + x2 * (1.0 / 5.0
+                        + x2 * (-1.0 / 7.0 + x2 * (1.0 / 9.0 + x2 * (-1.0 / 11.0 + x2 / 13.0))))))
     } else {
         2.0 * s.atan2(w) / s
     };
@@ -406,8 +465,10 @@ impl TreeState {
             &self.world,
             &root,
             &self.theta,
+            HalfAngles::Exact,
             &mut self.poses,
             &mut self.axes,
+            &mut self.half,
         );
     }
 
@@ -468,6 +529,7 @@ impl TreeState {
                 bodies.angmom_body[gi],
             );
         }
+        self.c_max = self.poses.iter().fold(0.0, |m, p| m.max(p.com.amax()));
         for (j, joint) in self.tree.joints.iter().enumerate() {
             let (w, v) = self.axes[j].twist(joint.kind, &o);
             self.factor.twist[j] = Vector6::new(w.x, w.y, w.z, v.x, v.y, v.z);
@@ -475,13 +537,11 @@ impl TreeState {
         // The predictor: the last increments extrapolated (2 Δq_k − Δq_{k−1}), or none.
         match warm {
             Some(w) => {
-                let x = if w.history { 2.0 } else { 1.0 };
-                let y = if w.history { 1.0 } else { 0.0 };
                 for j in 0..self.theta.len() {
-                    self.theta_next[j] = self.theta[j] + x * w.dtheta[j] - y * w.dtheta_prev[j];
+                    self.theta_next[j] = self.theta[j] + w.joint(j);
                 }
-                self.root_xi = w.root[0] * x - w.root_prev[0] * y;
-                self.root_dc = w.root[1] * x - w.root_prev[1] * y;
+                self.root_xi = w.root(0);
+                self.root_dc = w.root(1);
             }
             None => {
                 self.theta_next.copy_from_slice(&self.theta);
@@ -507,8 +567,12 @@ impl TreeState {
         let tol = settings.newton_tol;
         let length = mechanism.length_scale;
         let mut previous = f64::INFINITY;
-        for it in 1..=settings.newton_max_iters {
-            self.forward_next();
+        // The contraction assumed before one is measured: the last step's.
+        let mut rate = warm.map_or(1.0, |w| w.rate);
+        self.rate = rate;
+        let max_iters = ITERATION_FACTOR * settings.newton_max_iters;
+        for it in 1..=max_iters {
+            self.forward_next(false);
             self.residuals(mechanism, bodies, h, alpha, &g, &o);
             if self.drive_efforts(mechanism, h) && !self.factor_at_start() {
                 return Err((Failure::Singular, it));
@@ -528,49 +592,59 @@ impl TreeState {
                 .solve(&self.tree, &self.residual, &mut self.delta);
             // Apply, and the scaled norm.
             let mut norm: f64 = 0.0;
+            // Per coordinate, the target `κ tol` (rad, or m through `L`) plus the round-off
+            // of the positions the residual is computed from (`8 ε |c|`, m; over `L`, rad).
+            let c_floor = 8.0 * f64::EPSILON * self.c_max;
+            let (target_rad, target_m) = (
+                KAPPA * tol + c_floor / length,
+                KAPPA * tol * length + c_floor,
+            );
             if self.tree.floating {
                 let dxi = Vector3::new(self.delta[0], self.delta[1], self.delta[2]);
                 let dc = Vector3::new(self.delta[3], self.delta[4], self.delta[5]);
                 self.root_xi += dxi;
                 self.root_dc += dc;
-                let c_floor = 8.0 * f64::EPSILON * self.poses[0].com.amax();
-                norm = norm
-                    .max(dxi.amax() / tol)
-                    .max(dc.amax() / (tol * length + c_floor));
+                norm = norm.max(dxi.amax() / target_rad).max(dc.amax() / target_m);
             }
             for (j, joint) in self.tree.joints.iter().enumerate() {
                 let d = self.delta[nb + j];
                 self.theta_next[j] += d;
+                let own = 4.0 * f64::EPSILON * self.theta_next[j].abs();
                 let scale = match joint.kind {
-                    TreeJointKind::Hinge => tol + 4.0 * f64::EPSILON * self.theta_next[j].abs(),
-                    TreeJointKind::Slider => {
-                        tol * length + 4.0 * f64::EPSILON * self.theta_next[j].abs()
-                    }
+                    TreeJointKind::Hinge => target_rad + own,
+                    TreeJointKind::Slider => target_m + own,
                 };
                 norm = norm.max(d.abs() / scale);
             }
             if !norm.is_finite() {
                 return Err((Failure::NonFinite, it));
             }
-            if norm <= 1.0 {
-                return Ok(it);
-            }
             if it > 1 {
-                let rate = norm / previous;
+                rate = norm / previous;
                 if rate >= 1.0 {
+                    // Updates that stop shrinking near the target are round-off.
+                    if norm <= ROUNDOFF_NORM {
+                        return Ok(it);
+                    }
                     return Err((Failure::Diverging, it));
                 }
-                if rate / (1.0 - rate) * norm <= 1.0 {
-                    return Ok(it);
+                // Kept for the next step only when measured well above round-off (an update
+                // already at round-off says nothing of the contraction).
+                if previous > 1e3 {
+                    self.rate = rate.max(MIN_RATE);
                 }
+            }
+            if norm <= 1.0 || (rate < 1.0 && rate / (1.0 - rate) * norm <= 1.0) {
+                return Ok(it);
             }
             previous = norm;
         }
-        Err((Failure::NotConverged, settings.newton_max_iters))
+        Err((Failure::NotConverged, max_iters))
     }
 
-    /// Forward kinematics at the iterate.
-    fn forward_next(&mut self) {
+    /// Forward kinematics at the iterate: `exact` for the accepted step (its half angles kept
+    /// for the next step), else near `θ_k`.
+    fn forward_next(&mut self, exact: bool) {
         let root = if self.tree.floating {
             let p = &self.poses[0];
             Pose::new(
@@ -580,13 +654,23 @@ impl TreeState {
         } else {
             self.poses[0]
         };
+        let half = if exact {
+            HalfAngles::Exact
+        } else {
+            HalfAngles::Near {
+                theta0: &self.theta,
+                half0: &self.half,
+            }
+        };
         forward(
             &self.tree,
             &self.world,
             &root,
             &self.theta_next,
+            half,
             &mut self.poses_next,
             &mut self.axes_next,
+            &mut self.half_next,
         );
     }
 
@@ -653,7 +737,7 @@ impl TreeState {
         let alpha = settings.potential.alpha();
         let g = *loads.gravity();
         let o = self.poses[0].com;
-        self.forward_next();
+        self.forward_next(true);
         let inv_h = 1.0 / h;
         if self.tree.floating {
             // The root's translation equations are linear in `Δc_0`: shifting the whole tree
@@ -753,8 +837,10 @@ impl TreeState {
         }
         let nj = self.theta.len();
         warm.push(&self.delta[..nj], [self.root_xi, self.root_dc]);
+        warm.rate = self.rate;
         std::mem::swap(&mut self.theta, &mut self.theta_next);
         std::mem::swap(&mut self.poses, &mut self.poses_next);
         std::mem::swap(&mut self.axes, &mut self.axes_next);
+        std::mem::swap(&mut self.half, &mut self.half_next);
     }
 }
