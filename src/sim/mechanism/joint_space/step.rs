@@ -263,25 +263,7 @@ impl TreeState {
             }
         }
         let root = Pose::new(bodies.world_from_body[first], bodies.com_world[first]);
-        forward(
-            &self.tree,
-            &self.world,
-            &root,
-            &self.theta,
-            HalfAngles::Exact,
-            &mut self.poses,
-            &mut self.axes,
-            &mut self.half,
-        );
-    }
-
-    /// The joints' positions `θ_k` in coordinate order.
-    pub fn coordinates(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
-        self.tree
-            .joints
-            .iter()
-            .zip(&self.theta)
-            .map(|(j, t)| (j.coordinate, *t))
+        self.forward_at_k(&root);
     }
 }
 
@@ -460,16 +442,7 @@ impl TreeState {
         }
         self.theta.copy_from_slice(&self.saved_theta);
         let root = Pose::new(self.saved[0].0, self.saved[0].1);
-        forward(
-            &self.tree,
-            &self.world,
-            &root,
-            &self.theta,
-            HalfAngles::Exact,
-            &mut self.poses,
-            &mut self.axes,
-            &mut self.half,
-        );
+        self.forward_at_k(&root);
     }
 
     /// The step's drive efforts at the iterate `θ'` (all but the time-only ones), and whether
@@ -640,6 +613,20 @@ impl TreeState {
             previous = norm;
         }
         Err((Failure::NotConverged, max_iters))
+    }
+
+    /// The poses, axes and half angles at `θ_k` with the root at `root`, exactly.
+    fn forward_at_k(&mut self, root: &Pose) {
+        forward(
+            &self.tree,
+            &self.world,
+            root,
+            &self.theta,
+            HalfAngles::Exact,
+            &mut self.poses,
+            &mut self.axes,
+            &mut self.half,
+        );
     }
 
     /// Forward kinematics at the iterate: `exact` for the accepted step (its half angles kept
