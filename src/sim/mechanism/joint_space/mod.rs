@@ -20,18 +20,14 @@
 //! Integrator for Multibody Systems", WAFR 2016).
 //!
 //! Files: `model.rs` (the tree read from a [`super::Mechanism`]), `kinematics.rs` (forward
-//! kinematics, joint twists), `aba.rs` (`M(q) + diag` factorised and solved), `step.rs` (the
-//! step, its guards, the state carried between steps: `θ` per joint).
+//! kinematics, joint twists), `aba.rs` (the Newton matrix `h ∂r/∂q'` eliminated and solved
+//! in linear time), `step.rs` (the step, its guards, the state carried between steps: `θ`
+//! per joint).
 //!
 //! Taken today: mechanisms whose joints are hinges and sliders (continuous, revolute,
 //! prismatic), with any drives and damping, fixed or floating base. Mechanisms with joint
 //! limits or friction, mimic rows or compound joints stay on the maximal step
-//! ([`model::NotATree`]). Opt-in (`TUMBLE_ARTICULATED=joint`, or
-//! [`super::stepper::Coordinates::Joint`]): its simplified Newton iteration (the matrix at
-//! `q_k`) contracts by about `h |ω|` per update, so whips and large steps take many updates
-//! or substeps where the maximal step's full Newton takes one; a full Newton matrix in the
-//! same linear-time elimination (left twists at `q_k`, right twists at `q_{k+1}`) is the
-//! next step.
+//! ([`model::NotATree`]).
 
 mod aba;
 mod kinematics;

@@ -1,6 +1,8 @@
 //! One step of a tree in joint coordinates: the discrete Euler-Lagrange equations of the
-//! restricted discrete Lagrangian (see [`super`]), solved by a simplified Newton iteration
-//! whose matrix, `M(q_k) + h diag(c)`, is factorised once per step ([`super::aba`]).
+//! restricted discrete Lagrangian (see [`super`]), solved by Newton's method whose matrix, the
+//! residual's exact derivative plus the drives' diagonal, is eliminated in linear time
+//! ([`super::aba`]), factorised at the predictor and again only where the iterate moves far
+//! from it.
 //!
 //! Unknowns: the joints' `θ_{k+1}` and, for a floating root, `ξ_0` (`R_0' = R_0 exp(ξ_0)`) and
 //! `Δc_0`. Residual at an iterate (generalized momentum, one entry per coordinate):
@@ -20,15 +22,21 @@
 //!
 //! (`T(ξ) = exp(ξ) T(−ξ)`; `D` of `crate::sim::so3::d_coefficient`), and `J_iᵀ` applied by one
 //! pass from the leaves ([`super::kinematics::JointAxis::force`]). The update solves
-//! `(M + h diag c) δq = −h r`, `c_j = −(h/2) ∂τ̄_j/∂θ'_j ≥ 0` the drive's implicit stiffness and
-//! damping (a stiff servo stays stable at any `h² kp / I`), refactorised only when a drive's
-//! slope changes (an effort limit reached or left).
+//! `K δq = −h r` with `K = h ∂r/∂q'` ([`super::aba`]: `Σ J_i(q_k)ᵀ A_i J_i(q')`, plus
+//! `c_j = −(h²/2) ∂τ̄_j/∂θ'_j ≥ 0`, the drive's implicit stiffness and damping, so a stiff
+//! servo stays stable at any `h² kp / I`). `K` is factorised at the first iterate (the warm
+//! start's extrapolation, within O(h³) of the solution), and again when the iterate has
+//! moved more than [`REFACTOR_MOVE`] from where it was factorised, when an update contracts
+//! by less than [`REFACTOR_RATE`], or when a drive's slope changes (an effort limit reached
+//! or left): the iteration contracts by about the distance moved since the factorisation,
+//! so a warm step typically takes one or two updates.
 //!
-//! Stopping rule (Hairer & Wanner, *Solving ODEs II*, §IV.8, for simplified Newton): with the
-//! update norm `‖δq‖` scaled per coordinate by its tolerance (`newton_tol` rad for angles,
-//! `newton_tol · L` m for lengths, each with the round-off of its value) and the observed
-//! contraction `ρ = ‖δq_n‖ / ‖δq_{n−1}‖`, the iterate is accepted when `ρ/(1−ρ) ‖δq_n‖ ≤ 1`
-//! (the remaining error predicted below the tolerance), or `‖δq_1‖ ≤ 1`. `ρ ≥ 1` fails.
+//! Stopping rule (Hairer & Wanner, *Solving ODEs II*, §IV.8): with the update norm `‖δq‖`
+//! scaled per coordinate by its tolerance (`κ newton_tol` rad for angles, `κ newton_tol L` m
+//! for lengths, each with the round-off of its value) and the observed contraction
+//! `ρ = ‖δq_n‖ / ‖δq_{n−1}‖`, the iterate is accepted when `ρ/(1−ρ) ‖δq_n‖ ≤ 1` (the
+//! remaining error predicted below the tolerance), or `‖δq_n‖ ≤ 1`. `ρ ≥ 1` fails unless the
+//! update is already at round-off.
 //!
 //! At the accepted iterate, the end momenta `μ_i⁻` are written to the batch with the drives'
 //! end impulses `(h/2) τ̄` (a couple along a hinge's axis, a force pair along a slider's), the
@@ -41,7 +49,7 @@
 //! Guards, as for the maximal step: a warm start that fails is retried cold (no increment),
 //! then the step is split in `2, 4, …, max_substeps` substeps.
 
-use super::aba::{Factor, spatial_inertia};
+use super::aba::{Jacobian, body_block, root_maps};
 use super::kinematics::{HalfAngles, JointAxis, Pose, forward};
 use super::model::{TreeJointKind, TreeModel};
 use crate::sim::Bodies;
@@ -144,8 +152,7 @@ pub struct TreeState {
     momenta: Vec<(Vector3<f64>, Vector3<f64>)>,
     /// Per body: the subtree's wrench `(n_o, f)`.
     wrench: Vec<(Vector3<f64>, Vector3<f64>)>,
-    inertia: Vec<nalgebra::Matrix6<f64>>,
-    factor: Factor,
+    jacobian: Jacobian,
     diag: Vec<f64>,
     residual: Vec<f64>,
     delta: Vec<f64>,
@@ -171,14 +178,13 @@ pub struct TreeState {
 
 type Attempt = Result<u32, (Failure, u32)>;
 
-/// The simplified Newton iteration converges linearly (its matrix is the one at `q_k`):
-/// it is allowed this many times `newton_max_iters` updates (a step of `h |ω| ≈ 0.3` contracts
-/// by about 0.1 per update: 15 updates to round-off).
-const ITERATION_FACTOR: u32 = 4;
+/// The iteration is allowed this many times `newton_max_iters` updates (the maximal step's
+/// setting, which counts its own full Newton updates).
+const ITERATION_FACTOR: u32 = 2;
 
 /// The iteration stops when the error it predicts is below this fraction of the tolerance
-/// (simplified Newton converges linearly: the last update's size says little of the
-/// remaining error, the contraction does). Small, so that two runs that differ by round-off
+/// (with the matrix kept from an earlier iterate the iteration converges linearly: the last
+/// update's size says little of the remaining error, the contraction does). Small, so that two runs that differ by round-off
 /// stop at iterates that differ by little more than round-off.
 const KAPPA: f64 = 1e-2;
 
@@ -187,6 +193,14 @@ const ROUNDOFF_NORM: f64 = 100.0;
 
 /// The smallest contraction a step assumes from the last one.
 const MIN_RATE: f64 = 1e-4;
+
+/// The Newton matrix is refactorised when the iterate has moved this far (rad, or lengths
+/// over `L`) from where it was factorised: its entries change by O(1) of themselves per
+/// radian, so the iteration then contracts by about this much per update.
+const REFACTOR_MOVE: f64 = 1e-2;
+
+/// … or when an update contracted by less than this.
+const REFACTOR_RATE: f64 = 0.05;
 
 impl TreeState {
     pub fn new(mechanism: &Mechanism, tree: TreeModel) -> Self {
@@ -218,8 +232,7 @@ impl TreeState {
             xi: vec![Vector3::zeros(); nb],
             momenta: vec![(Vector3::zeros(), Vector3::zeros()); nb],
             wrench: vec![(Vector3::zeros(), Vector3::zeros()); nb],
-            inertia: vec![nalgebra::Matrix6::zeros(); nb],
-            factor: Factor::new(&tree, nb),
+            jacobian: Jacobian::new(&tree, nb),
             diag: vec![0.0; nj],
             residual: vec![0.0; tree.dofs()],
             delta: vec![0.0; tree.dofs()],
@@ -470,11 +483,49 @@ impl TreeState {
         changed
     }
 
-    /// Fills the factorisation's inertias and twists at `q_k` and factorises.
-    fn factor_at_start(&mut self) -> bool {
-        self.factor.articulated.copy_from_slice(&self.inertia);
-        self.factor
-            .factor(&self.tree, &self.diag, &self.poses[0].rot)
+    /// What a step reads at its start: the momenta the batch carries, the positions' size,
+    /// the left twists (at `q_k`, about `o`).
+    fn begin(&mut self, mechanism: &Mechanism, bodies: &Bodies) {
+        let first = mechanism.first_body;
+        let o = self.poses[0].com;
+        for i in 0..self.poses.len() {
+            let gi = first + i;
+            self.momenta[i] = (
+                bodies.linvel_world[gi] * bodies.mass[gi],
+                bodies.angmom_body[gi],
+            );
+        }
+        self.c_max = self.poses.iter().fold(0.0, |m, p| m.max(p.com.amax()));
+        for (j, joint) in self.tree.joints.iter().enumerate() {
+            let (w, v) = self.axes[j].twist(joint.kind, &o);
+            self.jacobian.left[j] = Vector6::new(w.x, w.y, w.z, v.x, v.y, v.z);
+        }
+    }
+
+    /// The Newton matrix at the iterate (`poses_next`, `axes_next`, `xi`: after
+    /// [`Self::residuals`]), factorised; `false` when it is singular there.
+    fn factor_at_iterate(&mut self, bodies: &Bodies, first: usize, o: &Vector3<f64>) -> bool {
+        for i in 0..self.poses.len() {
+            let gi = first + i;
+            self.jacobian.articulated[i] = body_block(
+                &self.poses[i],
+                &self.poses_next[i],
+                &self.xi[i],
+                &bodies.inertia_body[gi],
+                bodies.mass[gi],
+                o,
+            );
+        }
+        for (j, joint) in self.tree.joints.iter().enumerate() {
+            let (w, v) = self.axes_next[j].twist(joint.kind, o);
+            self.jacobian.right[j] = Vector6::new(w.x, w.y, w.z, v.x, v.y, v.z);
+        }
+        if self.tree.floating {
+            let (left, right) = root_maps(&self.poses[0], &self.poses_next[0], &self.root_xi, o);
+            self.jacobian.root_left = left;
+            self.jacobian.root_right = right;
+        }
+        self.jacobian.factor(&self.tree, &self.diag)
     }
 
     /// One attempt at the step from `warm` (or from no increment): the Newton iterations
@@ -494,20 +545,8 @@ impl TreeState {
         let o = self.poses[0].com;
         let alpha = settings.potential.alpha();
         let g = *loads.gravity();
-        for (i, pose) in self.poses.iter().enumerate() {
-            let gi = first + i;
-            self.inertia[i] = spatial_inertia(pose, &bodies.inertia_body[gi], bodies.mass[gi], &o);
-            self.momenta[i] = (
-                bodies.linvel_world[gi] * bodies.mass[gi],
-                bodies.angmom_body[gi],
-            );
-        }
-        self.c_max = self.poses.iter().fold(0.0, |m, p| m.max(p.com.amax()));
-        for (j, joint) in self.tree.joints.iter().enumerate() {
-            let (w, v) = self.axes[j].twist(joint.kind, &o);
-            self.factor.twist[j] = Vector6::new(w.x, w.y, w.z, v.x, v.y, v.z);
-        }
-        // The predictor: the last increments extrapolated (2 Δq_k − Δq_{k−1}), or none.
+        self.begin(mechanism, bodies);
+        // The predictor: the last increments extrapolated, or none.
         match warm {
             Some(w) => {
                 for j in 0..self.theta.len() {
@@ -533,22 +572,27 @@ impl TreeState {
                 _ => self.diag[j] = 0.0,
             }
         }
-        self.drive_efforts(mechanism, h);
-        if !self.factor_at_start() {
-            return Err((Failure::Singular, 0));
-        }
         let tol = settings.newton_tol;
         let length = mechanism.length_scale;
         let mut previous = f64::INFINITY;
         // The contraction assumed before one is measured: the last step's.
         let mut rate = warm.map_or(1.0, |w| w.rate);
         self.rate = rate;
+        // The matrix is factorised at the first iterate (the predictor) and again wherever
+        // the iterate has moved far from where it was factorised or the iteration contracts
+        // slowly: Newton's method with the derivative refreshed as needed.
+        let mut refactor = true;
+        let mut moved: f64 = 0.0;
         let max_iters = ITERATION_FACTOR * settings.newton_max_iters;
         for it in 1..=max_iters {
             self.forward_next(false);
             self.residuals(mechanism, bodies, h, alpha, &g, &o);
-            if self.drive_efforts(mechanism, h) && !self.factor_at_start() {
-                return Err((Failure::Singular, it));
+            refactor |= self.drive_efforts(mechanism, h);
+            if refactor {
+                if !self.factor_at_iterate(bodies, first, &o) {
+                    return Err((Failure::Singular, it));
+                }
+                moved = 0.0;
             }
             for (j, d) in self.drive_of_joint.iter().enumerate() {
                 if d.is_some() {
@@ -561,7 +605,7 @@ impl TreeState {
             for r in self.residual.iter_mut() {
                 *r *= -h;
             }
-            self.factor
+            self.jacobian
                 .solve(&self.tree, &self.residual, &mut self.delta);
             // Apply, and the scaled norm.
             let mut norm: f64 = 0.0;
@@ -578,16 +622,18 @@ impl TreeState {
                 self.root_xi += dxi;
                 self.root_dc += dc;
                 norm = norm.max(dxi.amax() / target_rad).max(dc.amax() / target_m);
+                moved = moved.max(dxi.amax()).max(dc.amax() / length);
             }
             for (j, joint) in self.tree.joints.iter().enumerate() {
                 let d = self.delta[nb + j];
                 self.theta_next[j] += d;
                 let own = 4.0 * f64::EPSILON * self.theta_next[j].abs();
-                let scale = match joint.kind {
-                    TreeJointKind::Hinge => target_rad + own,
-                    TreeJointKind::Slider => target_m + own,
+                let (scale, size) = match joint.kind {
+                    TreeJointKind::Hinge => (target_rad + own, d.abs()),
+                    TreeJointKind::Slider => (target_m + own, d.abs() / length),
                 };
                 norm = norm.max(d.abs() / scale);
+                moved = moved.max(size);
             }
             if !norm.is_finite() {
                 return Err((Failure::NonFinite, it));
@@ -610,6 +656,7 @@ impl TreeState {
             if norm <= 1.0 || (rate < 1.0 && rate / (1.0 - rate) * norm <= 1.0) {
                 return Ok(it);
             }
+            refactor = moved > REFACTOR_MOVE || (it > 1 && rate > REFACTOR_RATE);
             previous = norm;
         }
         Err((Failure::NotConverged, max_iters))
@@ -829,5 +876,58 @@ impl TreeState {
         std::mem::swap(&mut self.poses, &mut self.poses_next);
         std::mem::swap(&mut self.axes, &mut self.axes_next);
         std::mem::swap(&mut self.half, &mut self.half_next);
+    }
+}
+
+/// Test access to the residual and the Newton matrix at any iterate.
+#[cfg(test)]
+impl TreeState {
+    /// Sets the iterate from `q` (the root's `ξ_0`, `Δc_0` first for a floating tree, then
+    /// the joints) and returns `h r(q)` with the drives' term (undamped-time drives at `θ_k`).
+    pub(super) fn scaled_residual_at(
+        &mut self,
+        mechanism: &Mechanism,
+        bodies: &Bodies,
+        h: f64,
+        g: &Vector3<f64>,
+        q: &[f64],
+    ) -> Vec<f64> {
+        self.begin(mechanism, bodies);
+        let nb = self.tree.base_dofs();
+        if self.tree.floating {
+            self.root_xi = Vector3::new(q[0], q[1], q[2]);
+            self.root_dc = Vector3::new(q[3], q[4], q[5]);
+        }
+        self.theta_next.copy_from_slice(&q[nb..]);
+        self.diag.iter_mut().for_each(|d| *d = 0.0);
+        self.forward_next(true);
+        let o = self.poses[0].com;
+        self.residuals(mechanism, bodies, h, 0.5, g, &o);
+        self.drive_efforts(mechanism, h);
+        for (j, d) in self.drive_of_joint.iter().enumerate() {
+            if d.is_some() {
+                self.residual[nb + j] -= 0.5 * h * self.effort[j].effort.total();
+            }
+        }
+        self.residual.iter().map(|r| r * h).collect()
+    }
+
+    /// `K(q)⁻¹ b`, the Newton matrix at the iterate `q` (set by [`Self::scaled_residual_at`]).
+    pub(super) fn solve_at_iterate(
+        &mut self,
+        mechanism: &Mechanism,
+        bodies: &Bodies,
+        b: &[f64],
+    ) -> Vec<f64> {
+        let o = self.poses[0].com;
+        assert!(self.factor_at_iterate(bodies, mechanism.first_body, &o));
+        let mut x = vec![0.0; b.len()];
+        self.jacobian.solve(&self.tree, b, &mut x);
+        x
+    }
+
+    /// The number of generalized coordinates.
+    pub(super) fn dofs(&self) -> usize {
+        self.tree.dofs()
     }
 }
