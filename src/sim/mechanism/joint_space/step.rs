@@ -35,8 +35,11 @@
 //! scaled per coordinate by its tolerance (`κ newton_tol` rad for angles, `κ newton_tol L` m
 //! for lengths, each with the round-off of its value) and the observed contraction
 //! `ρ = ‖δq_n‖ / ‖δq_{n−1}‖`, the iterate is accepted when `ρ/(1−ρ) ‖δq_n‖ ≤ 1` (the
-//! remaining error predicted below the tolerance), or `‖δq_n‖ ≤ 1`. `ρ ≥ 1` fails unless the
-//! update is already at round-off.
+//! remaining error predicted below the tolerance), or `‖δq_n‖ ≤ 1`, or, for an update from a
+//! matrix factorised at its own iterate, when `10 c ‖δq_n‖² ≤ 1` with `c` the curvature
+//! `‖δq_{n+1}‖ / ‖δq_n‖²` an earlier step measured (Newton's quadratic convergence: a warm
+//! step typically ends after its first update). `ρ ≥ 1` fails unless the update is already
+//! at round-off.
 //!
 //! At the accepted iterate, the end momenta `μ_i⁻` are written to the batch with the drives'
 //! end impulses `(h/2) τ̄` (a couple along a hinge's axis, a force pair along a slider's), the
@@ -71,6 +74,9 @@ pub struct TreeWarm {
     depth: usize,
     /// `ρ` of the last step that measured one.
     rate: f64,
+    /// The Newton iteration's curvature `‖δ_{n+1}‖ / ‖δ_n‖²` (scaled norms) after an update
+    /// from a fresh matrix, as the last step that measured one found it (∞: none yet).
+    curvature: f64,
 }
 
 /// The extrapolation of the last `depth` increments to the next one: constant, linear,
@@ -85,6 +91,7 @@ impl TreeWarm {
             root: [[Vector3::zeros(); 2]; 3],
             depth: 0,
             rate: 1.0,
+            curvature: f64::INFINITY,
         }
     }
 
@@ -169,6 +176,8 @@ pub struct TreeState {
     saved_theta: Vec<f64>,
     /// The last contraction measured.
     rate: f64,
+    /// The last curvature measured (see [`TreeWarm`]).
+    curvature: f64,
     /// The largest position coordinate of the tree's bodies at `q_k` (m).
     c_max: f64,
     /// Per joint, `(sin, cos)(θ/2)` at `θ_k` and at the iterate.
@@ -201,6 +210,15 @@ const REFACTOR_MOVE: f64 = 1e-2;
 
 /// … or when an update contracted by less than this.
 const REFACTOR_RATE: f64 = 0.05;
+
+/// An update from a matrix factorised at its own iterate leaves an error of about
+/// `c ‖δ‖²` (Newton's quadratic convergence, `c` the curvature measured on an earlier step):
+/// the iterate is accepted when this many times that is below the tolerance.
+const CURVATURE_SAFETY: f64 = 10.0;
+
+/// The curvature is measured only from updates this many targets large (smaller ones are
+/// too near round-off for their square to mean anything).
+const CURVATURE_MIN_NORM: f64 = 30.0;
 
 impl TreeState {
     pub fn new(mechanism: &Mechanism, tree: TreeModel) -> Self {
@@ -245,6 +263,7 @@ impl TreeState {
             saved: Vec::new(),
             saved_theta: vec![0.0; nj],
             rate: 1.0,
+            curvature: f64::INFINITY,
             c_max: 0.0,
             half: vec![(0.0, 1.0); nj],
             half_next: vec![(0.0, 1.0); nj],
@@ -578,6 +597,10 @@ impl TreeState {
         // The contraction assumed before one is measured: the last step's.
         let mut rate = warm.map_or(1.0, |w| w.rate);
         self.rate = rate;
+        let mut curvature = warm.map_or(f64::INFINITY, |w| w.curvature);
+        self.curvature = curvature;
+        // Whether this update's and the last update's matrix was factorised at its iterate.
+        let mut fresh = false;
         // The matrix is factorised at the first iterate (the predictor) and again wherever
         // the iterate has moved far from where it was factorised or the iteration contracts
         // slowly: Newton's method with the derivative refreshed as needed.
@@ -588,6 +611,8 @@ impl TreeState {
             self.forward_next(false);
             self.residuals(mechanism, bodies, h, alpha, &g, &o);
             refactor |= self.drive_efforts(mechanism, h);
+            let fresh_before = fresh;
+            fresh = refactor;
             if refactor {
                 if !self.factor_at_iterate(bodies, first, &o) {
                     return Err((Failure::Singular, it));
@@ -639,6 +664,10 @@ impl TreeState {
                 return Err((Failure::NonFinite, it));
             }
             if it > 1 {
+                if fresh_before && previous >= CURVATURE_MIN_NORM {
+                    curvature = norm / (previous * previous);
+                    self.curvature = curvature;
+                }
                 rate = norm / previous;
                 if rate >= 1.0 {
                     // Updates that stop shrinking near the target are round-off.
@@ -653,7 +682,10 @@ impl TreeState {
                     self.rate = rate.max(MIN_RATE);
                 }
             }
-            if norm <= 1.0 || (rate < 1.0 && rate / (1.0 - rate) * norm <= 1.0) {
+            if norm <= 1.0
+                || (rate < 1.0 && rate / (1.0 - rate) * norm <= 1.0)
+                || (fresh && CURVATURE_SAFETY * curvature * norm * norm <= 1.0)
+            {
                 return Ok(it);
             }
             refactor = moved > REFACTOR_MOVE || (it > 1 && rate > REFACTOR_RATE);
@@ -872,6 +904,7 @@ impl TreeState {
         let nj = self.theta.len();
         warm.push(&self.delta[..nj], [self.root_xi, self.root_dc]);
         warm.rate = self.rate;
+        warm.curvature = self.curvature;
         std::mem::swap(&mut self.theta, &mut self.theta_next);
         std::mem::swap(&mut self.poses, &mut self.poses_next);
         std::mem::swap(&mut self.axes, &mut self.axes_next);
