@@ -385,3 +385,51 @@ def test_the_worked_example_holds_the_arm(tmp_path):
     assert abs(change - work) < 3e-3 * abs(work), summary
     names = sorted(p.name for p in summary["written"])
     assert names == ["pd_arm.foxglove.json", "pd_arm.mcap", "pd_arm.rrd"]
+
+
+def test_ur5_joint_angles_are_the_same_at_every_sampling_rate(tmp_path):
+    # Issue 47: a joint's angle is the stepper's state. example-robot-data's UR5 (its URDF
+    # limits on) released from a stretched pose swings its wrist_1 through more than pi; read
+    # step by step, after step(1000), by rollout every 500 and 1000 steps, and recorded by
+    # `simulate --log-every 500`, the joints hold the same bits at the common steps, inside
+    # the URDF ranges. Before, a sparse reader unwrapped near its own last sample and landed
+    # 2 pi off (wrist_1 -8.889 where the every-step reading held -2.605, measured).
+    import sysconfig
+    share = os.path.join(sysconfig.get_paths()["purelib"], "cmeel.prefix", "share")
+    urdf = os.path.join(share, "example-robot-data", "robots", "ur_description", "urdf", "ur5_robot.urdf")
+    if not os.path.exists(urdf):
+        pytest.skip("example-robot-data is not installed in this venv")
+    text = (f'[sim]\ndt = 0.001\nduration = 3.0\ngravity = [0.0, 0.0, -9.81]\n'
+            f'[[model]]\nurdf = "{urdf}"\nbodies = "articulated"\nbase = "fixed"\n'
+            f'package_paths = ["{share}"]\nallow_mesh_paths = ["/"]\n'
+            'joints = { shoulder_pan_joint = 0.3, shoulder_lift_joint = 0.2, elbow_joint = -0.4, '
+            'wrist_1_joint = 1.0 }\n')
+    scene = tumble.Scene.from_toml(text, base_dir=str(tmp_path))
+    sim = tumble.Simulation(scene, threads=1)
+    every_step = []
+    for _ in range(3000):
+        sim.step()
+        every_step.append(sim.joint_state()[0])
+    every_step = np.array(every_step)
+    # It swings far enough for the defect: wrist_1 covers more than pi.
+    assert (every_step.max(axis=0) - every_step.min(axis=0)).max() > np.pi
+    limits = [(-2 * np.pi, 2 * np.pi)] * 2 + [(-np.pi, np.pi)] + [(-2 * np.pi, 2 * np.pi)] * 3
+    for j, (lo, hi) in enumerate(limits):
+        assert every_step[:, j].min() >= lo - 1e-9 and every_step[:, j].max() <= hi + 1e-9, j
+    sparse = tumble.Simulation(scene, threads=1)
+    for k in range(3):
+        sparse.step(1000)
+        assert np.array_equal(sparse.joint_state()[0], every_step[1000 * (k + 1) - 1])
+    for every in (500, 1000):
+        out = tumble.rollout(scene, steps=3000, every=every, threads=1)
+        for s, q in enumerate(out["joint_position"][0]):
+            assert np.array_equal(q, every_step[every * (s + 1) - 1]), (every, s)
+    scene_file = tmp_path / "ur5.toml"
+    scene_file.write_text(text)
+    subprocess.run([EXE, "simulate", str(scene_file), "--format", "parquet", "--log-every", "500",
+                    "--out", str(tmp_path / "ur5")], check=True, capture_output=True)
+    joints = pd.read_parquet(tmp_path / "ur5.joints.parquet")
+    names = sim.state()["joint_names"]
+    for step, rows in joints[joints.step > 0].groupby("step"):
+        q = rows.set_index("joint").loc[names, "position"].to_numpy()
+        assert np.array_equal(q, every_step[step - 1]), step

@@ -608,16 +608,8 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             "constraint residual max: joint gap {gap:.2e} m, axis misalignment {angle:.2e} rad"
         );
     }
-    let flow = s.energy_flow;
-    if flow != Default::default() {
-        let change = s.energy_final - s.energy_initial;
-        let open = change - (flow.input_work - flow.dissipated + flow.contact_work);
-        let scale = change
-            .abs()
-            .max(flow.input_work.abs())
-            .max(flow.dissipated)
-            .max(flow.contact_work.abs())
-            .max(f64::MIN_POSITIVE);
+    if let Some(b) = s.energy_balance() {
+        let flow = b.flow;
         // The contact term only where there is contact (the line of runs without is unchanged).
         let contact = if flow.contact_work != 0.0 {
             format!(" + contact {:.6e} J", flow.contact_work)
@@ -625,12 +617,17 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
             String::new()
         };
         println!(
-            "energy balance: change {change:.6e} J = input work {:.6e} J - dissipated {:.6e} J\
-             {contact} + not closed {open:.3e} J ({:.2e} of the largest term)",
+            "energy balance: change {:.6e} J = input work {:.6e} J - dissipated {:.6e} J\
+             {contact} + not closed {:.3e} J ({:.2e} of the largest term)",
+            b.change,
             flow.input_work,
             flow.dissipated,
-            open.abs() / scale
+            b.open,
+            b.relative_open()
         );
+    }
+    if let Some(warning) = s.balance_warning() {
+        eprintln!("warning: {warning}");
     }
     println!(
         "Newton: at most {} iterations per solve, {} non-converged solves; {} body-steps substepped (largest split {}x)",

@@ -512,6 +512,13 @@ pub trait Sink {
     /// same time ([`finish_all`]); the caller then calls `complete`, which waits. Sinks that
     /// complete on the caller's thread do nothing here (the default).
     fn start_complete(&mut self) {}
+    /// Records what the run did, after its last frame and before the end (the MCAP files
+    /// write it as the metadata record [`names::SUMMARY_METADATA_NAME`]); other sinks keep
+    /// nothing of it (the default).
+    fn write_summary(&mut self, entries: &[(String, String)]) -> anyhow::Result<()> {
+        let _ = entries;
+        Ok(())
+    }
 }
 
 #[cfg(test)]

@@ -23,6 +23,10 @@ pub const JOINT_STATES_TOPIC: &str = "/joint_states";
 pub const ROBOT_DESCRIPTION_TOPIC: &str = "/robot_description";
 /// Name of the MCAP metadata record holding the scene and settings (MCAP and ROS 2).
 pub const METADATA_NAME: &str = "tumble";
+/// Name of the MCAP metadata record written at the end of a run (MCAP and ROS 2): what the
+/// run did, its energy balance and its warnings
+/// ([`crate::simulation::RunSummary::metadata_entries`]).
+pub const SUMMARY_METADATA_NAME: &str = "tumble_summary";
 /// Topic of the contacts of each recorded step (MCAP `tumble.Contacts`, ROS 2
 /// `tumble_msgs/msg/Contacts`), in runs that can have contacts.
 pub const CONTACTS_TOPIC: &str = "/contacts";

@@ -92,6 +92,7 @@ impl FrameShare {
 
 enum Job {
     Write(Arc<OwnedFrame>),
+    Summary(Vec<(String, String)>),
     /// `true`: complete (leave the `.part`), `false`: finish (rename too).
     End(bool),
 }
@@ -130,6 +131,7 @@ impl Pipelined {
                 while let Ok(job) = inbox.recv() {
                     match job {
                         Job::Write(owned) => sink.write(&owned.as_frame())?,
+                        Job::Summary(entries) => sink.write_summary(&entries)?,
                         Job::End(keep_part) => {
                             return if keep_part {
                                 sink.complete()
@@ -188,12 +190,12 @@ impl Pipelined {
 }
 
 impl Pipelined {
-    /// Queues `owned` for the sink's thread (waiting while the queue is full).
-    fn send(&mut self, owned: Arc<OwnedFrame>) -> anyhow::Result<()> {
+    /// Queues `job` for the sink's thread (waiting while the queue is full).
+    fn send(&mut self, job: Job) -> anyhow::Result<()> {
         let sent = self
             .jobs
             .as_ref()
-            .is_some_and(|jobs| jobs.send(Job::Write(owned)).is_ok());
+            .is_some_and(|jobs| jobs.send(job).is_ok());
         if sent {
             return Ok(());
         }
@@ -208,12 +210,16 @@ impl Pipelined {
 impl Sink for Pipelined {
     fn write(&mut self, frame: &Frame<'_>) -> anyhow::Result<()> {
         let owned = self.share.copy(frame);
-        self.send(owned)
+        self.send(Job::Write(owned))
     }
 
     /// The buffer itself is queued: no copy.
     fn write_shared(&mut self, frame: &Arc<OwnedFrame>) -> anyhow::Result<()> {
-        self.send(Arc::clone(frame))
+        self.send(Job::Write(Arc::clone(frame)))
+    }
+
+    fn write_summary(&mut self, entries: &[(String, String)]) -> anyhow::Result<()> {
+        self.send(Job::Summary(entries.to_vec()))
     }
 
     fn finish(self: Box<Self>) -> anyhow::Result<()> {

@@ -461,6 +461,15 @@ impl<'a> Partitions<'a> {
         bodies.world_from_body(j)
     }
 
+    /// The joint coordinates carried for the mechanism whose first body is `first_body`
+    /// (global index), written to `out` ([`Integrator::joint_coordinates`]); `false` when its
+    /// partition's integrator carries none.
+    pub fn joint_coordinates(&self, first_body: usize, out: &mut [f64]) -> bool {
+        let part = &self.parts[self.part_of(first_body)];
+        part.integrator
+            .joint_coordinates(first_body - part.first, out)
+    }
+
     /// The bodies, shareable between threads.
     pub fn view(&self) -> View<'_> {
         View {

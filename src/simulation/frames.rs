@@ -398,6 +398,10 @@ impl FrameBuilder {
                 })
                 .collect();
         }
+        for (model, reporter) in &mut self.mechanisms {
+            let (carried, use_carried) = reporter.carried_mut();
+            *use_carried = batch.joint_coordinates(model.first_body, carried);
+        }
         let view = batch.view();
         let located = &self.located;
         let report = |((_, reporter), (k, local)): (

@@ -27,7 +27,9 @@ mod tests;
 
 pub use files::{AccuracyReport, Outputs, SimulateOptions, output_paths, simulate, simulate_world};
 pub use frames::{FrameBuilder, contact_states};
-pub use summary::{AT_REST, Diverged, RunSummary, time_ns};
+pub use summary::{
+    AT_REST, BALANCE_FLOOR, BALANCE_OPEN_WARN, Diverged, EnergyBalance, RunSummary, time_ns,
+};
 
 use crate::record::{OwnedFrame, Sink};
 use crate::sim::integrators::{IntegratorKind, VariationalSettings};
@@ -473,7 +475,13 @@ impl Simulation {
     /// `outputs` ([`crate::record::finish_all`]: all the files or none). Frame 0 reaches the
     /// sinks even when no step was taken.
     pub fn finish(mut self, outputs: &[&std::path::Path]) -> anyhow::Result<RunSummary> {
-        let result = self.start().map(|()| self.summary());
+        let result = self.start().map(|()| self.summary()).and_then(|summary| {
+            let entries = summary.metadata_entries();
+            for sink in &mut self.sinks {
+                sink.write_summary(&entries)?;
+            }
+            Ok(summary)
+        });
         crate::record::finish_all(std::mem::take(&mut self.sinks), result, outputs)
     }
 

@@ -104,6 +104,128 @@ impl RunSummary {
     }
 }
 
+/// A run's energy balance `ΔE = W_in − D + W_c + open`: the change of the total energy, the
+/// work the applied loads and actuators did, the energy damping, limits and friction took
+/// out, the contact term, and what the books leave open (the scheme's own energy error, or a
+/// step that did not converge).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnergyBalance {
+    /// `E_final − E_initial`, J.
+    pub change: f64,
+    pub flow: crate::sim::integrators::EnergyFlow,
+    /// `ΔE − (W_in − D + W_c)`, J.
+    pub open: f64,
+    /// The largest of `|ΔE|`, `|W_in|`, `D`, `|W_c|`, J.
+    pub largest_term: f64,
+}
+
+/// A run whose energy balance is open by more than this fraction of its largest term warns
+/// ([`RunSummary::balance_warning`]): a variational step's own energy error is O(h²) of the
+/// energy exchanged, far below it at any step a run should take.
+pub const BALANCE_OPEN_WARN: f64 = 1e-2;
+
+/// A balance open by less than this fraction of the run's largest total energy `max(|E_0|,
+/// |E_1|)` never warns: a run with almost no exchange (a servo holding still) has terms of
+/// round-off size, whose ratio means nothing.
+pub const BALANCE_FLOOR: f64 = 1e-9;
+
+impl EnergyBalance {
+    /// `|open|` over the largest term (0 when every term is 0).
+    pub fn relative_open(&self) -> f64 {
+        self.open.abs() / self.largest_term.max(f64::MIN_POSITIVE)
+    }
+}
+
+impl RunSummary {
+    /// The energy balance, when something flows in or out (applied loads, actuators, damping,
+    /// limits, friction, contact); `None` for a conservative run, whose balance is its energy
+    /// change alone.
+    pub fn energy_balance(&self) -> Option<EnergyBalance> {
+        let flow = self.energy_flow;
+        if flow == Default::default() {
+            return None;
+        }
+        let change = self.energy_final - self.energy_initial;
+        let open = change - (flow.input_work - flow.dissipated + flow.contact_work);
+        let largest_term = change
+            .abs()
+            .max(flow.input_work.abs())
+            .max(flow.dissipated.abs())
+            .max(flow.contact_work.abs());
+        Some(EnergyBalance {
+            change,
+            flow,
+            open,
+            largest_term,
+        })
+    }
+
+    /// What the recordings' end-of-run metadata holds (the record
+    /// [`crate::record::names::SUMMARY_METADATA_NAME`] of the MCAP files), keys sorted:
+    /// `steps`, `energy_initial_J`, `energy_final_J`, the balance's terms when something flows
+    /// (`input_work_J`, `dissipated_J`, `contact_work_J`, `energy_balance_open_J`,
+    /// `energy_balance_open_relative`: over its largest term), `newton_failures`,
+    /// `substepped`, and `warnings` (one per line; empty when there is none).
+    pub fn metadata_entries(&self) -> Vec<(String, String)> {
+        let mut entries = vec![
+            ("steps".to_string(), self.steps.to_string()),
+            (
+                "energy_initial_J".into(),
+                format!("{:e}", self.energy_initial),
+            ),
+            ("energy_final_J".into(), format!("{:e}", self.energy_final)),
+            (
+                "newton_failures".into(),
+                self.stats.newton_failures.to_string(),
+            ),
+            ("substepped".into(), self.stats.substepped.to_string()),
+            (
+                "warnings".into(),
+                self.balance_warning().unwrap_or_default(),
+            ),
+        ];
+        if let Some(b) = self.energy_balance() {
+            entries.extend([
+                ("input_work_J".into(), format!("{:e}", b.flow.input_work)),
+                ("dissipated_J".into(), format!("{:e}", b.flow.dissipated)),
+                (
+                    "contact_work_J".into(),
+                    format!("{:e}", b.flow.contact_work),
+                ),
+                ("energy_balance_open_J".into(), format!("{:e}", b.open)),
+                (
+                    "energy_balance_open_relative".into(),
+                    format!("{:e}", b.relative_open()),
+                ),
+            ]);
+        }
+        entries.sort();
+        entries
+    }
+
+    /// The warning of a run whose energy balance is open by more than [`BALANCE_OPEN_WARN`] of
+    /// its largest term (and by more than [`BALANCE_FLOOR`] of its energy), `None` otherwise:
+    /// printed by `simulate` and written into the recordings' metadata.
+    pub fn balance_warning(&self) -> Option<String> {
+        let b = self.energy_balance()?;
+        let energy = self.energy_initial.abs().max(self.energy_final.abs());
+        if !(b.open.abs() > BALANCE_OPEN_WARN * b.largest_term
+            && b.open.abs() > BALANCE_FLOOR * energy)
+            && b.open.is_finite()
+        {
+            return None;
+        }
+        Some(format!(
+            "the energy balance is open by {:.3e} J, {:.2e} of its largest term (more than {:.0e}): \
+             the steps did not resolve the motion (a servo or a stop too stiff for dt, a whip, \
+             a step that did not converge); a smaller dt closes it",
+            b.open,
+            b.relative_open(),
+            BALANCE_OPEN_WARN
+        ))
+    }
+}
+
 /// Simulation time of step `k` in integer nanoseconds. Exact integer arithmetic when `dt_secs`
 /// is a whole number of nanoseconds (to 1e-6 ns), else rounded per step.
 pub fn time_ns(step: u64, dt_secs: f64) -> i64 {

@@ -7,8 +7,13 @@
 //! under the run guard of [`crate::sim::guard`] with the scene's settings (mechanisms
 //! watched), and measures on the *reported* states (projected momenta):
 //!
-//! `energy_err_max = max_k |E_k − E_0| / E_scale`, `E_scale = max_k T_k` (the largest total
-//! kinetic energy reached: the energy the motion exchanges, whatever the potential's zero; `|E_0|`
+//! `energy_err_max = max_k |r_k| / E_scale` with the energy balance's residual
+//! `r_k = E_k − E_0 − (W_k − D_k + C_k)` (`W_k` the work the applied loads and actuators did up
+//! to step `k`, `D_k` what damping, limits and friction took out, `C_k` contact's term:
+//! [`crate::sim::integrators::EnergyFlow`]; all zero for a conservative scene, where `r_k` is the
+//! energy error), so that a servo's work or a limit's dissipation is not counted as the
+//! scheme's error; `E_scale = max_k max(T_k, |W_k|, D_k)` (the largest total kinetic energy
+//! reached or energy exchanged with the inputs, whatever the potential's zero; `|E_0|`
 //! when nothing moves), the largest joint gap (m) and axis misalignment (rad) of any
 //! articulated model at any step, the Newton iterations and substeps, and a [`Status`] from
 //! these, as for a map cell (`ok` needs `energy_err_max ≤` [`ENERGY_ERROR_BOUND`], no
@@ -157,8 +162,13 @@ pub fn run_row(
             break;
         }
         let (t, e, gap, angle) = totals(&sim.frame().as_frame());
-        kinetic_max = kinetic_max.max(t);
-        de_max = de_max.max((e - e0).abs());
+        let flow = sim.partitions().energy_flow();
+        kinetic_max = kinetic_max
+            .max(t)
+            .max(flow.input_work.abs())
+            .max(flow.dissipated.abs());
+        let residual = e - e0 - (flow.input_work - flow.dissipated + flow.contact_work);
+        de_max = de_max.max(residual.abs());
         row.residual_m_max = row.residual_m_max.max(gap);
         row.residual_rad_max = row.residual_rad_max.max(angle);
         if progress != Progress::Running {

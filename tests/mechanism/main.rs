@@ -7,6 +7,7 @@
 mod common;
 
 mod arm_servo;
+mod balance;
 mod contact_hostile;
 mod contact_robots;
 mod copies;

@@ -416,3 +416,94 @@ fn solo12_with_a_sine_motor_on_every_joint_runs_four_seconds() {
     // The motors move the legs: measured input work 546.5 J (the limits take most of it).
     assert!(work.abs() > 10.0, "{work}");
 }
+
+/// The UR5 (limits on, as its URDF has them) released from a stretched pose, read through
+/// [`tumble::simulation::Simulation::joint_state`] after every step, every 500 and every 1000
+/// steps. A joint's angle is the stepper's state (issue 47): the three readings agree bit for
+/// bit at the common steps, and every angle stays inside its URDF range. Before, each reader
+/// unwrapped the angle near its own last sample plus rate times interval, and a sparse
+/// reader landed 2π off (the issue measured shoulder_lift −2.939 read once after 1000 steps
+/// where the recording held 3.344).
+#[test]
+fn ur5_joint_angles_are_the_same_at_every_sampling_rate() {
+    use tumble::simulation::{Inits, Simulation};
+    let urdf = common::run_py(
+        "pin_composite.py",
+        &[
+            Path::new("ur_description/urdf/ur5_robot.urdf"),
+            Path::new("zero"),
+        ],
+    );
+    let urdf = urdf["urdf"].as_str().unwrap().to_string();
+    let text = format!(
+        "[sim]\ndt = 0.001\nduration = 3.0\nintegrator = \"variational\"\n\
+         [[model]]\nurdf = {urdf:?}\nbodies = \"articulated\"\nbase = \"fixed\"\n\
+         position = [0.0, 0.0, 1.0]\nallow_non_physical_inertia = true\n\
+         joints = {{ shoulder_pan_joint = 0.3, shoulder_lift_joint = 0.2, elbow_joint = -0.4, \
+         wrist_1_joint = 1.0 }}\n"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Scene::parse(&text, &dir.path().join("ur5.toml")).unwrap();
+    let sample = |every: u64| -> Vec<(u64, Vec<f64>)> {
+        let mut world = scene.build().unwrap();
+        let inits = std::mem::take(&mut world.bodies);
+        let mut settings = scene.run_settings();
+        settings.quiet = true;
+        let mut sim =
+            Simulation::of_scene(&scene, &world, Inits::Owned(inits), 1, &settings).unwrap();
+        let n = world.layout.joints.len();
+        let mut out = Vec::new();
+        let (mut q, mut v) = (vec![0.0; n], vec![0.0; n]);
+        while sim.step() < 3000 {
+            sim.advance(every).unwrap();
+            sim.joint_state(&mut q, &mut v);
+            out.push((sim.step(), q.clone()));
+        }
+        out
+    };
+    let world = scene.build().unwrap();
+    let every_step = sample(1);
+    let mut travel = vec![0.0_f64; world.layout.joints.len()];
+    for pair in every_step.windows(2) {
+        for (t, (a, b)) in travel.iter_mut().zip(pair[0].1.iter().zip(&pair[1].1)) {
+            *t = t.max((b - a).abs());
+        }
+    }
+    for (step, q) in &every_step {
+        for (j, (value, joint)) in q.iter().zip(&world.layout.joints).enumerate() {
+            if let Some([lo, hi]) = joint.limits {
+                // A stop holds a joint to round-off of its limit (1e-9 rad is far above it).
+                assert!(
+                    *value >= lo - 1e-9 && *value <= hi + 1e-9,
+                    "step {step}: joint {j} {} at {value} outside [{lo}, {hi}]",
+                    joint.name
+                );
+            }
+        }
+    }
+    let (lo, hi) = every_step.iter().fold(
+        (vec![f64::INFINITY; 6], vec![f64::NEG_INFINITY; 6]),
+        |(mut lo, mut hi), (_, q)| {
+            for j in 0..6 {
+                lo[j] = lo[j].min(q[j]);
+                hi[j] = hi[j].max(q[j]);
+            }
+            (lo, hi)
+        },
+    );
+    eprintln!("UR5 joints: range lo {lo:?} hi {hi:?}, largest step change {travel:?}");
+    // The arm really swings far: some joint covers more than π (where a nearest-branch reading
+    // of a sparse sample can be 2π off). Measured: see the printed ranges.
+    assert!(
+        lo.iter()
+            .zip(&hi)
+            .any(|(l, h)| h - l > std::f64::consts::PI),
+        "lo {lo:?} hi {hi:?}"
+    );
+    for every in [500, 1000] {
+        for (step, q) in sample(every) {
+            let (_, reference) = &every_step[(step - 1) as usize];
+            assert_eq!(q, *reference, "every {every}: step {step}");
+        }
+    }
+}

@@ -459,6 +459,16 @@ impl Sink for McapSink {
         Ok(())
     }
 
+    fn write_summary(&mut self, entries: &[(String, String)]) -> anyhow::Result<()> {
+        let entries: Vec<(&str, &str)> = entries
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.as_str()))
+            .collect();
+        self.writer
+            .write_metadata(crate::record::names::SUMMARY_METADATA_NAME, &entries)?;
+        Ok(())
+    }
+
     fn finish(self: Box<Self>) -> anyhow::Result<()> {
         let McapSink {
             writer, part, path, ..

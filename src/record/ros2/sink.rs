@@ -266,6 +266,14 @@ impl Sink for Ros2Sink {
         Ok(())
     }
 
+    fn write_summary(&mut self, entries: &[(String, String)]) -> anyhow::Result<()> {
+        self.writer.write_metadata(&mcap::records::Metadata {
+            name: crate::record::names::SUMMARY_METADATA_NAME.into(),
+            metadata: entries.iter().cloned().collect(),
+        })?;
+        Ok(())
+    }
+
     fn finish(self: Box<Self>) -> anyhow::Result<()> {
         let Ros2Sink {
             writer, part, path, ..

@@ -146,6 +146,16 @@ pub trait Integrator: Send {
     fn mechanism_settings(&self) -> Option<variational::VariationalSettings> {
         None
     }
+
+    /// The joint coordinates this integrator carries for the mechanism whose first body is
+    /// `first_body` (in this integrator's batch), written to `out` in the model's coordinate
+    /// order; `false` when it steps no such mechanism. A joint's angle is state, carried
+    /// step to step on one continuous branch: every reader (recorders, controllers, rollouts)
+    /// takes it from here rather than recovering it from poses at its own rate.
+    fn joint_coordinates(&self, first_body: usize, out: &mut [f64]) -> bool {
+        let _ = (first_body, out);
+        false
+    }
 }
 
 /// Bodies stepped, then tested by the guard, at a time ([`step_blocks_watched`] and

@@ -72,6 +72,9 @@ pub struct Reporter {
     impulse: Vec<Impulse6>,
     /// Per compound joint (by joint index): the last decomposed angles.
     compound_theta: Vec<Vec<f64>>,
+    /// The coordinates the stepper carries ([`Reporter::carried_mut`]), when it does.
+    carried: Vec<f64>,
+    use_carried: bool,
     last_time: Option<f64>,
     pub report: Report,
 }
@@ -98,6 +101,8 @@ impl Reporter {
             momenta: vec![Impulse6::zeros(); n],
             impulse: vec![Impulse6::zeros(); n],
             compound_theta,
+            carried: vec![0.0; nc],
+            use_carried: false,
             last_time: None,
             report: Report {
                 linvel_world: vec![Vector3::zeros(); n],
@@ -110,10 +115,19 @@ impl Reporter {
         }
     }
 
-    /// Fills [`Reporter::report`] from the batch at simulation time `time_secs` (used to
-    /// predict continuous angles across recorded steps: each angle is unwrapped to the branch
-    /// nearest `θ_prev + θ̇_prev Δt`, which follows a joint turning up to about π per recorded
-    /// interval beyond its previous rate).
+    /// The buffer for the coordinates the stepper carries, and whether the next
+    /// [`Reporter::report`] takes its positions from it: set it (`true`) from
+    /// [`crate::sim::Integrator::joint_coordinates`] before every report of a run, so that
+    /// the reported angles are the stepper's own, at every recording rate.
+    pub fn carried_mut(&mut self) -> (&mut [f64], &mut bool) {
+        (&mut self.carried, &mut self.use_carried)
+    }
+
+    /// Fills [`Reporter::report`] from the batch at simulation time `time_secs`. Positions are
+    /// the carried coordinates when [`Reporter::carried_mut`] set them; otherwise (a bare
+    /// batch, no stepper) each angle is unwrapped to the branch nearest `θ_prev + θ̇_prev Δt`
+    /// (`Δt` the time since the last report), which follows a joint turning up to about π per
+    /// reported interval beyond its previous rate.
     pub fn report(
         &mut self,
         model: &Mechanism,
@@ -150,6 +164,9 @@ impl Reporter {
                 let reference = report.position[k] + report.velocity[k] * dt;
                 report.position[k] = unwrap_near(self.compound_theta[c.joint][stage], reference);
             }
+        }
+        if self.use_carried {
+            report.position.copy_from_slice(&self.carried);
         }
         let (mimic_m, mimic_rad) = self.projector.mimics(model, &report.position);
         residual_m = residual_m.max(mimic_m);

@@ -280,6 +280,21 @@ impl Integrator for Articulated {
         Some(self.settings)
     }
 
+    fn joint_coordinates(&self, first_body: usize, out: &mut [f64]) -> bool {
+        let Some(slot) = self
+            .mechanisms
+            .iter()
+            .find(|s| s.model.first_body == first_body)
+        else {
+            return false;
+        };
+        match &slot.stepping {
+            Stepping::Maximal { state, .. } => out.copy_from_slice(state.coordinates()),
+            Stepping::Joint { state, .. } => state.coordinates_into(out),
+        }
+        true
+    }
+
     fn energy_flow(&self) -> EnergyFlow {
         let free = self
             .free

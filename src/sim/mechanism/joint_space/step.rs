@@ -193,8 +193,9 @@ const ITERATION_FACTOR: u32 = 2;
 
 /// The iteration stops when the error it predicts is below this fraction of the tolerance
 /// (with the matrix kept from an earlier iterate the iteration converges linearly: the last
-/// update's size says little of the remaining error, the contraction does). Small, so that two runs that differ by round-off
-/// stop at iterates that differ by little more than round-off.
+/// update's size says little of the remaining error, the contraction does). Small, so that
+/// two runs that differ by round-off stop at iterates that differ by little more than
+/// round-off.
 const KAPPA: f64 = 1e-2;
 
 /// An update this many targets large that no longer shrinks is taken as round-off.
@@ -268,6 +269,13 @@ impl TreeState {
             half: vec![(0.0, 1.0); nj],
             half_next: vec![(0.0, 1.0); nj],
             tree,
+        }
+    }
+
+    /// The joint coordinates (the step's state), written in the model's coordinate order.
+    pub fn coordinates_into(&self, out: &mut [f64]) {
+        for (value, &j) in out.iter_mut().zip(&self.tree.coordinate_joint) {
+            *value = self.theta[j];
         }
     }
 
@@ -502,6 +510,17 @@ impl TreeState {
         changed
     }
 
+    /// The residual of each driven joint less the drive's impulse `½ h τ` (the discrete
+    /// Lagrange-d'Alembert force at the iterate, [`Self::drive_efforts`]).
+    fn subtract_drive_efforts(&mut self, h: f64) {
+        let nb = self.tree.base_dofs();
+        for (j, d) in self.drive_of_joint.iter().enumerate() {
+            if d.is_some() {
+                self.residual[nb + j] -= 0.5 * h * self.effort[j].effort.total();
+            }
+        }
+    }
+
     /// What a step reads at its start: the momenta the batch carries, the positions' size,
     /// the left twists (at `q_k`, about `o`).
     fn begin(&mut self, mechanism: &Mechanism, bodies: &Bodies) {
@@ -619,11 +638,7 @@ impl TreeState {
                 }
                 moved = 0.0;
             }
-            for (j, d) in self.drive_of_joint.iter().enumerate() {
-                if d.is_some() {
-                    self.residual[nb + j] -= 0.5 * h * self.effort[j].effort.total();
-                }
-            }
+            self.subtract_drive_efforts(h);
             if self.residual.iter().any(|r| !r.is_finite()) {
                 return Err((Failure::NonFinite, it));
             }
@@ -937,11 +952,7 @@ impl TreeState {
         let o = self.poses[0].com;
         self.residuals(mechanism, bodies, h, 0.5, g, &o);
         self.drive_efforts(mechanism, h);
-        for (j, d) in self.drive_of_joint.iter().enumerate() {
-            if d.is_some() {
-                self.residual[nb + j] -= 0.5 * h * self.effort[j].effort.total();
-            }
-        }
+        self.subtract_drive_efforts(h);
         self.residual.iter().map(|r| r * h).collect()
     }
 

@@ -28,7 +28,7 @@
 //! stiffness and damping are implicit (a servo stays stable at any `h² kp / I`) at no cost in
 //! structure; a pure motor has `c = 0` and its row just reads `ν = (h/2) τ̄`.
 
-use super::super::coords::{CompoundChain, decompose};
+use super::super::coords::{CompoundChain, decompose, unwrap_near};
 use super::super::drive::StepEffort;
 use super::super::drive::{ActuatorKind, JointDrive};
 use super::super::rows::{BodyPose, Row6};
@@ -230,6 +230,30 @@ impl Workspace {
         c.kind
             .gradient(a, b, self.coord_ref[coordinate])
             .ok_or(Failure::Singular)
+    }
+
+    /// Every coordinate's value at the committed poses `q_{k+1}`, on the branch nearest its
+    /// value at `q_k` (a joint turns far less than π in one step): the joint angles carried
+    /// step to step, which the recorders, the controllers and the limits all read
+    /// ([`crate::sim::Integrator::joint_coordinates`]), never recovered from sparse samples.
+    pub(super) fn track_coordinates(&mut self, model: &Mechanism) {
+        for (k, c) in model.coordinates.iter().enumerate() {
+            let value = if let CoordinateKind::Compound { .. } = c.kind {
+                self.coordinate_gradient(model, &self.pose_next, k)
+                    .ok()
+                    .map(|(theta, _, _)| theta)
+            } else {
+                let a = parent_pose(model, &self.pose_next, c.joint);
+                c.kind.value(
+                    a,
+                    &self.pose_next[model.joints[c.joint].child],
+                    self.coord_ref[k],
+                )
+            };
+            if let Some(v) = value.filter(|v| v.is_finite()) {
+                self.coord_ref[k] = unwrap_near(v, self.coord_ref[k]);
+            }
+        }
     }
 
     /// The end impulses `ν ∇θ(q_{k+1})` of a solved step on the committed state, the drives'

@@ -80,6 +80,11 @@ impl MechanismState {
             ws: Workspace::new(model),
         }
     }
+
+    /// The coordinates carried step to step, in the model's coordinate order (rad or m).
+    pub fn coordinates(&self) -> &[f64] {
+        &self.ws.coord_ref
+    }
 }
 
 /// Result of one attempt.

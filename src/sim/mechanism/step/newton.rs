@@ -280,5 +280,6 @@ impl Workspace {
                 self.coord_ref[c] = self.coord_next[c];
             }
         }
+        self.track_coordinates(model);
     }
 }
