@@ -381,7 +381,8 @@ impl Simulation {
     }
 
     /// Ends the run: publishes the recording's files (all or none) and returns the run's
-    /// summary figures as a dict (`written`: the files).
+    /// summary figures as a dict (`written`: the files; `warnings`: what `simulate` would warn
+    /// of, e.g. an energy balance open by more than 1e-2 of its largest term).
     fn finish<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let sim = self
             .sim
@@ -407,6 +408,9 @@ impl Simulation {
             s.angmom_rel_change_max,
         )?;
         d.set_item("newton_failures", s.stats.newton_failures)?;
+        // What `simulate` prints as warnings (today the energy-balance guard), one string each.
+        let warnings: Vec<String> = s.balance_warning().into_iter().collect();
+        d.set_item("warnings", warnings)?;
         d.set_item("written", written)?;
         Ok(d)
     }

@@ -101,7 +101,7 @@ class Simulation(ContextManager["Simulation"]):
     def momentum(self) -> Dict[str, npt.NDArray[np.float64]]:
         """`linear` (3,) kg m/s and `angular` (3,) kg m²/s about the world origin."""
     def finish(self) -> Dict[str, Any]:
-        """Ends the run, publishes its files (all or none); the summary figures and `written`."""
+        """Ends the run, publishes its files (all or none); the summary figures, `warnings` and `written`."""
     def __enter__(self) -> "Simulation": ...
     def __exit__(self, *args: Any) -> bool: ...
 

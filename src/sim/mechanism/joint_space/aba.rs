@@ -170,9 +170,20 @@ impl Jacobian {
 
     /// Reduces `articulated` with the diagonal `diag` (per joint). `false` when a pivot
     /// vanishes or is not finite, or the root's block is singular.
-    pub fn factor(&mut self, tree: &TreeModel, diag: &[f64]) -> bool {
+    pub fn factor(&mut self, tree: &TreeModel, diag: &[f64], locked: &[bool]) -> bool {
         for (j, joint) in tree.joints.iter().enumerate().rev() {
             let ia = self.articulated[joint.child];
+            if locked[j] {
+                // A held coordinate (a stop): a weld, its child's articulated inertia passed
+                // whole to the parent (`d⁻¹ = 0`), its update 0.
+                self.d_inv[j] = 0.0;
+                self.u[j] = Vector6::zeros();
+                self.l[j] = Vector6::zeros();
+                if let Some(p) = joint.parent {
+                    self.articulated[p] += ia;
+                }
+                continue;
+            }
             let u = ia * self.right[j];
             let l = ia.tr_mul(&self.left[j]);
             let d = self.left[j].dot(&u) + diag[j];

@@ -33,6 +33,7 @@ mod aba;
 mod kinematics;
 mod model;
 mod step;
+mod stops;
 #[cfg(test)]
 mod tests;
 

@@ -63,19 +63,14 @@ pub enum NotATree {
     Compound,
     /// Mimic rows.
     Mimic,
-    /// Joint limits or joint friction.
-    Stops,
 }
 
 impl TreeModel {
     /// The tree of `mechanism`, or why it has none yet: every joint a hinge or a slider with
-    /// one coordinate, no mimic, no stop.
+    /// one coordinate, no mimic (limits and friction are taken: `super::stops`).
     pub fn of(mechanism: &Mechanism) -> Result<Self, NotATree> {
         if !mechanism.mimics.is_empty() {
             return Err(NotATree::Mimic);
-        }
-        if !mechanism.stops.is_empty() {
-            return Err(NotATree::Stops);
         }
         let mut coordinate_of = vec![None; mechanism.joints.len()];
         for (k, c) in mechanism.coordinates.iter().enumerate() {
@@ -117,7 +112,12 @@ impl TreeModel {
                         },
                         CoordinateKind::Slider { .. },
                     ) => {
-                        let w0: Matrix3<f64> = lock.iter().map(|(t, s)| t * s.transpose()).sum();
+                        // `W₀ = Σ_k t_k s_kᵀ` (`s_k = W₀ᵀ t_k`, `(t_1, t_2, t_3)` orthonormal):
+                        // the lock rows pair them cyclically shifted, `lock = [(t_2, s_3),
+                        // (t_3, s_1), (t_1, s_2)]` (`super::super::rows`).
+                        let w0: Matrix3<f64> = lock[2].0 * lock[1].1.transpose()
+                            + lock[0].0 * lock[2].1.transpose()
+                            + lock[1].0 * lock[0].1.transpose();
                         (TreeJointKind::Slider, *axis_parent, w0)
                     }
                     _ => return Err(NotATree::Compound),
