@@ -11,7 +11,24 @@ use tumble::sim::{Bodies, Integrator, Loads};
 /// The bundled scene `name` stepped `steps` times with `coordinates` at Newton tolerance `tol`.
 fn run(name: &str, steps: usize, coordinates: Coordinates, tol: Option<f64>) -> Bodies {
     let path = format!("{}/models/{name}.toml", env!("CARGO_MANIFEST_DIR"));
-    let scene = Scene::load(std::path::Path::new(&path)).unwrap();
+    run_scene(
+        &Scene::load(std::path::Path::new(&path)).unwrap(),
+        name,
+        steps,
+        coordinates,
+        tol,
+    )
+    .0
+}
+
+/// [`run`] on a parsed scene.
+fn run_scene(
+    scene: &Scene,
+    name: &str,
+    steps: usize,
+    coordinates: Coordinates,
+    tol: Option<f64>,
+) -> (Bodies, f64) {
     let world = scene.build().unwrap();
     let mut settings = scene.variational_settings();
     if let Some(t) = tol {
@@ -41,7 +58,7 @@ fn run(name: &str, steps: usize, coordinates: Coordinates, tol: Option<f64>) -> 
         "{name} {coordinates:?} tol {tol:?}: {:.2} updates per step",
         updates as f64 / steps as f64
     );
-    bodies
+    (bodies, stepper.energy_flow().dissipated)
 }
 
 /// The largest difference of any body's centre of mass (m) and rotation (rad) between two
@@ -148,4 +165,56 @@ fn a_free_floating_tree_keeps_its_momenta_to_round_off() {
         dp < 1e-13 && dl < 1e-13 && dr < 1e-13,
         "{dp:e} {dl:e} {dr:e}"
     );
+}
+
+/// Limits and friction in joint coordinates (`sim::mechanism::joint_space::stops`) against the
+/// maximal step's stop rows: the same complementarity conditions on the same discrete
+/// equations, so both tight solutions agree to round-off through impacts on both limits,
+/// sticking and sliding. A 1 kg arm, its centre of mass 0.5 m from a horizontal hinge limited
+/// to [−0.5, 0.6] rad with 0.3 N m of friction, thrown at 6 rad/s; and without friction on a
+/// servo whose target, 0.9 rad, is past the upper limit (it holds the arm against the stop).
+#[test]
+fn limits_and_friction_in_joint_space_follow_the_maximal_step() {
+    let dir = tempfile::tempdir().unwrap();
+    for (file, friction) in [("arm.urdf", 0.3), ("arm_free.urdf", 0.0)] {
+        std::fs::write(
+            dir.path().join(file),
+            format!(
+                r#"<robot name="arm"><link name="base"/>
+  <link name="arm"><inertial><origin xyz="0.5 0 0"/><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="hinge" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 1 0"/><limit lower="-0.5" upper="0.6" effort="1e9" velocity="100"/>
+    <dynamics friction="{friction}"/></joint></robot>"#
+            ),
+        )
+        .unwrap();
+    }
+    let base = "[sim]\ndt = 0.001\nduration = 1.0\ngravity = [0.0, 0.0, -9.81]\n\
+                [[model]]\nurdf = \"arm.urdf\"\nbodies = \"articulated\"\nbase = \"fixed\"\n\
+                joint_velocities = { hinge = 6.0 }\n";
+    // The servo (critically damped, kd = 2 √(kp I)) throws the arm against the upper limit
+    // from -0.4 rad, no friction: a stick-slip decision at a velocity reversal depends on
+    // each step's hysteresis (its own impulse scale), so friction is left to the first case.
+    let servo = format!(
+        "{}joints = {{ hinge = -0.4 }}\n[[model.actuator]]\njoint = \"hinge\"\nkind = \"position\"\n\
+         target = 0.9\nkp = 2600.0\nkd = 52.0\n",
+        base.replace("arm.urdf", "arm_free.urdf")
+    );
+    for (name, text) in [("thrown", base.to_string()), ("servo", servo)] {
+        let scene = Scene::parse(&text, &dir.path().join("arm.toml")).unwrap();
+        let (j, dj) = run_scene(&scene, name, 1000, Coordinates::Joint, Some(1e-15));
+        let (m, dm) = run_scene(&scene, name, 1000, Coordinates::Maximal, Some(1e-15));
+        let (dc, dr) = difference(&j, &m);
+        eprintln!("{name}: joint vs maximal {dc:e} m, {dr:e} rad; dissipated {dj} J, {dm} J");
+        // The stops acted: the limits and friction took energy out (7.45 J thrown), the same
+        // in both ledgers to 7.3e-6 of it (measured, thrown) while the motions agree to
+        // round-off: the two ledgers' rates differ somewhere (not found yet; the joint-space
+        // one reads `Δθ/h` from its coordinates, the maximal one from the poses). Bound 1e-4.
+        assert!(dm > 1e-3, "{name}: {dm}");
+        assert!((dj - dm).abs() < 1e-4 * dm, "{name}: {dj} {dm}");
+        // Measured: see the printed figures; a wrong mode, a missed impact or a stop's impulse
+        // at the wrong end of the step errs by the joint's motion over a step, 1e-3 or more.
+        assert!(dc < 1e-9 && dr < 1e-9, "{name}: {dc:e} m, {dr:e} rad");
+    }
 }
