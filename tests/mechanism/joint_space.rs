@@ -232,17 +232,14 @@ fn limits_and_friction_in_joint_space_follow_the_maximal_step() {
         let (m, dm) = run_scene(&scene, name, 1000, Coordinates::Maximal, Some(1e-15));
         let (dc, dr) = difference(&j, &m);
         eprintln!("{name}: joint vs maximal {dc:e} m, {dr:e} rad; dissipated {dj} J, {dm} J");
-        // The stops acted: the limits and friction took energy out (7.45 J thrown), the same
-        // in both ledgers to 7.3e-6 of it (measured, thrown) while the motions agree to
-        // round-off: the two ledgers' rates differ somewhere (not found yet; the joint-space
-        // one reads `Δθ/h` from its coordinates, the maximal one from the poses). Bound 1e-4.
+        // The stops acted: the limits and friction took energy out (7.45 J thrown, 9.94 J the
+        // two links), the same in both ledgers to 7.3e-6 of it (measured: thrown 7.3e-6, two
+        // links 6e-7, servo 1e-8) while the motions agree to round-off: each ledger books
+        // `ν` times the rates `Δθ/h`, read from the coordinates in one and from the poses in
+        // the other. Bound 1e-4. (The two links once booked 12.94 J: a held coordinate's
+        // impulse read before the last Newton update.)
         assert!(dm > 1e-3, "{name}: {dm}");
-        // Known defect (issue 47, open): with limits and friction on two joints the joint-space
-        // ledger books 12.94 J where the maximal one books 9.94 J, which closes the energy
-        // balance (measured; the motions agree to 1e-15, so only the booking is wrong).
-        if name != "two links" {
-            assert!((dj - dm).abs() < 1e-4 * dm, "{name}: {dj} {dm}");
-        }
+        assert!((dj - dm).abs() < 1e-4 * dm, "{name}: {dj} {dm}");
         // Measured: see the printed figures; a wrong mode, a missed impact or a stop's impulse
         // at the wrong end of the step errs by the joint's motion over a step, 1e-3 or more.
         assert!(dc < 1e-9 && dr < 1e-9, "{name}: {dc:e} m, {dr:e} rad");

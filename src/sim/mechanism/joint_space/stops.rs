@@ -71,6 +71,11 @@ impl TreeStops {
         self.joint.is_empty()
     }
 
+    /// Whether some coordinate is held (its impulse is read from its equation).
+    pub(super) fn any_locked(&self) -> bool {
+        self.locked.iter().any(|&l| l)
+    }
+
     /// The rates before the first step, `θ̇` per stop's joint (`rates` per tree joint).
     pub(super) fn set_initial_rates(&mut self, rates: &[f64]) {
         for (r, &j) in self.rate_prev.iter_mut().zip(&self.joint) {
