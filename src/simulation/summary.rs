@@ -209,10 +209,10 @@ impl RunSummary {
     pub fn balance_warning(&self) -> Option<String> {
         let b = self.energy_balance()?;
         let energy = self.energy_initial.abs().max(self.energy_final.abs());
-        if !(b.open.abs() > BALANCE_OPEN_WARN * b.largest_term
-            && b.open.abs() > BALANCE_FLOOR * energy)
-            && b.open.is_finite()
-        {
+        let open = b.open.abs();
+        let warns = !open.is_finite()
+            || (open > BALANCE_OPEN_WARN * b.largest_term && open > BALANCE_FLOOR * energy);
+        if !warns {
             return None;
         }
         Some(format!(

@@ -67,18 +67,13 @@ use crate::sim::so3::d_coefficient;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3, Vector6};
 
 /// Warm start of one step size: the last three accepted increments (joints, root `ξ_0`,
-/// `Δc_0`), newest first, and the last contraction of the Newton iteration observed.
+/// `Δc_0`), newest first.
 #[derive(Debug, Clone)]
 pub struct TreeWarm {
     dtheta: [Vec<f64>; 3],
     root: [[Vector3<f64>; 2]; 3],
     /// How many of the increments are set (0: no warm start).
     depth: usize,
-    /// `ρ` of the last step that measured one.
-    rate: f64,
-    /// The Newton iteration's curvature `‖δ_{n+1}‖ / ‖δ_n‖²` (scaled norms) after an update
-    /// from a fresh matrix, as the last step that measured one found it (∞: none yet).
-    curvature: f64,
 }
 
 /// The extrapolation of the last `depth` increments to the next one: constant, linear,
@@ -92,8 +87,6 @@ impl TreeWarm {
             dtheta: std::array::from_fn(|_| vec![0.0; n]),
             root: [[Vector3::zeros(); 2]; 3],
             depth: 0,
-            rate: 1.0,
-            curvature: f64::INFINITY,
         }
     }
 
@@ -176,10 +169,6 @@ pub struct TreeState {
     pub load_work: KickLedger,
     saved: Vec<Saved>,
     saved_theta: Vec<f64>,
-    /// The last contraction measured.
-    rate: f64,
-    /// The last curvature measured (see [`TreeWarm`]).
-    curvature: f64,
     /// The largest position coordinate of the tree's bodies at `q_k` (m).
     c_max: f64,
     /// Per joint, `(sin, cos)(θ/2)` at `θ_k` and at the iterate.
@@ -206,9 +195,6 @@ const KAPPA: f64 = 1e-2;
 
 /// An update this many targets large that no longer shrinks is taken as round-off.
 const ROUNDOFF_NORM: f64 = 100.0;
-
-/// The smallest contraction a step assumes from the last one.
-const MIN_RATE: f64 = 1e-4;
 
 /// The Newton matrix is refactorised when the iterate has moved this far (rad, or lengths
 /// over `L`) from where it was factorised: its entries change by O(1) of themselves per
@@ -269,8 +255,6 @@ impl TreeState {
             load_work: KickLedger::default(),
             saved: Vec::new(),
             saved_theta: vec![0.0; nj],
-            rate: 1.0,
-            curvature: f64::INFINITY,
             c_max: 0.0,
             half: vec![(0.0, 1.0); nj],
             half_next: vec![(0.0, 1.0); nj],
@@ -685,12 +669,9 @@ impl TreeState {
             );
         }
         let mut previous = f64::INFINITY;
-        // The contraction assumed before one is measured: the last step's.
-        let mut rate = warm.map_or(1.0, |w| w.rate);
-        self.rate = rate;
-        let mut curvature = warm.map_or(f64::INFINITY, |w| w.curvature);
-        self.curvature = curvature;
-        let mut measured_curvature = false;
+        // The contraction and the curvature, measured in this solve (none yet).
+        let mut rate = 1.0;
+        let mut curvature = f64::INFINITY;
         // Whether this update's and the last update's matrix was factorised at its iterate.
         let mut fresh = false;
         // The matrix is factorised at the first iterate (the predictor) and again wherever
@@ -755,37 +736,21 @@ impl TreeState {
             if it > 1 {
                 if fresh_before && previous >= CURVATURE_MIN_NORM {
                     curvature = norm / (previous * previous);
-                    self.curvature = curvature;
-                    measured_curvature = true;
                 }
                 rate = norm / previous;
-                if rate >= 1.0 {
-                    // Updates that stop shrinking near the target are round-off.
-                    if norm > ROUNDOFF_NORM {
-                        return Err((Failure::Diverging, it));
-                    }
-                    if !self.switch_stops(mechanism, h, tol, nu_scale, &mut switches) {
-                        self.held_impulses_at_iterate(mechanism, bodies, h, alpha, &g, &o);
-                        return Ok(it);
-                    }
-                    refactor = true;
-                    previous = f64::INFINITY;
-                    continue;
-                }
-                // Kept for the next step only when measured well above round-off (an update
-                // already at round-off says nothing of the contraction).
-                if previous > 1e3 {
-                    self.rate = rate.max(MIN_RATE);
+                if rate >= 1.0 && norm > ROUNDOFF_NORM {
+                    return Err((Failure::Diverging, it));
                 }
             }
-            // The contraction and the curvature predict the remaining error only when measured
-            // in this solve: carried from the last step they come from another iterate's
+            // Updates that stop shrinking near the target are round-off. The curvature
+            // predicts the remaining error only when measured in this solve: carried from the
+            // last step (as the contraction once was too) it came from another iterate's
             // regime, and accepted updates some 1e8 targets large (a stiff servo under gravity
             // then settled 2e-6 rad off its balance; tests/mechanism/balance.rs).
-            if norm <= 1.0
-                || (fresh
-                    && measured_curvature
-                    && CURVATURE_SAFETY * curvature * norm * norm <= 1.0)
+            let stalled = it > 1 && rate >= 1.0;
+            if stalled
+                || norm <= 1.0
+                || (fresh && CURVATURE_SAFETY * curvature * norm * norm <= 1.0)
             {
                 if !self.switch_stops(mechanism, h, tol, nu_scale, &mut switches) {
                     self.held_impulses_at_iterate(mechanism, bodies, h, alpha, &g, &o);
@@ -1065,8 +1030,6 @@ impl TreeState {
         }
         let nj = self.theta.len();
         warm.push(&self.delta[..nj], [self.root_xi, self.root_dc]);
-        warm.rate = self.rate;
-        warm.curvature = self.curvature;
         std::mem::swap(&mut self.theta, &mut self.theta_next);
         std::mem::swap(&mut self.poses, &mut self.poses_next);
         std::mem::swap(&mut self.axes, &mut self.axes_next);
